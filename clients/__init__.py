@@ -1,0 +1,5 @@
+"""Clients of the robot's key space: the Robot API (notebooks, scripts), the TUI, recording."""
+
+from clients.robot import Robot
+
+__all__ = ["Robot"]

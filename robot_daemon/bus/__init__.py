@@ -1,0 +1,1 @@
+"""Serial transport, Dynamixel control tables, bulk read / sync write."""

@@ -1,0 +1,70 @@
+"""The `darwin` command. Each subcommand lives in its own module exposing
+``add_arguments(parser)`` and ``run(args) -> int``; only the chosen one is imported."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from schemas.errors import DarwinError
+
+# name → (module, one-line help). Keep in the order a newcomer meets them.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "up": ("robot_daemon.up", "start emulator (or --port), daemon and gateway in one command"),
+    "daemon": ("robot_daemon.daemon_cli", "run the robot daemon (owns the bus, publishes, arbiter)"),
+    "sim": ("robot_daemon.sim.cli", "run the hardware emulator on a pseudo-terminal"),
+    "scan": ("robot_daemon.bus.scan", "list every device on a serial port (ID, model, firmware)"),
+    "gateway": ("gateway.cli", "serve the legacy TCP JSON protocol to any number of clients"),
+    "tui": ("clients.tui.cli", "the terminal UI (works over SSH)"),
+    "motion": ("robot_daemon.motion.cli", "motion files: convert between .bin and text"),
+    "record": ("clients.recording.record_cli", "record the robot's publications to MCAP"),
+    "replay": ("clients.recording.replay_cli", "republish a recording on the key space"),
+}
+
+
+def _usage() -> str:
+    width = max(map(len, COMMANDS))
+    lines = ["usage: darwin COMMAND [options]   (darwin COMMAND --help for its options)", ""]
+    lines += [f"  {name:<{width}}  {helptext}" for name, (_, helptext) in COMMANDS.items()]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in {"-h", "--help", "help"}:
+        print(_usage())
+        return 0
+    name = argv[0]
+    if name not in COMMANDS:
+        print(f"darwin: unknown command {name!r}\n\n{_usage()}", file=sys.stderr)
+        return 2
+    module_name, helptext = COMMANDS[name]
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name and module_name.startswith(exc.name):
+            print(f"darwin {name}: not available in this build ({exc})", file=sys.stderr)
+            return 2
+        raise
+    parser = argparse.ArgumentParser(prog=f"darwin {name}", description=helptext)
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging")
+    module.add_arguments(parser)
+    args = parser.parse_args(argv[1:])
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose > 1 else logging.INFO if args.verbose else logging.WARNING,
+        format="%(asctime)s %(name)s %(levelname)s: %(message)s",
+        stream=sys.stderr,
+    )
+    try:
+        return int(module.run(args) or 0)
+    except DarwinError as exc:
+        print(f"darwin {name}: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

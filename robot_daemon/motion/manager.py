@@ -1,0 +1,127 @@
+"""The motion manager: runs modules in order each tick; every joint has exactly one owner.
+
+Ownership moves only through ``claim`` (explicit hand-over: the previous owner is told) and
+``release``. Joints nobody owns keep the goal they last had; after ``halt`` that goal is the
+present position, so the robot holds its pose.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+from config.loader import RobotConfig
+from robot_daemon.motion.interface import JointFrame, MotionModule, Targets
+
+
+class MotionManager:
+    def __init__(self, robot: RobotConfig, modules: list[MotionModule] | None = None) -> None:
+        self.robot = robot
+        self.modules: list[MotionModule] = []
+        self._by_name: dict[str, MotionModule] = {}
+        self._owner: dict[int, str | None] = {jid: None for jid in robot.ids}
+        self._hold: dict[int, float] = {}  # goals of unowned joints to (re)write, e.g. after halt
+        self._last_goal: dict[int, float] = {}
+        self.events: deque[tuple[str, str, dict[str, Any]]] = deque(maxlen=1000)
+        self.last_frame: JointFrame | None = None
+        for m in modules or []:
+            self.add(m)
+
+    # -- modules ---------------------------------------------------------------------------
+    def add(self, module: MotionModule) -> MotionModule:
+        if module.name in self._by_name:
+            raise ValueError(f"a motion module named {module.name!r} is already registered")
+        module.attach(self)
+        self.modules.append(module)
+        self._by_name[module.name] = module
+        return module
+
+    def module(self, name: str) -> MotionModule:
+        return self._by_name[name]
+
+    def get(self, name: str) -> MotionModule | None:
+        return self._by_name.get(name)
+
+    # -- ownership -------------------------------------------------------------------------
+    def owner(self, joint_id: int) -> str | None:
+        return self._owner.get(joint_id)
+
+    def owned_by(self, name: str) -> set[int]:
+        return {j for j, o in self._owner.items() if o == name}
+
+    def owners(self) -> dict[int, str | None]:
+        return dict(self._owner)
+
+    def claim(self, name: str, ids: set[int]) -> None:
+        if name not in self._by_name:
+            raise KeyError(f"no motion module named {name!r}")
+        unknown = ids - set(self._owner)
+        if unknown:
+            raise KeyError(f"unknown joint ids {sorted(unknown)}")
+        taken: dict[str, set[int]] = {}
+        for j in ids:
+            prev = self._owner[j]
+            if prev is not None and prev != name:
+                taken.setdefault(prev, set()).add(j)
+            self._owner[j] = name
+            self._hold.pop(j, None)
+        for prev, lost in taken.items():
+            self._by_name[prev].on_released(lost)
+
+    def release(self, name: str, ids: set[int] | None = None) -> None:
+        for j, o in self._owner.items():
+            if o == name and (ids is None or j in ids):
+                self._owner[j] = None
+
+    # -- events ----------------------------------------------------------------------------
+    def emit(self, kind: str, message: str, **data: Any) -> None:
+        self.events.append((kind, message, data))
+
+    def drain_events(self) -> list[tuple[str, str, dict[str, Any]]]:
+        out = list(self.events)
+        self.events.clear()
+        return out
+
+    # -- the tick ----------------------------------------------------------------------------
+    def step(self, frame: JointFrame) -> Targets:
+        self.last_frame = frame
+        targets = Targets()
+        for m in self.modules:
+            owned = self.owned_by(m.name)
+            if not owned:
+                continue
+            goals = m.step(frame)
+            for j, g in goals.items():
+                if j in owned:  # a module never writes a joint it does not own
+                    targets.goal[j] = g
+            for j, pid in m.gains().items():
+                if j in owned:
+                    targets.gains[j] = pid
+        for j, g in self._hold.items():
+            targets.goal.setdefault(j, g)
+        self._hold.clear()
+        self._last_goal.update(targets.goal)
+        return targets
+
+    def halt(self) -> None:
+        """Stop every module now and hold the present pose on every joint."""
+        for m in self.modules:
+            m.halt()
+        for j in self._owner:
+            self._owner[j] = None
+        frame = self.last_frame
+        if frame is not None:
+            self._hold = {j: float(frame.position[j]) for j in self._owner if frame.online[j]}
+        self.emit("halt", "all motion stopped; holding the present pose")
+
+    def stop_all(self) -> None:
+        """Ask every module to stop gracefully (lease loss, fall)."""
+        for m in self.modules:
+            if m.active:
+                m.stop()
+
+    def status(self) -> dict[str, Any]:
+        return {
+            "owners": {str(j): o for j, o in self._owner.items()},
+            **{m.name: m.status() for m in self.modules},
+        }

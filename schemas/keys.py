@@ -1,0 +1,145 @@
+"""The Zenoh key space, defined once (see docs in architecture.md).
+
+Every key carries the robot name, so a fleet shares one space and ``darwin/*/joints`` watches
+every robot.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+ROOT = "darwin"
+DEFAULT_ROBOT = "op1"
+
+# Verbs the arbiter serves under ``…/cmd/<verb>``.
+VERBS: tuple[str, ...] = (
+    "lease",
+    "joint",
+    "pose",
+    "torque",
+    "led",
+    "halt",
+    "config",
+    "registers",
+    "action",
+    "walk",
+    "walk_params",
+    "head",
+    "choreography",
+    "sound",
+    "playball",
+    "behaviours",
+)
+
+# Verbs that are accepted without the control lease (they never move the robot, or stop it).
+LEASE_FREE_VERBS: frozenset[str] = frozenset({"lease", "halt", "config", "behaviours"})
+
+_ROBOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
+
+
+def check_robot_name(name: str) -> str:
+    """Return ``name`` if it is usable inside a key expression, else raise ``ValueError``."""
+    if not _ROBOT_NAME.match(name):
+        raise ValueError(
+            f"robot name {name!r} is not valid: use 1-64 letters, digits, '_' or '-'"
+        )
+    return name
+
+
+@dataclass(frozen=True)
+class Keys:
+    """Key expressions of one robot (or, with ``robot='*'``, of every robot)."""
+
+    robot: str = DEFAULT_ROBOT
+
+    def __post_init__(self) -> None:
+        if self.robot != "*":
+            check_robot_name(self.robot)
+
+    @property
+    def prefix(self) -> str:
+        return f"{ROOT}/{self.robot}"
+
+    @property
+    def joints(self) -> str:
+        return f"{self.prefix}/joints"
+
+    @property
+    def imu(self) -> str:
+        return f"{self.prefix}/imu"
+
+    @property
+    def camera_jpeg(self) -> str:
+        return f"{self.prefix}/camera/jpeg"
+
+    @property
+    def status(self) -> str:
+        return f"{self.prefix}/status"
+
+    @property
+    def events(self) -> str:
+        return f"{self.prefix}/events"
+
+    @property
+    def vision_ball(self) -> str:
+        return f"{self.prefix}/vision/ball"
+
+    @property
+    def sim_world(self) -> str:
+        return f"{self.prefix}/sim/world"
+
+    @property
+    def sim_control(self) -> str:
+        """Queryable of the simulator's world/fault control interface."""
+        return f"{self.prefix}/sim/control"
+
+    @property
+    def replay_control(self) -> str:
+        """Queryable of ``darwin replay`` (pause, resume, seek)."""
+        return f"{self.prefix}/replay/control"
+
+    @property
+    def alive(self) -> str:
+        return f"{self.prefix}/alive"
+
+    def cmd(self, verb: str) -> str:
+        if verb not in VERBS:
+            raise ValueError(f"unknown command verb {verb!r}; known verbs: {', '.join(VERBS)}")
+        return f"{self.prefix}/cmd/{verb}"
+
+    @property
+    def cmd_all(self) -> str:
+        return f"{self.prefix}/cmd/*"
+
+    def client(self, client_id: str) -> str:
+        return f"{self.prefix}/clients/{client_id}"
+
+    @property
+    def clients_all(self) -> str:
+        return f"{self.prefix}/clients/*"
+
+    # Topics a recorder takes by default, by short name.
+    def topics(self) -> dict[str, str]:
+        return {
+            "joints": self.joints,
+            "imu": self.imu,
+            "status": self.status,
+            "events": self.events,
+            "camera": self.camera_jpeg,
+            "vision": self.vision_ball,
+            "world": self.sim_world,
+        }
+
+
+def verb_of(key: str) -> str:
+    """The verb at the end of a ``…/cmd/<verb>`` key."""
+    return key.rsplit("/", 1)[-1]
+
+
+def robot_of(key: str) -> str:
+    """The robot name in any ``darwin/<robot>/…`` key."""
+    parts = key.split("/")
+    if len(parts) < 2 or parts[0] != ROOT:
+        raise ValueError(f"{key!r} is not a darwin key")
+    return parts[1]

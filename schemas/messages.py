@@ -1,0 +1,200 @@
+"""Message types on the key space, defined once. Payloads are msgpack maps carrying ``v``
+(the schema version) and ``type``; SI units on the wire (rad, rad/s, m/s², V, °C, s).
+
+Use ``encode(msg)`` / ``decode(payload)``; ``decode`` checks the version and the type.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, TypeVar
+
+import msgpack
+
+from schemas import SCHEMA_VERSION
+from schemas.errors import ErrorCode, ProtocolError
+
+M = TypeVar("M", bound="Message")
+
+_REGISTRY: dict[str, type[Message]] = {}
+
+
+@dataclass
+class Message:
+    TYPE: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.TYPE:
+            _REGISTRY[cls.TYPE] = cls
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        d["v"] = SCHEMA_VERSION
+        d["type"] = self.TYPE
+        return d
+
+    @classmethod
+    def from_dict(cls: type[M], d: dict[str, Any]) -> M:
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in d.items() if k in names})
+
+
+def encode(msg: Message) -> bytes:
+    return msgpack.packb(msg.to_dict(), use_bin_type=True)
+
+
+def decode_dict(payload: bytes) -> dict[str, Any]:
+    try:
+        d = msgpack.unpackb(payload, raw=False)
+    except Exception as exc:  # msgpack raises several unrelated types
+        raise ProtocolError(f"payload is not valid msgpack: {exc}") from exc
+    if not isinstance(d, dict):
+        raise ProtocolError(f"payload is a {type(d).__name__}, expected a msgpack map")
+    return d
+
+
+def decode(payload: bytes, expect: type[M] | None = None) -> M | Message:
+    d = decode_dict(payload)
+    v = d.get("v")
+    if v != SCHEMA_VERSION:
+        raise ProtocolError(f"schema version {v!r} not supported (this build speaks {SCHEMA_VERSION})")
+    cls = _REGISTRY.get(d.get("type", ""))
+    if cls is None:
+        raise ProtocolError(f"unknown message type {d.get('type')!r}")
+    if expect is not None and cls is not expect:
+        raise ProtocolError(f"expected a {expect.TYPE!r} message, got {cls.TYPE!r}")
+    return cls.from_dict(d)
+
+
+@dataclass
+class Joints(Message):
+    """All joints, columnar: element i of every list is the same joint."""
+
+    TYPE: ClassVar[str] = "joints"
+    id: list[int]
+    name: list[str]
+    position: list[float]  # rad (servo angle after calibration)
+    position_deg: list[float]
+    goal: list[float]  # rad
+    velocity: list[float]  # rad/s
+    load: list[float]  # fraction of max torque, signed
+    temperature: list[float]  # °C
+    voltage: list[float]  # V
+    torque_enabled: list[bool]
+    online: list[bool]
+    alarm: list[int]  # Dynamixel error bits of the last status packet
+    stamp: float = field(default_factory=time.time)
+    tick: int = 0
+
+    COLUMNS: ClassVar[tuple[str, ...]] = (
+        "id", "name", "position", "position_deg", "goal", "velocity", "load",
+        "temperature", "voltage", "torque_enabled", "online", "alarm",
+    )
+
+
+@dataclass
+class Imu(Message):
+    TYPE: ClassVar[str] = "imu"
+    gyro: list[float]  # rad/s, robot axes x, y, z
+    accel: list[float]  # m/s², robot axes x, y, z
+    gyro_raw: list[int]
+    accel_raw: list[int]
+    fall: str = "none"  # "none" | "forward" | "backward"
+    stamp: float = field(default_factory=time.time)
+    tick: int = 0
+
+
+@dataclass
+class CameraFrame(Message):
+    TYPE: ClassVar[str] = "camera_frame"
+    jpeg: bytes
+    width: int
+    height: int
+    seq: int
+    stamp: float = field(default_factory=time.time)
+
+
+@dataclass
+class Status(Message):
+    """Daemon state, ~10 Hz and on change. Sub-maps are documented in README (Status)."""
+
+    TYPE: ClassVar[str] = "status"
+    state: str  # starting | scanning | running | degraded | port_lost | stopping
+    robot: str
+    lease: dict[str, Any] | None = None  # {"client", "name", "since"} or None
+    motion: dict[str, Any] = field(default_factory=dict)  # owners, action, walking, head, ball…
+    choreography: dict[str, Any] = field(default_factory=dict)
+    leds: dict[str, Any] = field(default_factory=dict)
+    buttons: dict[str, bool] = field(default_factory=dict)
+    bus: dict[str, Any] = field(default_factory=dict)  # errors, retries, offline, port
+    loop: dict[str, Any] = field(default_factory=dict)  # period p50/p99/max, bus time, overruns
+    voltage: float = 0.0
+    alarms: list[dict[str, Any]] = field(default_factory=list)
+    stamp: float = field(default_factory=time.time)
+
+
+@dataclass
+class Event(Message):
+    TYPE: ClassVar[str] = "event"
+    kind: str  # e.g. "lease", "choreography_started", "servo_alarm", "fall", "sound", "fault"
+    message: str
+    data: dict[str, Any] = field(default_factory=dict)
+    seq: int = 0
+    stamp: float = field(default_factory=time.time)
+
+
+@dataclass
+class BallDetection(Message):
+    TYPE: ClassVar[str] = "ball"
+    found: bool
+    x: float = 0.0  # pixel centroid
+    y: float = 0.0
+    pan_error: float = 0.0  # rad, positive = ball to the robot's left
+    tilt_error: float = 0.0  # rad, positive = ball above the image centre
+    size: float = 0.0  # fraction of the image area
+    width: int = 320
+    height: int = 240
+    phase: str = ""  # ball play phase when it runs
+    stamp: float = field(default_factory=time.time)
+
+
+@dataclass
+class World(Message):
+    TYPE: ClassVar[str] = "world"
+    robot: dict[str, float]  # {"x", "y", "yaw"} metres/radians, field frame
+    ball: dict[str, float]  # {"x", "y", "vx", "vy"}
+    fallen: str = "none"
+    sim_time: float = 0.0
+    stamp: float = field(default_factory=time.time)
+
+
+# ---- arbiter replies ---------------------------------------------------------------------
+
+
+def ok_reply(verb: str, applied: dict[str, Any] | None = None) -> bytes:
+    return msgpack.packb(
+        {"v": SCHEMA_VERSION, "ok": True, "verb": verb, "applied": applied or {}},
+        use_bin_type=True,
+    )
+
+
+def error_reply(verb: str, code: ErrorCode | str, message: str, field_: str | None = None) -> bytes:
+    return msgpack.packb(
+        {
+            "v": SCHEMA_VERSION,
+            "ok": False,
+            "verb": verb,
+            "code": str(code),
+            "message": message,
+            "field": field_,
+        },
+        use_bin_type=True,
+    )
+
+
+def command_payload(client: str, **fields: Any) -> bytes:
+    """A command query payload: the fields of the verb plus the caller's client id."""
+    return msgpack.packb({"v": SCHEMA_VERSION, "client": client, **fields}, use_bin_type=True)

@@ -1,0 +1,91 @@
+"""The one Zenoh helper every program uses: endpoints, robot name, session config.
+
+Resolution order for where to connect and which robot: explicit arguments (``--connect``,
+``--robot``), then ``DARWIN_ENDPOINT`` / ``DARWIN_ROBOT``, then the local defaults.
+Multicast scouting is always off: robots on one network must never find each other by accident.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+from dataclasses import dataclass
+
+import zenoh
+
+from schemas.keys import DEFAULT_ROBOT, check_robot_name
+
+DEFAULT_PORT = 7447
+DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+ENV_ENDPOINT = "DARWIN_ENDPOINT"
+ENV_ROBOT = "DARWIN_ROBOT"
+
+
+@dataclass(frozen=True)
+class Target:
+    endpoint: str
+    robot: str
+
+
+def resolve(endpoint: str | None = None, robot: str | None = None) -> Target:
+    ep = endpoint or os.environ.get(ENV_ENDPOINT) or DEFAULT_ENDPOINT
+    name = robot or os.environ.get(ENV_ROBOT) or DEFAULT_ROBOT
+    check_endpoint(ep)
+    return Target(ep, check_robot_name(name))
+
+
+def check_endpoint(endpoint: str) -> str:
+    proto, sep, rest = endpoint.partition("/")
+    if not sep or proto not in {"tcp", "udp", "tls", "quic", "ws", "unixsock-stream"} or not rest:
+        raise ValueError(
+            f"endpoint {endpoint!r} is not a Zenoh locator; write it like tcp/127.0.0.1:7447"
+        )
+    return endpoint
+
+
+def _config(mode: str, listen: list[str], connect: list[str], lease_ms: int | None) -> zenoh.Config:
+    conf = zenoh.Config()
+    conf.insert_json5("mode", json.dumps(mode))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    conf.insert_json5("listen/endpoints", json.dumps(listen))
+    conf.insert_json5("connect/endpoints", json.dumps(connect))
+    if lease_ms is not None:
+        # A dead client's liveliness token goes after the link lease: keep it short so the
+        # arbiter brings the robot to a safe stop quickly when a controller vanishes.
+        conf.insert_json5("transport/link/tx/lease", str(lease_ms))
+        conf.insert_json5("transport/link/tx/keep_alive", "4")
+    return conf
+
+
+def server_config(listen: list[str], lease_ms: int | None = 3000) -> zenoh.Config:
+    """A peer that listens (daemon, simulator world, replay)."""
+    for ep in listen:
+        check_endpoint(ep)
+    return _config("peer", listen, [], lease_ms)
+
+
+def client_config(endpoint: str, lease_ms: int | None = 3000) -> zenoh.Config:
+    """A client session that connects to one explicit endpoint."""
+    return _config("client", [], [check_endpoint(endpoint)], lease_ms)
+
+
+def open_server(listen: list[str], lease_ms: int | None = 3000) -> zenoh.Session:
+    return zenoh.open(server_config(listen, lease_ms))
+
+
+def open_client(endpoint: str, lease_ms: int | None = 3000) -> zenoh.Session:
+    return zenoh.open(client_config(endpoint, lease_ms))
+
+
+def free_tcp_port(host: str = "127.0.0.1") -> int:
+    """A TCP port nobody listens on right now (tests, ``darwin up`` with port 0)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((host, 0))
+        return s.getsockname()[1]
+
+
+def endpoint_host_port(endpoint: str) -> tuple[str, int]:
+    rest = endpoint.split("/", 1)[1]
+    host, _, port = rest.rpartition(":")
+    return host.strip("[]"), int(port)
