@@ -306,7 +306,9 @@ class Robot:
     def config(self) -> dict[str, Any]:
         return self.command("config")
 
-    def joint(self, joint: int | str, position: float, speed: float | None = None) -> dict[str, Any]:
+    def joint(
+        self, joint: int | str, position: float, speed: float | None = None
+    ) -> dict[str, Any]:
         fields: dict[str, Any] = {"position": position}
         fields["id" if isinstance(joint, int) else "name"] = joint
         if speed is not None:
@@ -314,8 +316,9 @@ class Robot:
         return self.command("joint", **fields)
 
     def pose(self, positions: dict[int | str, float], duration: float = 1.0) -> dict[str, Any]:
-        return self.command("pose", positions={str(k): v for k, v in positions.items()},
-                            duration=duration)
+        return self.command(
+            "pose", positions={str(k): v for k, v in positions.items()}, duration=duration
+        )
 
     def torque(self, enable: bool, ids: list[int | str] | None = None) -> dict[str, Any]:
         fields: dict[str, Any] = {"enable": enable}
@@ -323,14 +326,22 @@ class Robot:
             fields["ids"] = ids
         return self.command("torque", **fields)
 
-    def led(self, head: tuple[int, int, int] | None = None, eye: tuple[int, int, int] | None = None,
-            panel: int | None = None) -> dict[str, Any]:
-        fields = {k: (list(v) if isinstance(v, tuple) else v)
-                  for k, v in (("head", head), ("eye", eye), ("panel", panel)) if v is not None}
+    def led(
+        self,
+        head: tuple[int, int, int] | None = None,
+        eye: tuple[int, int, int] | None = None,
+        panel: int | None = None,
+    ) -> dict[str, Any]:
+        fields = {
+            k: (list(v) if isinstance(v, tuple) else v)
+            for k, v in (("head", head), ("eye", eye), ("panel", panel))
+            if v is not None
+        }
         return self.command("led", **fields)
 
-    def registers(self, id: int, address: int, length: int | None = None,
-                  data: list[int] | None = None) -> dict[str, Any]:
+    def registers(
+        self, id: int, address: int, length: int | None = None, data: list[int] | None = None
+    ) -> dict[str, Any]:
         if data is not None:
             return self.command("registers", id=id, address=address, data=list(data))
         return self.command("registers", id=id, address=address, length=length or 1)

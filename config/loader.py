@@ -152,11 +152,15 @@ def robot_from_dict(section: dict[str, Any]) -> RobotConfig:
                 d=int(merged.get("d", 0)),
             )
         except (KeyError, TypeError, ValueError) as exc:
-            raise ConfigError(f"joint {name!r} in [robot.joints] is incomplete or wrong: {exc}") from exc
+            raise ConfigError(
+                f"joint {name!r} in [robot.joints] is incomplete or wrong: {exc}"
+            ) from exc
         if jc.direction not in (1, -1):
             raise ConfigError(f"joint {name!r}: direction must be 1 or -1, not {jc.direction}")
         if jc.min_deg >= jc.max_deg:
-            raise ConfigError(f"joint {name!r}: min_deg {jc.min_deg} is not below max_deg {jc.max_deg}")
+            raise ConfigError(
+                f"joint {name!r}: min_deg {jc.min_deg} is not below max_deg {jc.max_deg}"
+            )
         joints.append(jc)
     joints.sort(key=lambda j: j.id)
     ids = [j.id for j in joints]

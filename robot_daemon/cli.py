@@ -13,7 +13,10 @@ from schemas.errors import DarwinError
 # name → (module, one-line help). Keep in the order a newcomer meets them.
 COMMANDS: dict[str, tuple[str, str]] = {
     "up": ("robot_daemon.up", "start emulator (or --port), daemon and gateway in one command"),
-    "daemon": ("robot_daemon.daemon_cli", "run the robot daemon (owns the bus, publishes, arbiter)"),
+    "daemon": (
+        "robot_daemon.daemon_cli",
+        "run the robot daemon (owns the bus, publishes, arbiter)",
+    ),
     "sim": ("robot_daemon.sim.cli", "run the hardware emulator on a pseudo-terminal"),
     "scan": ("robot_daemon.bus.scan", "list every device on a serial port (ID, model, firmware)"),
     "gateway": ("gateway.cli", "serve the legacy TCP JSON protocol to any number of clients"),
@@ -53,7 +56,11 @@ def main(argv: list[str] | None = None) -> int:
     module.add_arguments(parser)
     args = parser.parse_args(argv[1:])
     logging.basicConfig(
-        level=logging.DEBUG if args.verbose > 1 else logging.INFO if args.verbose else logging.WARNING,
+        level=logging.DEBUG
+        if args.verbose > 1
+        else logging.INFO
+        if args.verbose
+        else logging.WARNING,
         format="%(asctime)s %(name)s %(levelname)s: %(message)s",
         stream=sys.stderr,
     )

@@ -1,20 +1,20 @@
 """The project's one exception tree. Every layer raises these, translated once at its boundary.
 
-    DarwinError
-    ├── ConfigError             a config file or value is wrong
-    ├── BusError                serial port and Dynamixel bus
-    │   ├── PortError           cannot open / lost the serial port
-    │   │   └── PortInUseError  another process holds it
-    │   ├── NoReplyError        a device did not answer
-    │   └── PacketError         a reply was corrupt or malformed
-    ├── ProtocolError           malformed input on a wire (legacy framing, JSON)
-    ├── CommandError            the arbiter refused a command (code, field)
-    │   ├── LeaseBusyError      another client holds the control lease
-    │   ├── NoLeaseError        the command needs the lease and the caller has none
-    │   └── InvalidCommandError a field is missing, of the wrong type or out of range
-    └── ClientError             client side: cannot reach the robot, timed out
-        ├── RobotUnreachableError
-        └── CommandTimeoutError
+DarwinError
+├── ConfigError             a config file or value is wrong
+├── BusError                serial port and Dynamixel bus
+│   ├── PortError           cannot open / lost the serial port
+│   │   └── PortInUseError  another process holds it
+│   ├── NoReplyError        a device did not answer
+│   └── PacketError         a reply was corrupt or malformed
+├── ProtocolError           malformed input on a wire (legacy framing, JSON)
+├── CommandError            the arbiter refused a command (code, field)
+│   ├── LeaseBusyError      another client holds the control lease
+│   ├── NoLeaseError        the command needs the lease and the caller has none
+│   └── InvalidCommandError a field is missing, of the wrong type or out of range
+└── ClientError             client side: cannot reach the robot, timed out
+    ├── RobotUnreachableError
+    └── CommandTimeoutError
 """
 
 from __future__ import annotations
@@ -113,6 +113,8 @@ _BY_CODE: dict[str, type[CommandError]] = {
 }
 
 
-def command_error(code: str, message: str, field: str | None = None, verb: str = "") -> CommandError:
+def command_error(
+    code: str, message: str, field: str | None = None, verb: str = ""
+) -> CommandError:
     """The exception class that matches an error reply's code."""
     return _BY_CODE.get(code, CommandError)(code, message, field, verb)

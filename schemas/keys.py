@@ -41,9 +41,7 @@ _ROBOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 def check_robot_name(name: str) -> str:
     """Return ``name`` if it is usable inside a key expression, else raise ``ValueError``."""
     if not _ROBOT_NAME.match(name):
-        raise ValueError(
-            f"robot name {name!r} is not valid: use 1-64 letters, digits, '_' or '-'"
-        )
+        raise ValueError(f"robot name {name!r} is not valid: use 1-64 letters, digits, '_' or '-'")
     return name
 
 

@@ -60,7 +60,9 @@ def decode(payload: bytes, expect: type[M] | None = None) -> M | Message:
     d = decode_dict(payload)
     v = d.get("v")
     if v != SCHEMA_VERSION:
-        raise ProtocolError(f"schema version {v!r} not supported (this build speaks {SCHEMA_VERSION})")
+        raise ProtocolError(
+            f"schema version {v!r} not supported (this build speaks {SCHEMA_VERSION})"
+        )
     cls = _REGISTRY.get(d.get("type", ""))
     if cls is None:
         raise ProtocolError(f"unknown message type {d.get('type')!r}")
@@ -90,8 +92,18 @@ class Joints(Message):
     tick: int = 0
 
     COLUMNS: ClassVar[tuple[str, ...]] = (
-        "id", "name", "position", "position_deg", "goal", "velocity", "load",
-        "temperature", "voltage", "torque_enabled", "online", "alarm",
+        "id",
+        "name",
+        "position",
+        "position_deg",
+        "goal",
+        "velocity",
+        "load",
+        "temperature",
+        "voltage",
+        "torque_enabled",
+        "online",
+        "alarm",
     )
 
 

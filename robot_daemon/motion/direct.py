@@ -55,7 +55,9 @@ class DirectModule(MotionModule):
             else:
                 step = m.speed * frame.dt
                 delta = m.target - m.current
-                m.current = m.target if abs(delta) <= step else m.current + math.copysign(step, delta)
+                m.current = (
+                    m.target if abs(delta) <= step else m.current + math.copysign(step, delta)
+                )
             out[j] = m.current
         return out
 
