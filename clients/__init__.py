@@ -1,5 +1,5 @@
 """Clients of the robot's key space: the Robot API (notebooks, scripts), the TUI, recording."""
 
-from clients.robot import Robot
+from clients.robot import Commander, Robot
 
-__all__ = ["Robot"]
+__all__ = ["Commander", "Robot"]

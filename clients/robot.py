@@ -18,7 +18,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Self
 
 import msgpack
 import zenoh
@@ -97,7 +97,10 @@ class Subscription:
         self.close()
 
 
-class Robot:
+class Commander:
+    """Commands and the lease, without any subscription: one per legacy connection in the
+    gateway, many sharing one Zenoh session (pass ``session``)."""
+
     def __init__(
         self,
         endpoint: str | None = None,
@@ -121,6 +124,145 @@ class Robot:
                 f"cannot open a Zenoh session to {self.target.endpoint}: {exc}. "
                 "Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT."
             ) from exc
+        self._closed = False
+        # The arbiter releases our lease (and safely stops the robot) when this token goes.
+        self._token = self.session.liveliness().declare_token(self.keys.client(self.client_id))
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self._close_extra()
+        with contextlib.suppress(Exception):
+            self._token.undeclare()
+        if self._own_session:
+            with contextlib.suppress(Exception):
+                self.session.close()
+
+    def _close_extra(self) -> None:
+        pass
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def alive(self, timeout: float = 1.0) -> bool:
+        """True when the daemon's liveliness token is visible."""
+        replies = self.session.liveliness().get(self.keys.alive, timeout=timeout)
+        return any(r.ok is not None for r in replies)
+
+    # -- commands ----------------------------------------------------------------------------
+    def command(self, verb: str, timeout: float | None = None, **fields: Any) -> dict[str, Any]:
+        """Send one arbiter command; return its *applied* map or raise."""
+        if self._closed:
+            raise ClientError("this Robot is closed; create a new one")
+        key = self.keys.cmd(verb)
+        payload = command_payload(self.client_id, name=self.name, **fields)
+        replies = list(self.session.get(key, payload=payload, timeout=timeout or self.timeout))
+        if not replies:
+            raise RobotUnreachableError(
+                f"nobody answers {key} at {self.target.endpoint}: is the daemon for robot "
+                f"{self.target.robot!r} running (`darwin up`), and is the robot name right?"
+            )
+        reply = replies[0]
+        if reply.ok is not None:
+            d = decode_dict(reply.ok.payload.to_bytes())
+            return d.get("applied", {})
+        raw = reply.err.payload.to_bytes()
+        try:
+            d = msgpack.unpackb(raw, raw=False)
+        except Exception:
+            d = None
+        if not isinstance(d, dict):
+            text = raw.decode("utf-8", "replace")
+            if "timeout" in text.lower():
+                raise CommandTimeoutError(f"{verb}: the daemon did not answer within the timeout")
+            raise command_error(ErrorCode.INTERNAL, text, None, verb)
+        raise command_error(d.get("code", "internal"), d.get("message", ""), d.get("field"), verb)
+
+    def acquire(self) -> dict[str, Any]:
+        return self.command("lease", op="acquire")
+
+    def release(self) -> dict[str, Any]:
+        return self.command("lease", op="release")
+
+    @contextlib.contextmanager
+    def control(self, name: str | None = None) -> Iterator[Self]:
+        """Hold the control lease inside the block; released on exit, even on error."""
+        if name:
+            self.name = name
+        self.acquire()
+        try:
+            yield self
+        finally:
+            with contextlib.suppress(Exception):
+                self.release()
+
+    def halt(self) -> dict[str, Any]:
+        return self.command("halt")
+
+    def config(self) -> dict[str, Any]:
+        return self.command("config")
+
+    def joint(
+        self, joint: int | str, position: float, speed: float | None = None
+    ) -> dict[str, Any]:
+        fields: dict[str, Any] = {"position": position}
+        fields["id" if isinstance(joint, int) else "name"] = joint
+        if speed is not None:
+            fields["speed"] = speed
+        return self.command("joint", **fields)
+
+    def pose(self, positions: dict[int | str, float], duration: float = 1.0) -> dict[str, Any]:
+        return self.command(
+            "pose", positions={str(k): v for k, v in positions.items()}, duration=duration
+        )
+
+    def torque(self, enable: bool, ids: list[int | str] | None = None) -> dict[str, Any]:
+        fields: dict[str, Any] = {"enable": enable}
+        if ids is not None:
+            fields["ids"] = ids
+        return self.command("torque", **fields)
+
+    def led(
+        self,
+        head: tuple[int, int, int] | None = None,
+        eye: tuple[int, int, int] | None = None,
+        panel: int | None = None,
+    ) -> dict[str, Any]:
+        fields = {
+            k: (list(v) if isinstance(v, tuple) else v)
+            for k, v in (("head", head), ("eye", eye), ("panel", panel))
+            if v is not None
+        }
+        return self.command("led", **fields)
+
+    def registers(
+        self, id: int, address: int, length: int | None = None, data: list[int] | None = None
+    ) -> dict[str, Any]:
+        if data is not None:
+            return self.command("registers", id=id, address=address, data=list(data))
+        return self.command("registers", id=id, address=address, length=length or 1)
+
+
+class Robot(Commander):
+    """Commands plus the robot's live state and subscriptions."""
+
+    def __init__(
+        self,
+        endpoint: str | None = None,
+        robot: str | None = None,
+        *,
+        name: str | None = None,
+        client_id: str | None = None,
+        timeout: float = 3.0,
+        session: zenoh.Session | None = None,
+    ) -> None:
+        super().__init__(
+            endpoint, robot, name=name, client_id=client_id, timeout=timeout, session=session
+        )
         self._lock = threading.Lock()
         self._state = RobotState()
         self._listeners: dict[str, list[Subscription]] = {}
@@ -128,31 +270,14 @@ class Robot:
         self._conds = threading.Condition()
         self._seq: dict[str, int] = {}
         self._latest: dict[str, Message] = {}
-        self._closed = False
-        self._token = self.session.liveliness().declare_token(self.keys.client(self.client_id))
         for topic in ALWAYS:
             self._ensure_zsub(topic)
 
-    # -- lifecycle ---------------------------------------------------------------------------
-    def close(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
+    def _close_extra(self) -> None:
         for sub in list(self._zsubs.values()):
             with contextlib.suppress(Exception):
                 sub.undeclare()
         self._zsubs.clear()
-        with contextlib.suppress(Exception):
-            self._token.undeclare()
-        if self._own_session:
-            with contextlib.suppress(Exception):
-                self.session.close()
-
-    def __enter__(self) -> Robot:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         st = self._state.status
@@ -167,11 +292,6 @@ class Robot:
     def state(self) -> RobotState:
         with self._lock:
             return RobotState(**vars(self._state))
-
-    def alive(self, timeout: float = 1.0) -> bool:
-        """True when the daemon's liveliness token is visible."""
-        replies = self.session.liveliness().get(self.keys.alive, timeout=timeout)
-        return any(r.ok is not None for r in replies)
 
     def _on_sample(self, topic: str, sample: zenoh.Sample) -> None:
         try:
@@ -252,96 +372,3 @@ class Robot:
                         f"no {topic!r} message matching the condition within {timeout:.1f} s"
                     )
                 self._conds.wait(remaining)
-
-    # -- commands ----------------------------------------------------------------------------
-    def command(self, verb: str, timeout: float | None = None, **fields: Any) -> dict[str, Any]:
-        """Send one arbiter command; return its *applied* map or raise."""
-        if self._closed:
-            raise ClientError("this Robot is closed; create a new one")
-        key = self.keys.cmd(verb)
-        payload = command_payload(self.client_id, name=self.name, **fields)
-        replies = list(self.session.get(key, payload=payload, timeout=timeout or self.timeout))
-        if not replies:
-            raise RobotUnreachableError(
-                f"nobody answers {key} at {self.target.endpoint}: is the daemon for robot "
-                f"{self.target.robot!r} running (`darwin up`), and is the robot name right?"
-            )
-        reply = replies[0]
-        if reply.ok is not None:
-            d = decode_dict(reply.ok.payload.to_bytes())
-            return d.get("applied", {})
-        raw = reply.err.payload.to_bytes()
-        try:
-            d = msgpack.unpackb(raw, raw=False)
-        except Exception:
-            d = None
-        if not isinstance(d, dict):
-            text = raw.decode("utf-8", "replace")
-            if "timeout" in text.lower():
-                raise CommandTimeoutError(f"{verb}: the daemon did not answer within the timeout")
-            raise command_error(ErrorCode.INTERNAL, text, None, verb)
-        raise command_error(d.get("code", "internal"), d.get("message", ""), d.get("field"), verb)
-
-    def acquire(self) -> dict[str, Any]:
-        return self.command("lease", op="acquire")
-
-    def release(self) -> dict[str, Any]:
-        return self.command("lease", op="release")
-
-    @contextlib.contextmanager
-    def control(self, name: str | None = None) -> Iterator[Robot]:
-        """Hold the control lease inside the block; released on exit, even on error."""
-        if name:
-            self.name = name
-        self.acquire()
-        try:
-            yield self
-        finally:
-            with contextlib.suppress(Exception):
-                self.release()
-
-    def halt(self) -> dict[str, Any]:
-        return self.command("halt")
-
-    def config(self) -> dict[str, Any]:
-        return self.command("config")
-
-    def joint(
-        self, joint: int | str, position: float, speed: float | None = None
-    ) -> dict[str, Any]:
-        fields: dict[str, Any] = {"position": position}
-        fields["id" if isinstance(joint, int) else "name"] = joint
-        if speed is not None:
-            fields["speed"] = speed
-        return self.command("joint", **fields)
-
-    def pose(self, positions: dict[int | str, float], duration: float = 1.0) -> dict[str, Any]:
-        return self.command(
-            "pose", positions={str(k): v for k, v in positions.items()}, duration=duration
-        )
-
-    def torque(self, enable: bool, ids: list[int | str] | None = None) -> dict[str, Any]:
-        fields: dict[str, Any] = {"enable": enable}
-        if ids is not None:
-            fields["ids"] = ids
-        return self.command("torque", **fields)
-
-    def led(
-        self,
-        head: tuple[int, int, int] | None = None,
-        eye: tuple[int, int, int] | None = None,
-        panel: int | None = None,
-    ) -> dict[str, Any]:
-        fields = {
-            k: (list(v) if isinstance(v, tuple) else v)
-            for k, v in (("head", head), ("eye", eye), ("panel", panel))
-            if v is not None
-        }
-        return self.command("led", **fields)
-
-    def registers(
-        self, id: int, address: int, length: int | None = None, data: list[int] | None = None
-    ) -> dict[str, Any]:
-        if data is not None:
-            return self.command("registers", id=id, address=address, data=list(data))
-        return self.command("registers", id=id, address=address, length=length or 1)
