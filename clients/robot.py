@@ -77,6 +77,21 @@ class RobotState:
     ball: BallDetection | None = None
     world: World | None = None
 
+    def array(self, field: str = "position") -> Any:
+        """The latest values as a numpy array: a joint column (``position``, ``load``…, in the
+        order of ``joints.name``) or an IMU vector (``gyro``, ``accel``, ``*_raw``)."""
+        import numpy as np
+
+        for msg in (self.joints, self.imu):
+            if msg is not None and field in getattr(msg, "__dataclass_fields__", {}):
+                value = getattr(msg, field)
+                if isinstance(value, list):
+                    return np.asarray(value)
+        raise ValueError(
+            f"no array {field!r} in the state (joint columns: {', '.join(Joints.COLUMNS)}; "
+            "IMU: gyro, accel, gyro_raw, accel_raw), or no message received yet"
+        )
+
 
 class Subscription:
     """A callback subscription; ``close()`` (or leaving a ``with`` block) ends it."""
@@ -159,7 +174,8 @@ class Commander:
         if self._closed:
             raise ClientError("this Robot is closed; create a new one")
         key = self.keys.cmd(verb)
-        payload = command_payload(self.client_id, name=self.name, **fields)
+        # The human name travels as ``client_name``: ``name`` is a verb field (joint, action…).
+        payload = command_payload(self.client_id, client_name=self.name, **fields)
         replies = list(self.session.get(key, payload=payload, timeout=timeout or self.timeout))
         if not replies:
             raise RobotUnreachableError(
@@ -245,6 +261,40 @@ class Commander:
         if data is not None:
             return self.command("registers", id=id, address=address, data=list(data))
         return self.command("registers", id=id, address=address, length=length or 1)
+
+    # -- motion helpers (walk, action, choreography, ball play, head) ---------------------------
+    def walk(self, x: float = 0.0, y: float = 0.0, turn: float = 0.0) -> dict[str, Any]:
+        """Walk (or change the walking speed): ``x`` forward and ``y`` left in m/s, ``turn``
+        rad/s counter-clockwise. ``walk_stop()`` stops; ``halt()`` always does."""
+        return self.command("walk", op="start", x=x, y=y, turn=turn)
+
+    def walk_stop(self) -> dict[str, Any]:
+        return self.command("walk", op="stop")
+
+    def action(self, page: int | str) -> dict[str, Any]:
+        """Play an action page by number or by name (e.g. ``"sit down"``)."""
+        field_ = "page" if isinstance(page, int) else "name"
+        return self.command("action", op="play", **{field_: page})
+
+    def action_stop(self, brake: bool = False) -> dict[str, Any]:
+        return self.command("action", op="brake" if brake else "stop")
+
+    def choreography(self, items: list[dict[str, Any]]) -> dict[str, Any]:
+        """Play behaviours in sequence: ``[{"behaviour": id, ...params}, …]`` (see
+        :mod:`schemas.commands`)."""
+        return self.command("choreography", op="play", items=list(items))
+
+    def choreography_stop(self) -> dict[str, Any]:
+        return self.command("choreography", op="stop")
+
+    def playball(self, color: str = "red") -> dict[str, Any]:
+        return self.command("playball", op="start", color=color)
+
+    def playball_stop(self) -> dict[str, Any]:
+        return self.command("playball", op="stop")
+
+    def head(self, pan: float, tilt: float) -> dict[str, Any]:
+        return self.command("head", pan=pan, tilt=tilt)
 
 
 class Robot(Commander):
@@ -372,3 +422,50 @@ class Robot(Commander):
                         f"no {topic!r} message matching the condition within {timeout:.1f} s"
                     )
                 self._conds.wait(remaining)
+
+    # -- notebook helpers: tables and images ------------------------------------------------------
+    def collect(
+        self, topic: str, seconds: float = 5.0, max_messages: int | None = None
+    ) -> list[Message]:
+        """The messages of ``topic`` arriving in the next ``seconds`` (or until
+        ``max_messages``), as message objects."""
+        if seconds <= 0 and max_messages is None:
+            raise ValueError(f"seconds must be > 0 (got {seconds}) unless max_messages is set")
+        got: list[Message] = []
+        enough = threading.Event()
+
+        def keep(msg: Message) -> None:
+            if max_messages is None or len(got) < max_messages:
+                got.append(msg)
+            if max_messages is not None and len(got) >= max_messages:
+                enough.set()
+
+        with self.subscribe(topic, keep):
+            enough.wait(seconds if seconds > 0 else None)
+        return list(got)
+
+    def stream(
+        self, topic: str = "joints", seconds: float = 5.0, max_messages: int | None = None
+    ) -> Any:
+        """Record ``topic`` for ``seconds`` into a pandas DataFrame, one row per message.
+
+        Columns are flat: ``stamp``, ``tick``, then for joints ``<field>_<joint name>``
+        (``position_r_knee``, ``load_l_hip_pitch``…), for vectors ``gyro_x``…, for maps
+        ``<key>_<subkey>``. The index ``t`` is seconds since the first row's stamp. See
+        :func:`clients.notebook.frames.to_frame`."""
+        from clients.notebook.frames import to_frame
+
+        return to_frame(topic, self.collect(topic, seconds, max_messages))
+
+    def image(self, timeout: float = 3.0) -> Any:
+        """One camera frame as an RGB ``numpy`` array (height × width × 3, uint8). The camera
+        is subscribed only for this call, so the daemon captures only while someone looks."""
+        frames = self.collect("camera", timeout, max_messages=1)
+        if not frames:
+            raise CommandTimeoutError(
+                f"no camera frame from {self.target.robot} within {timeout:.1f} s: is the "
+                "daemon's camera on (`darwin up --camera sim` or a real camera)?"
+            )
+        from clients.notebook.frames import decode_jpeg
+
+        return decode_jpeg(frames[0].jpeg)  # type: ignore[attr-defined]

@@ -1,7 +1,9 @@
 """Arbiter command payloads, one per verb under ``darwin/<robot>/cmd/<verb>``.
 
 Every query payload is a msgpack map ``{"v": 1, "client": <client id>, ...fields}`` (build it
-with :func:`schemas.messages.command_payload`). Every reply is either
+with :func:`schemas.messages.command_payload`), optionally with ``client_name`` (the caller's
+human name, shown as the lease holder; ``name`` is a verb field, e.g. a joint's name).
+Every reply is either
 ``{"v":1, "ok": true, "verb": v, "applied": {...}}`` sent with ``query.reply`` — *applied* says
 what was actually applied after conversion — or ``{"v":1, "ok": false, "verb": v, "code": c,
 "message": m, "field": f}`` sent with ``query.reply_err``; codes are :class:`ErrorCode`.
@@ -28,7 +30,12 @@ Angles are rad, speeds rad/s or m/s, durations s. Joints are named by id (1..20)
 
 A choreography item is ``{"behaviour": id, ...params}`` where params depend on the behaviour's
 kind: ``action`` (page), ``walk`` (duration s, x, y, turn), ``sound`` (file/say), ``led``
-(head/eye rgb), ``pause`` (duration s), ``head`` (pan, tilt).
+(head/eye rgb), ``pause`` (duration s), ``head`` (pan, tilt). An item may also be
+``{"kind": k, ...params}``, ``{"page": n}``, or a legacy orchestrate item ``{"page": P,
+"type": T}`` / ``{"time": S}`` (the ``behaviours`` reply has the ``type`` table). ``choreography``
+and ``sound`` take an optional ``lang``: "en" (default) or "pt". ``action`` may name the
+page's ``name`` instead of its number; ``walk_params`` ``set`` values are the
+``config/walking.toml`` names and units (README, "Motion").
 """
 
 from __future__ import annotations

@@ -146,6 +146,7 @@ class Status(Message):
     voltage: float = 0.0
     alarms: list[dict[str, Any]] = field(default_factory=list)
     stamp: float = field(default_factory=time.time)
+    camera: dict[str, Any] = field(default_factory=dict)  # source, subscribed, captured, fps
 
 
 @dataclass

@@ -163,3 +163,18 @@ CM730_BULK_LENGTH = 30
 # What the framework sync-writes every tick: D, I, P, reserved, goal L, goal H.
 SYNC_WRITE_START = MX28.D_GAIN.reg.address
 SYNC_WRITE_LENGTH = 6
+
+# The CM-730's IMU registers for the robot axes (x forward, y left, z up), with their signs.
+# The framework reads accel Y as front/back and accel X as right/left, gyro Y as the front/back
+# (pitch) rate and gyro X as the right/left (roll) rate; fallen forward is accel Y below centre.
+# The emulator writes body motion through this map and the daemon reads it back through it.
+IMU_GYRO_AXES: tuple[tuple[CM730, int], ...] = (
+    (CM730.GYRO_X, 1),
+    (CM730.GYRO_Y, 1),
+    (CM730.GYRO_Z, 1),
+)
+IMU_ACCEL_AXES: tuple[tuple[CM730, int], ...] = (
+    (CM730.ACCEL_Y, 1),
+    (CM730.ACCEL_X, 1),
+    (CM730.ACCEL_Z, 1),
+)

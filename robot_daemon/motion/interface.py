@@ -67,6 +67,10 @@ class MotionModule:
         """Goals (rad) for some of the joints this module owns. Called every tick."""
         return {}
 
+    def observe(self, frame: JointFrame) -> None:
+        """Called every tick for every module, owning joints or not, before any ``step``:
+        for modules that watch (fall detection) or sequence others (choreography)."""
+
     def gains(self) -> dict[int, tuple[int, int, int]]:
         """Gains for owned joints that differ from the config defaults."""
         return {}

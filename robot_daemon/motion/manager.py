@@ -87,6 +87,8 @@ class MotionManager:
         self.last_frame = frame
         targets = Targets()
         for m in self.modules:
+            m.observe(frame)
+        for m in self.modules:
             owned = self.owned_by(m.name)
             if not owned:
                 continue

@@ -21,9 +21,19 @@ def test_keys_carry_the_robot_name_and_reject_bad_names() -> None:
 
 def test_message_round_trip_and_type_check() -> None:
     j = Joints(
-        id=[1], name=["r_shoulder_pitch"], position=[0.5], position_deg=[28.6], goal=[0.5],
-        velocity=[0.0], load=[0.0], temperature=[40.0], voltage=[12.0],
-        torque_enabled=[True], online=[True], alarm=[0], tick=3,
+        id=[1],
+        name=["r_shoulder_pitch"],
+        position=[0.5],
+        position_deg=[28.6],
+        goal=[0.5],
+        velocity=[0.0],
+        load=[0.0],
+        temperature=[40.0],
+        voltage=[12.0],
+        torque_enabled=[True],
+        online=[True],
+        alarm=[0],
+        tick=3,
     )
     assert decode(encode(j), Joints) == j
     with pytest.raises(ProtocolError, match="expected a 'event'"):

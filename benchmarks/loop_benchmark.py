@@ -1,0 +1,193 @@
+"""The daemon's motion loop against a bare dynamixel-sdk loop, both on the wire-timed emulator.
+
+    .venv/bin/python benchmarks/loop_benchmark.py --seconds 20
+
+1. Baseline: stock ``PortHandler`` + ``GroupSyncWrite`` (20 × D,I,P,0,goal) + ``BulkRead``
+   (20 servos × 6 bytes + the CM-730's 30) every 8 ms with absolute ``time.sleep`` deadlines,
+   in this process; CPU = this process's CPU time.
+2. The daemon: ``darwin daemon --sim`` as a child (its own emulator child), observed over Zenoh;
+   period and bus figures from its ``status.loop``, CPU from /proc of the daemon process only.
+
+Prints p50/p99/max period, overruns, bus time per tick and CPU (% of one core) for both, and
+the ratios daemon / baseline. Targets: p99 within 1 ms of 8 ms, no overruns, CPU < 30 %.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from dynamixel_sdk import COMM_SUCCESS, GroupSyncWrite, PacketHandler, PortHandler
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from clients.robot import Robot
+from robot_daemon.bus.bulk_read import BulkRead
+from robot_daemon.bus.tables import (
+    CM730_BULK_LENGTH,
+    CM730_BULK_START,
+    CM730_ID,
+    SERVO_BULK_LENGTH,
+    SERVO_BULK_START,
+    SERVO_IDS,
+    SYNC_WRITE_LENGTH,
+    SYNC_WRITE_START,
+)
+from schemas.session import free_tcp_port
+
+TICK = 0.008
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+def darwin(*args: str, **kw: object) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "robot_daemon.cli", *args],
+        stdout=subprocess.PIPE,
+        text=True,
+        **kw,  # type: ignore[arg-type]
+    )
+
+
+def wait_prefix(proc: subprocess.Popen[str], prefix: str) -> str:
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        if line.startswith(prefix):
+            return line.split(":", 1)[1].strip()
+    raise RuntimeError(f"child exited before printing {prefix!r}")
+
+
+def cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime + stime
+
+
+def stats(periods: list[float], bus: list[float], overruns: int, cpu: float) -> dict[str, float]:
+    p = np.array(periods) * 1000
+    return {
+        "p50_ms": float(np.percentile(p, 50)),
+        "p99_ms": float(np.percentile(p, 99)),
+        "max_ms": float(p.max()),
+        "overruns": overruns,
+        "bus_ms": float(np.mean(bus) * 1000),
+        "cpu_pct": cpu * 100,
+    }
+
+
+def baseline(seconds: float) -> dict[str, float]:
+    sim = darwin("sim")
+    try:
+        port_name = wait_prefix(sim, "port:")
+        port = PortHandler(port_name)
+        port.openPort()
+        port.setBaudRate(1_000_000)
+        ph = PacketHandler(1.0)
+        ph.write1ByteTxRx(port, CM730_ID, 24, 1)
+        time.sleep(0.5)
+        reader = BulkRead(port, ph)
+        for i in SERVO_IDS:
+            reader.addParam(i, SERVO_BULK_START, SERVO_BULK_LENGTH)
+        reader.addParam(CM730_ID, CM730_BULK_START, CM730_BULK_LENGTH)
+        writer = GroupSyncWrite(port, ph, SYNC_WRITE_START, SYNC_WRITE_LENGTH)
+        for i in SERVO_IDS:
+            writer.addParam(i, [0, 0, 32, 0, 0x00, 0x08])
+        periods: list[float] = []
+        bus: list[float] = []
+        overruns = failures = 0
+        cpu0 = time.process_time()
+        start = last = next_t = time.monotonic()
+        while time.monotonic() - start < seconds:
+            t0 = time.monotonic()
+            periods.append(t0 - last)
+            last = t0
+            writer.txPacket()
+            if reader.txRxPacket() != COMM_SUCCESS:
+                failures += 1
+            bus.append(time.monotonic() - t0)
+            next_t += TICK
+            now = time.monotonic()
+            if now > next_t:
+                overruns += 1
+                next_t = now
+            time.sleep(max(0.0, next_t - time.monotonic()))
+        cpu = (time.process_time() - cpu0) / (time.monotonic() - start)
+        port.closePort()
+        out = stats(periods[1:], bus, overruns, cpu)
+        out["failed_reads"] = failures
+        return out
+    finally:
+        sim.terminate()
+        sim.wait()
+        if sim.stdout:
+            sim.stdout.close()
+
+
+def daemon(seconds: float) -> dict[str, float]:
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    proc = darwin("daemon", "--sim", "--listen", endpoint, "--robot", "bench")
+    try:
+        wait_prefix(proc, "zenoh:")
+        with Robot(endpoint, "bench") as robot:
+            robot.wait_for("status", lambda s: s.loop["ticks"] > 50, timeout=20)
+            first = robot.wait_for("status")
+            cpu0, wall0 = cpu_seconds(proc.pid), time.monotonic()
+            periods: list[float] = []
+            last_tick, last_stamp = None, None
+
+            def on_joints(msg: object) -> None:
+                nonlocal last_tick, last_stamp
+                tick, stamp = msg.tick, msg.stamp  # type: ignore[attr-defined]
+                if last_tick is not None and tick == last_tick + 1:
+                    periods.append(stamp - last_stamp)
+                last_tick, last_stamp = tick, stamp
+
+            with robot.subscribe("joints", on_joints):
+                time.sleep(seconds)
+            cpu = (cpu_seconds(proc.pid) - cpu0) / (time.monotonic() - wall0)
+            last = robot.wait_for("status")
+        loop = last.loop
+        return {
+            "p50_ms": loop["period_p50_ms"],
+            "p99_ms": loop["period_p99_ms"],
+            "max_ms": loop["period_max_ms"],
+            "overruns": loop["overruns"] - first.loop["overruns"],
+            "bus_ms": loop["bus_p50_ms"],
+            "cpu_pct": cpu * 100,
+            "stamp_p99_ms": float(np.percentile(np.array(periods) * 1000, 99)) if periods else 0,
+            "missing_replies": last.bus["missing_replies"] - first.bus["missing_replies"],
+        }
+    finally:
+        proc.terminate()
+        proc.wait(timeout=15)
+        if proc.stdout:
+            proc.stdout.close()
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seconds", type=float, default=60.0)
+    args = parser.parse_args()
+    print(f"running each loop for {args.seconds:.0f} s on the wire-timed emulator …", flush=True)
+    base = baseline(args.seconds)
+    mine = daemon(args.seconds)
+    keys = ["p50_ms", "p99_ms", "max_ms", "overruns", "bus_ms", "cpu_pct"]
+    print(f"{'':16}{'baseline (bare SDK)':>22}{'daemon':>12}{'ratio':>10}")
+    for k in keys:
+        ratio = mine[k] / base[k] if base[k] else float("nan")
+        print(f"{k:16}{base[k]:>22.2f}{mine[k]:>12.2f}{ratio:>10.2f}")
+    print(
+        f"baseline failed bulk reads: {base['failed_reads']}; daemon missing replies: "
+        f"{mine['missing_replies']}; daemon period p99 from message stamps: "
+        f"{mine['stamp_p99_ms']:.2f} ms"
+    )
+    ok = mine["p99_ms"] <= 9.0 and mine["overruns"] == 0 and mine["cpu_pct"] < 30
+    print("targets (p99 ≤ 9 ms, no overruns, CPU < 30 %):", "met" if ok else "NOT met")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,22 @@
+"""Recording the robot's publications to MCAP (or the original's plain-text log) and replaying
+them on the key space. See README, "Notebooks, recording and replay".
+
+    >>> from clients.recording import Recorder, read_recording
+    >>> with Recorder(robot, "walk.mcap"):
+    ...     robot.walk(x=0.05)
+"""
+
+from clients.recording.control import ReplayControl
+from clients.recording.reader import RecordedMessage, Recording, read_recording
+from clients.recording.recorder import Recorder, RecorderStats
+from clients.recording.replay import Replayer
+
+__all__ = [
+    "RecordedMessage",
+    "Recorder",
+    "RecorderStats",
+    "Recording",
+    "ReplayControl",
+    "Replayer",
+    "read_recording",
+]

@@ -1,0 +1,138 @@
+"""Read a recording back: ``read_recording(path)`` → :class:`Recording`.
+
+The file is read as a stream, record by record, so a recording whose recorder was killed (no
+summary, a half-written last chunk) still yields every message up to the last flush;
+``Recording.truncated`` says so. Messages come from the msgpack channels (the exact bytes the
+robot published) and decode with :mod:`schemas.messages` like live ones.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import struct
+from collections import Counter
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+from mcap.exceptions import McapError
+from mcap.records import Channel, Message, Metadata
+from mcap.stream_reader import StreamReader
+
+from clients.recording.mcap_sink import RAW_ENCODING
+from clients.robot import TOPICS
+from schemas.errors import ProtocolError
+from schemas.messages import Message as DarwinMessage
+from schemas.messages import decode
+
+
+@dataclass(frozen=True)
+class RecordedMessage:
+    topic: str  # short name: joints, imu, status, events, camera, vision, world
+    log_ns: int  # when the recorder received it (ns since the epoch)
+    publish_ns: int  # the message's own stamp
+    payload: bytes  # msgpack, exactly as published
+
+    def decode(self) -> DarwinMessage:
+        return decode(self.payload, TOPICS[self.topic])
+
+
+@dataclass
+class Recording:
+    path: str
+    robot: str = ""
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    messages: list[RecordedMessage] = field(default_factory=list)
+    truncated: bool = False  # the file ended early (recorder killed); messages are still valid
+    problem: str = ""  # what ended the read early
+
+    def __repr__(self) -> str:
+        span = f"{self.duration:.1f} s" if self.messages else "empty"
+        tail = ", truncated" if self.truncated else ""
+        n = len(self.messages)
+        return f"<Recording {self.robot or '?'} {self.path}: {n} messages, {span}{tail}>"
+
+    @property
+    def start_ns(self) -> int:
+        return self.messages[0].log_ns if self.messages else 0
+
+    @property
+    def end_ns(self) -> int:
+        return self.messages[-1].log_ns if self.messages else 0
+
+    @property
+    def duration(self) -> float:
+        return (self.end_ns - self.start_ns) / 1e9
+
+    def counts(self) -> dict[str, int]:
+        return dict(Counter(m.topic for m in self.messages))
+
+    def topic(self, name: str) -> list[RecordedMessage]:
+        return [m for m in self.messages if m.topic == name]
+
+    def decoded(self, name: str) -> Iterator[DarwinMessage]:
+        """The messages of one topic, decoded; payloads that do not decode are skipped."""
+        for m in self.messages:
+            if m.topic == name:
+                try:
+                    yield m.decode()
+                except ProtocolError:
+                    continue
+
+    def frame(self, name: str) -> Any:
+        """One topic as a pandas DataFrame (the layout of :mod:`clients.notebook.frames`)."""
+        from clients.notebook.frames import to_frame
+
+        return to_frame(name, self.decoded(name))
+
+
+def iter_records(path: str) -> Iterator[Any]:
+    """Every MCAP record of ``path`` in file order; raises at a truncated or corrupt tail."""
+    with open(path, "rb") as f:
+        yield from StreamReader(f, validate_crcs=False).records
+
+
+def read_recording(path: str | os.PathLike[str]) -> Recording:
+    """Load a recording made by :class:`clients.recording.Recorder` (or any MCAP file with
+    ``msgpack`` channels carrying ``darwin_topic`` metadata)."""
+    path = os.fspath(path)
+    rec = Recording(path)
+    channels: dict[int, str] = {}
+    try:
+        for record in iter_records(path):
+            if isinstance(record, Channel):
+                topic = record.metadata.get("darwin_topic", "")
+                if record.message_encoding == RAW_ENCODING and topic in TOPICS:
+                    channels[record.id] = topic
+                    rec.robot = rec.robot or record.metadata.get("robot", "")
+            elif isinstance(record, Message):
+                topic = channels.get(record.channel_id)
+                if topic is not None:
+                    rec.messages.append(
+                        RecordedMessage(topic, record.log_time, record.publish_time, record.data)
+                    )
+            elif isinstance(record, Metadata):
+                rec.metadata[record.name] = dict(record.metadata)
+                rec.robot = rec.robot or record.metadata.get("robot", "")
+    except (McapError, EOFError, struct.error, ValueError) as exc:
+        # A killed recorder leaves a partial chunk: keep everything before it.
+        if not rec.metadata and not rec.messages:
+            raise ProtocolError(
+                f"{path} is not a readable MCAP recording ({type(exc).__name__}: {exc})"
+            ) from exc
+        rec.truncated = True
+        rec.problem = f"{type(exc).__name__}: {exc}"
+    rec.messages.sort(key=lambda m: m.log_ns)
+    if not rec.robot and "darwin" in rec.metadata:
+        rec.robot = rec.metadata["darwin"].get("robot", "")
+    return rec
+
+
+def recorded_topics(rec: Recording) -> dict[str, str]:
+    """The topic → key map the recorder stored in its metadata."""
+    raw = rec.metadata.get("darwin", {}).get("topics", "{}")
+    try:
+        return dict(json.loads(raw))
+    except ValueError:
+        return {}

@@ -1,0 +1,108 @@
+"""``darwin replay FILE.mcap [--robot NAME] [--rate 2.0] [--loop]``: republish a recording on
+the key space under a robot name of its own, controllable on ``…/replay/control``."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from types import FrameType
+
+import zenoh
+
+from clients.recording.reader import read_recording
+from clients.recording.replay import Replayer, default_robot_name
+from clients.robot import TOPICS
+from schemas.errors import ProtocolError, RobotUnreachableError
+from schemas.session import DEFAULT_ENDPOINT, ENV_ENDPOINT, open_client, open_server, resolve
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", help="an MCAP recording made by `darwin record`")
+    parser.add_argument(
+        "--robot", metavar="NAME", help="robot name to publish as (default: <recorded>-replay)"
+    )
+    parser.add_argument("--rate", type=float, default=1.0, help="speed factor (1.0 = real time)")
+    parser.add_argument("--loop", action="store_true", help="start over at the end, forever")
+    parser.add_argument(
+        "--stay",
+        action="store_true",
+        help="keep serving (paused at the end) instead of exiting when the recording ends",
+    )
+    parser.add_argument("--start", type=float, default=0.0, metavar="S", help="start at S seconds")
+    parser.add_argument("--paused", action="store_true", help="start paused (resume via control)")
+    parser.add_argument("--topics", nargs="+", metavar="TOPIC", help="replay only these topics")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--listen", metavar="ENDPOINT", help="be a peer listening on ENDPOINT")
+    where.add_argument(
+        "--connect",
+        metavar="ENDPOINT",
+        help=f"connect to ENDPOINT (default: {ENV_ENDPOINT}, else {DEFAULT_ENDPOINT})",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        rec = read_recording(args.file)
+    except (OSError, ProtocolError) as exc:
+        print(f"darwin replay: cannot read {args.file}: {exc}", file=sys.stderr)
+        return 2
+    if not rec.messages:
+        print(f"darwin replay: {args.file} holds no replayable messages", file=sys.stderr)
+        return 2
+    topics = [t for item in args.topics for t in item.split(",") if t] if args.topics else None
+    unknown = [t for t in topics or () if t not in TOPICS]
+    if unknown:
+        print(f"darwin replay: unknown topic(s) {unknown}; known: {list(TOPICS)}", file=sys.stderr)
+        return 2
+    robot = args.robot or default_robot_name(rec)
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    try:
+        if args.listen:
+            session = open_server([args.listen])
+            where = f"listening on {args.listen}"
+        else:
+            endpoint = resolve(args.connect, robot).endpoint
+            session = open_client(endpoint)
+            where = f"connected to {endpoint}"
+    except zenoh.ZError as exc:
+        raise RobotUnreachableError(
+            f"cannot open the Zenoh session for the replay: {exc}. "
+            "Use --listen ENDPOINT to be reachable yourself, or --connect to a running peer."
+        ) from exc
+    try:
+        replayer = Replayer(rec, session, robot, rate=args.rate, loop=args.loop, topics=topics)
+        if args.start:
+            replayer.seek(args.start)
+        replayer.start(paused=args.paused)
+        trunc = " (truncated file)" if rec.truncated else ""
+        print(
+            f"replaying {rec.path}{trunc}: {len(rec.messages)} messages, {rec.duration:.1f} s, "
+            f"as robot {robot} at {args.rate:g}x, {where}; control on "
+            f"{replayer.keys.replay_control}",
+            file=sys.stderr,
+            flush=True,
+        )
+        finished = threading.Thread(
+            target=lambda: (replayer.wait(), None if args.stay else stop.set()), daemon=True
+        )
+        finished.start()
+        stop.wait()
+        status = replayer.status()
+        replayer.stop()
+    finally:
+        session.close()
+    print(
+        f"replayed {status['published']} messages ({status['loops']} loops), "
+        f"ended at {status['position']:.1f} s",
+        file=sys.stderr,
+        flush=True,
+    )
+    return 0

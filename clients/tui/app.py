@@ -1,0 +1,421 @@
+"""The Textual app and its factory (``create_app``), which the CLI and the tests both call.
+
+Telemetry arrives as messages posted by the link from Zenoh threads; handlers only store it
+in the model. A timer (~15 Hz) draws what changed, and only in the tab that shows, so 125 Hz
+streams cost the screen nothing more than 15 redraws a second.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.screen import Screen
+from textual.widgets import TabbedContent, TabPane
+
+from clients.tui import i18n
+from clients.tui.connect import ConnectScreen
+from clients.tui.help import HelpScreen
+from clients.tui.i18n import N_, _
+from clients.tui.link import CommandDone, Link
+from clients.tui.messages import (
+    BallUpdate,
+    CameraUpdate,
+    EventArrived,
+    ImuUpdate,
+    JointsUpdate,
+    LinkChanged,
+    LinkInfo,
+    LinkState,
+    StatusUpdate,
+)
+from clients.tui.model import Model
+from clients.tui.settings import Settings, default_path
+from clients.tui.tabs.base import SendCommand, TabView
+from clients.tui.tabs.behaviours import BehavioursTab, library_entries
+from clients.tui.tabs.camera import CameraTab
+from clients.tui.tabs.imu import ImuTab
+from clients.tui.tabs.log import LogTab
+from clients.tui.tabs.motors import MotorsTab
+from clients.tui.tabs.pose import PoseTab
+from clients.tui.tabs.walk import WalkTab
+from clients.tui.widgets.header import RobotHeader
+from clients.tui.widgets.keybar import KeyBar
+from config.loader import RobotConfig, load_robot
+from schemas.messages import Event
+
+RENDER_HZ = 15.0
+TABS: tuple[tuple[str, str], ...] = (
+    ("imu", N_("IMU")),
+    ("motors", N_("Motors")),
+    ("pose", N_("Pose")),
+    ("camera", N_("Camera")),
+    ("walk", N_("Walk")),
+    ("behaviours", N_("Behaviours")),
+    ("log", N_("Log")),
+)
+
+
+class MainScreen(Screen[None]):
+    """Header, the tabs, the key bar. Composed again when the language changes."""
+
+    def compose(self) -> ComposeResult:
+        app = self.app
+        assert isinstance(app, DarwinApp)
+        yield RobotHeader(id="header")
+        with TabbedContent(initial=f"pane-{app.active_tab}", id="tabs"):
+            for n, (tab_id, title) in enumerate(TABS, 1):
+                with TabPane(f"{n} {_(title)}", id=f"pane-{tab_id}"):
+                    yield app.make_tab(tab_id)
+        yield KeyBar()
+
+    def on_mount(self) -> None:
+        app = self.app
+        assert isinstance(app, DarwinApp)
+        app.redraw(force=True)
+
+
+class DarwinApp(App[None]):
+    TITLE = "darwin tui"
+    ENABLE_COMMAND_PALETTE = False  # its texts are Textual's, untranslated; help has every key
+    CSS = """
+    TabbedContent { height: 1fr; }
+    TabbedContent > ContentSwitcher { height: 1fr; }
+    TabPane { padding: 0; height: 1fr; }
+    """
+    BINDINGS = [
+        Binding("ctrl+x,exclamation_mark", "halt", N_("HALT"), priority=True),
+        Binding("l", "lease", N_("Lease take/release")),
+        Binding("c", "connect", N_("Connect")),
+        Binding("f1,question_mark", "help", N_("Help")),
+        Binding("f2", "language", N_("Language")),
+        Binding("ctrl+q", "quit", N_("Quit"), priority=True),
+        *(
+            Binding(str(n), f"show_tab('{tab_id}')", N_("Show tab"), show=False)
+            for n, (tab_id, _t) in enumerate(TABS, 1)
+        ),
+    ]
+
+    def __init__(
+        self,
+        *,
+        endpoint: str | None = None,
+        robot: str | None = None,
+        name: str | None = None,
+        lang: str | None = None,
+        settings_path: Path | None = None,
+        connect: bool = True,
+        ask: bool = False,
+        robot_config: RobotConfig | None = None,
+        clock: Callable[[], float] = time.time,
+    ) -> None:
+        super().__init__()
+        self.clock = clock
+        self.settings_path = settings_path or default_path()
+        saved = Settings.load(self.settings_path)
+        self.settings = Settings(
+            endpoint=endpoint or saved.endpoint,
+            robot=robot or saved.robot,
+            name=name or saved.name or "tui",
+            lang=lang or saved.lang,
+        )
+        i18n.set_language(lang or saved.lang or i18n.from_environment())
+        self.model = Model()
+        self.robot_config = robot_config or load_robot()
+        self.link = Link(self, self.settings.name)
+        self.link_info = LinkInfo(LinkState.IDLE, self.settings.endpoint, self.settings.robot)
+        self.active_tab = TABS[0][0]
+        self._connect_on_mount = connect
+        self._ask = ask
+        self._seen: dict[str, int] = {}
+        self._recorder: Any = None
+
+    # -- composition -----------------------------------------------------------------------------
+    def make_tab(self, tab_id: str) -> TabView:
+        match tab_id:
+            case "motors":
+                return MotorsTab(self.model, self.robot_config)
+            case "pose":
+                return PoseTab(self.model, self.robot_config)
+            case "imu":
+                return ImuTab(self.model)
+            case "camera":
+                return CameraTab(self.model)
+            case "walk":
+                return WalkTab(self.model)
+            case "behaviours":
+                return BehavioursTab(self.model)
+            case "log":
+                return LogTab(self.model)
+        raise ValueError(f"unknown tab {tab_id!r}; tabs are {', '.join(t for t, _ in TABS)}")
+
+    def on_mount(self) -> None:
+        self.push_screen(MainScreen())
+        self.set_interval(1.0 / RENDER_HZ, self.redraw)
+        if self._ask:
+            self.action_connect()
+        elif self._connect_on_mount:
+            self.connect(self.settings)
+
+    def on_unmount(self) -> None:
+        self.stop_recording()
+        self.link.close()
+
+    def connect(self, settings: Settings) -> None:
+        try:
+            self.link.name = settings.name
+            self.link.connect(settings.endpoint, settings.robot)
+        except ValueError as exc:
+            self.notify(str(exc), severity="error", timeout=8)
+            return
+        self.settings = settings
+
+    # -- telemetry (store only; the timer draws) -----------------------------------------------
+    def on_joints_update(self, message: JointsUpdate) -> None:
+        self.model.add_joints(message.joints)
+
+    def on_imu_update(self, message: ImuUpdate) -> None:
+        self.model.add_imu(message.imu)
+
+    def on_status_update(self, message: StatusUpdate) -> None:
+        self.model.add_status(message.status)
+
+    def on_camera_update(self, message: CameraUpdate) -> None:
+        if self.link.watching_camera or not self._connect_on_mount:
+            self.model.add_frame(message.frame)
+
+    def on_ball_update(self, message: BallUpdate) -> None:
+        self.model.add_ball(message.ball)
+
+    def on_event_arrived(self, message: EventArrived) -> None:
+        self.model.add_event(message.event)
+
+    def on_link_changed(self, message: LinkChanged) -> None:
+        info = message.info
+        was = self.link_info.state
+        self.link_info = info
+        self.model.client_id = self.link.client_id or self.model.client_id
+        self.model.bump("link")
+        if info.state is LinkState.CONNECTED and was is not LinkState.CONNECTED:
+            if self.link.robot is not None:
+                # What the tabs need once per connection (the library, the gait).
+                self.link.send("behaviours", tag="app:library", quiet=True)
+                self.link.send("walk_params", tag="app:walk-params", quiet=True)
+            self.local_event(
+                "link",
+                _("connected to {robot} at {endpoint}").format(
+                    robot=info.robot, endpoint=info.endpoint
+                ),
+            )
+            with contextlib.suppress(OSError):
+                self.settings.save(self.settings_path)
+        elif info.state in (LinkState.UNREACHABLE, LinkState.NO_DAEMON) and was != info.state:
+            self.local_event("link", info.detail or _("daemon not running, waiting"))
+        self.update_camera()
+
+    def local_event(self, kind: str, text: str) -> None:
+        """An event of this UI (link changes, refused commands) in the log."""
+        self.model.add_event(Event(kind=kind, message=text, stamp=self.clock()))
+
+    # -- drawing ---------------------------------------------------------------------------------
+    def _changed(self, consumer: str, *streams: str) -> bool:
+        version = self.model.version(*streams)
+        if self._seen.get(consumer) == version:
+            return False
+        self._seen[consumer] = version
+        return True
+
+    def redraw(self, force: bool = False) -> None:
+        screen = self.screen
+        if not isinstance(screen, MainScreen):
+            screen = next((s for s in self.screen_stack if isinstance(s, MainScreen)), None)
+            if screen is None:
+                return
+        header = screen.query(RobotHeader)
+        if not header:
+            # Pushed but not composed yet (first show, or again after a language switch): the
+            # timer can fire in between, and the screen's on_mount redraws everything anyway.
+            return
+        if self._changed("header", "status", "link") or force:
+            header.first().update_view(self.model, self.link_info)
+        tab = self.current_tab(screen)
+        if tab is None or not tab.ready or not (tab.streaming or force):
+            return
+        if self._changed(f"tab-{tab.TAB_ID}", *tab.WATCHES) or force:
+            tab.refresh_view(self.model)
+
+    def current_tab(self, screen: Screen[Any] | None = None) -> TabView | None:
+        screen = screen or self.screen
+        tabs = screen.query(f"#{self.active_tab}")
+        return tabs.first(TabView) if tabs else None
+
+    def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
+        self.active_tab = (event.pane.id or "").removeprefix("pane-")
+        tab = self.current_tab()
+        if tab is not None:
+            self._seen.pop(f"tab-{tab.TAB_ID}", None)
+            tab.refresh_view(self.model)
+            self.call_after_refresh(tab.focus_target().focus)
+        self.update_camera()
+
+    def on_camera_tab_wanted(self, _message: CameraTab.Wanted) -> None:
+        self.update_camera()
+
+    def update_camera(self) -> None:
+        """Follow the camera only while its tab shows with the stream on."""
+        tab = self.current_tab()
+        wanted = (
+            isinstance(tab, CameraTab)
+            and tab.streaming
+            and self.link_info.state is LinkState.CONNECTED
+        )
+        self.link.watch_camera(wanted)
+
+    # -- commands --------------------------------------------------------------------------------
+    def on_send_command(self, message: SendCommand) -> None:
+        origin = message.control.TAB_ID if isinstance(message.control, TabView) else "app"
+        self.link.send(
+            message.verb, tag=f"{origin}:{message.tag}", quiet=message.quiet, **message.fields
+        )
+
+    def on_command_done(self, message: CommandDone) -> None:
+        origin, _sep, tag = message.tag.partition(":")
+        if message.error:
+            self.local_event("refused", message.error)
+        if origin == "app":
+            self.app_command_done(tag, message)
+            return
+        tabs = self.screen.query(f"#{origin}") if origin else None
+        if tabs:
+            tabs.first(TabView).command_done(tag, message.applied, message.error)
+        elif message.error:
+            self.notify(message.error, severity="error", timeout=6)
+
+    def app_command_done(self, tag: str, message: CommandDone) -> None:
+        if message.error:
+            self.notify(message.error, severity="error", timeout=6)
+        elif tag == "library":
+            self.model.edits.behaviours = library_entries(message.applied)
+            self.model.bump("library")
+        elif tag == "walk-params":
+            params = message.applied.get("params", message.applied)
+            if isinstance(params, dict):
+                self.model.edits.walk_params = dict(params)
+                self.model.bump("params")
+        elif tag == "halt":
+            self.model.edits.walk = (0.0, 0.0, 0.0)
+            self.local_event("halt", _("Halted: every motion stopped, the pose is held."))
+            self.notify(_("Halted: every motion stopped, the pose is held."), timeout=4)
+        elif tag == "lease":
+            holds = message.applied.get("holder", message.applied.get("client"))
+            self.notify(_("Lease: {state}").format(state=holds or message.applied or "ok"))
+
+    def action_halt(self) -> None:
+        self.link.halt()
+
+    def action_lease(self) -> None:
+        holder = self.model.lease_holder()
+        op = "release" if holder is not None and holder[1] else "acquire"
+        self.link.send("lease", tag="app:lease", op=op)
+
+    # -- screens and settings --------------------------------------------------------------------
+    def action_connect(self) -> None:
+        detail = self.link_info.detail if self.link_info.state is LinkState.UNREACHABLE else ""
+
+        def done(result: Settings | None) -> None:
+            if result is not None:
+                self.connect(result)
+
+        self.push_screen(ConnectScreen(self.settings, detail), done)
+
+    def action_help(self) -> None:
+        if isinstance(self.screen, HelpScreen):
+            return
+        sections: list[tuple[str, list[Any]]] = [(_("Everywhere"), list(self.BINDINGS))]
+        tab = self.current_tab()
+        if tab is not None:
+            title = dict(TABS)[tab.TAB_ID]
+            sections.insert(0, (_("This tab: {name}").format(name=_(title)), list(tab.BINDINGS)))
+        self.push_screen(HelpScreen(sections))
+
+    async def action_language(self) -> None:
+        langs = i18n.available()
+        nxt = langs[(langs.index(i18n.language()) + 1) % len(langs)]
+        await self.set_language(nxt)
+
+    async def set_language(self, lang: str) -> None:
+        self.settings.lang = i18n.set_language(lang)
+        with contextlib.suppress(OSError):
+            self.settings.save(self.settings_path)
+        main = next((s for s in self.screen_stack if isinstance(s, MainScreen)), None)
+        if main is not None:
+            await main.recompose()
+            self._seen.clear()
+            self.redraw(force=True)
+            tab = self.current_tab(main)
+            if tab is not None:
+                tab.focus_target().focus()
+
+    def action_show_tab(self, tab_id: str) -> None:
+        self.screen.query_one(TabbedContent).active = f"pane-{tab_id}"
+
+    # -- recording (Log tab) ---------------------------------------------------------------------
+    def on_log_tab_record(self, message: LogTab.Record) -> None:
+        tab = message.control if isinstance(message.control, LogTab) else None
+        if message.path is None:
+            summary = self.stop_recording()
+            if tab is not None:
+                tab.set_recording(False, summary)
+            return
+        if self.link.robot is None:
+            self.notify(_("Connect to a robot before recording."), severity="error")
+            return
+        from clients.recording import Recorder  # only when asked: mcap is a heavy import
+
+        try:
+            self._recorder = Recorder(self.link.robot, message.path).start()
+        except (OSError, ValueError) as exc:
+            self.notify(str(exc), severity="error", timeout=8)
+            return
+        self.local_event("record", _("recording to {path}").format(path=message.path))
+        if tab is not None:
+            tab.set_recording(True, _("recording to {path}").format(path=message.path))
+
+    def stop_recording(self) -> str:
+        if self._recorder is None:
+            return ""
+        recorder, self._recorder = self._recorder, None
+        summary = recorder.stop().summary()
+        self.local_event("record", summary)
+        return summary
+
+
+def create_app(
+    *,
+    endpoint: str | None = None,
+    robot: str | None = None,
+    name: str | None = None,
+    lang: str | None = None,
+    settings_path: Path | None = None,
+    connect: bool = True,
+    ask: bool = False,
+    clock: Callable[[], float] = time.time,
+) -> DarwinApp:
+    """The app, ready to ``run()`` (CLI) or ``run_test()`` (tests). ``connect=False`` starts
+    without a link, for a fixed scene fed by posting messages; ``clock`` stamps the UI's own
+    log lines (a fixed one keeps snapshots still)."""
+    return DarwinApp(
+        endpoint=endpoint,
+        robot=robot,
+        name=name,
+        lang=lang,
+        settings_path=settings_path,
+        connect=connect,
+        ask=ask,
+        clock=clock,
+    )

@@ -1,0 +1,33 @@
+"""``darwin tui``: the terminal UI, over SSH or locally."""
+
+from __future__ import annotations
+
+import argparse
+
+from clients.tui import i18n
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--connect", metavar="ENDPOINT", help="Zenoh endpoint of the robot, e.g. tcp/10.0.0.5:7447"
+    )
+    parser.add_argument("--robot", help="robot name (default: remembered, DARWIN_ROBOT or op1)")
+    parser.add_argument("--name", help="your name, shown to others as the lease holder")
+    parser.add_argument(
+        "--lang",
+        choices=i18n.available(),
+        help="language of the interface (default: remembered, then your locale)",
+    )
+    parser.add_argument(
+        "--ask", action="store_true", help="open the connect screen first to choose the robot"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    from clients.tui.app import create_app
+
+    app = create_app(
+        endpoint=args.connect, robot=args.robot, name=args.name, lang=args.lang, ask=args.ask
+    )
+    app.run()
+    return int(app.return_code or 0)

@@ -1,0 +1,207 @@
+"""The TUI's connection to one robot: a :class:`clients.robot.Robot`, kept alive and re-made.
+
+A connector thread opens the Zenoh session (retrying while the endpoint is unreachable) and
+watches the daemon's liveliness token; Zenoh itself re-links a client session when the daemon
+comes back. Robot callbacks run on Zenoh threads and only ``post_message`` to the app.
+
+Commands go through one queue and one thread so they reach the arbiter in the order the user
+gave them (walk start before walk stop); ``halt`` skips the queue.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import queue
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import zenoh
+from textual.app import App
+from textual.message import Message
+
+from clients.robot import Robot, Subscription
+from clients.tui.messages import (
+    BallUpdate,
+    CameraUpdate,
+    EventArrived,
+    ImuUpdate,
+    JointsUpdate,
+    LinkChanged,
+    LinkInfo,
+    LinkState,
+    StatusUpdate,
+)
+from schemas.errors import ClientError, DarwinError
+from schemas.session import resolve
+
+log = logging.getLogger(__name__)
+RETRY_S = 2.0
+
+
+class CommandDone(Message, bubble=False):
+    """The outcome of one command: ``applied`` on success, ``error`` otherwise."""
+
+    def __init__(
+        self, verb: str, tag: str, applied: dict[str, Any], error: str = "", quiet: bool = False
+    ) -> None:
+        super().__init__()
+        self.quiet = quiet
+        self.verb = verb
+        self.tag = tag
+        self.applied = applied
+        self.error = error
+
+
+@dataclass
+class _Command:
+    verb: str
+    fields: dict[str, Any]
+    tag: str = ""
+    quiet: bool = False
+
+
+class Link:
+    def __init__(self, app: App[Any], name: str = "tui") -> None:
+        self.app = app
+        self.name = name
+        self.robot: Robot | None = None
+        self.info = LinkInfo(LinkState.IDLE, "", "")
+        self._stop = threading.Event()
+        self._connector: threading.Thread | None = None
+        self._commands: queue.Queue[_Command | None] = queue.Queue()
+        self._runner = threading.Thread(target=self._run_commands, name="tui-commands", daemon=True)
+        self._runner.start()
+        self._camera: Subscription | None = None
+        self._liveliness: Any = None
+        self._lock = threading.Lock()
+
+    @property
+    def client_id(self) -> str:
+        return self.robot.client_id if self.robot else ""
+
+    # -- connection ------------------------------------------------------------------------------
+    def connect(self, endpoint: str, robot: str) -> None:
+        """(Re)connect to ``robot`` at ``endpoint``; returns at once, the state is posted."""
+        target = resolve(endpoint or None, robot or None)  # raises ValueError on a bad value
+        self.disconnect()
+        self._stop = threading.Event()
+        self._set(LinkState.CONNECTING, target.endpoint, target.robot)
+        self._connector = threading.Thread(
+            target=self._connect_loop,
+            args=(target.endpoint, target.robot, self._stop),
+            name="tui-connect",
+            daemon=True,
+        )
+        self._connector.start()
+
+    def _connect_loop(self, endpoint: str, robot_name: str, stop: threading.Event) -> None:
+        while not stop.is_set():
+            try:
+                robot = Robot(endpoint, robot_name, name=self.name, timeout=3.0)
+            except ClientError as exc:
+                self._set(LinkState.UNREACHABLE, endpoint, robot_name, str(exc))
+                stop.wait(RETRY_S)
+                continue
+            with self._lock:
+                if stop.is_set():
+                    robot.close()
+                    return
+                self.robot = robot
+            self._attach(robot)
+            return
+
+    def _attach(self, robot: Robot) -> None:
+        handlers: dict[str, Callable[[Any], Message]] = {
+            "joints": JointsUpdate,
+            "imu": ImuUpdate,
+            "status": StatusUpdate,
+            "events": EventArrived,
+            "vision": BallUpdate,
+        }
+        for topic, make in handlers.items():
+            robot.subscribe(topic, lambda m, make=make: self.app.post_message(make(m)))
+        ep, name = robot.target.endpoint, robot.target.robot
+        self._set(LinkState.CONNECTED if robot.alive(1.0) else LinkState.NO_DAEMON, ep, name)
+
+        def on_token(sample: zenoh.Sample) -> None:
+            up = sample.kind == zenoh.SampleKind.PUT
+            self._set(LinkState.CONNECTED if up else LinkState.NO_DAEMON, ep, name)
+
+        self._liveliness = robot.session.liveliness().declare_subscriber(
+            robot.keys.alive, on_token, history=True
+        )
+
+    def _set(self, state: LinkState, endpoint: str, robot: str, detail: str = "") -> None:
+        self.info = LinkInfo(state, endpoint, robot, detail)
+        self.app.post_message(LinkChanged(self.info))
+
+    def disconnect(self) -> None:
+        self._stop.set()
+        with self._lock:
+            robot, self.robot = self.robot, None
+            self._camera = None
+            liveliness, self._liveliness = self._liveliness, None
+        if liveliness is not None:
+            with contextlib.suppress(Exception):
+                liveliness.undeclare()
+        if robot is not None:
+            robot.close()
+
+    def close(self) -> None:
+        self.disconnect()
+        self._commands.put(None)
+
+    # -- camera: subscribed only while someone looks at it ----------------------------------------
+    def watch_camera(self, on: bool) -> None:
+        robot = self.robot
+        if on and self._camera is None and robot is not None:
+            self._camera = robot.subscribe("camera", self._on_frame)
+        elif not on and self._camera is not None:
+            sub, self._camera = self._camera, None
+            with contextlib.suppress(Exception):
+                sub.close()
+
+    @property
+    def watching_camera(self) -> bool:
+        return self._camera is not None
+
+    def _on_frame(self, frame: Any) -> None:
+        self.app.post_message(CameraUpdate(frame))
+
+    # -- commands --------------------------------------------------------------------------------
+    def send(self, verb: str, *, tag: str = "", quiet: bool = False, **fields: Any) -> None:
+        """Queue a command; its outcome is posted as :class:`CommandDone`."""
+        self._commands.put(_Command(verb, fields, tag, quiet))
+
+    def halt(self) -> None:
+        """Halt now, from a thread of its own: it never waits behind queued commands."""
+        threading.Thread(
+            target=self._execute, args=(_Command("halt", {}, "halt"),), daemon=True
+        ).start()
+
+    def _run_commands(self) -> None:
+        while True:
+            cmd = self._commands.get()
+            if cmd is None:
+                return
+            self._execute(cmd)
+
+    def _execute(self, cmd: _Command) -> None:
+        robot = self.robot
+        if robot is None:
+            error = "not connected to a robot yet"
+            self.app.post_message(CommandDone(cmd.verb, cmd.tag, {}, error))
+            return
+        try:
+            applied = robot.command(cmd.verb, **cmd.fields)
+        except DarwinError as exc:
+            self.app.post_message(CommandDone(cmd.verb, cmd.tag, {}, str(exc)))
+            return
+        except Exception as exc:  # a Zenoh error from a closing session: report, never crash
+            log.debug("command %s failed", cmd.verb, exc_info=True)
+            self.app.post_message(CommandDone(cmd.verb, cmd.tag, {}, f"{cmd.verb}: {exc}"))
+            return
+        self.app.post_message(CommandDone(cmd.verb, cmd.tag, applied, quiet=cmd.quiet))

@@ -1,0 +1,1 @@
+"""The tabs of the main screen, one module each (widget, bindings, CSS)."""

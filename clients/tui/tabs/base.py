@@ -1,0 +1,72 @@
+"""What every tab shares: a stream on/off box, a way to send commands, a render hook."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from textual.containers import Vertical
+from textual.message import Message
+from textual.widget import Widget
+from textual.widgets import Checkbox
+
+from clients.tui.i18n import _
+from clients.tui.model import Model
+
+
+class SendCommand(Message):
+    """A tab asks the app to send an arbiter command (the app owns the link)."""
+
+    def __init__(self, verb: str, tag: str = "", quiet: bool = False, **fields: Any) -> None:
+        super().__init__()
+        self.verb = verb
+        self.tag = tag
+        self.quiet = quiet
+        self.fields = fields
+
+
+class TabView(Vertical, can_focus=True):
+    """Base of a tab. ``refresh_view`` is called by the app's render timer (~15 Hz) while the
+    tab shows and something it draws changed; ``command_done`` gets the replies it tagged."""
+
+    DEFAULT_CSS = """
+    TabView { height: 1fr; }
+    TabView .bar { height: 1; width: 1fr; }
+    TabView .bar > * { margin-right: 2; }
+    TabView Checkbox { border: none; padding: 0; height: 1; background: transparent; }
+    """
+
+    TAB_ID = ""
+    WATCHES: tuple[str, ...] = ()  # model streams this tab draws (keys of Model.versions)
+
+    def __init__(self, model: Model) -> None:
+        super().__init__(id=self.TAB_ID)
+        self.model = model
+        self.ready = False  # True once mounted with its children: the timer may draw it
+
+    def on_mount(self) -> None:
+        # Textual runs this after a subclass's own on_mount (handlers follow the MRO).
+        self.ready = True
+
+    def stream_box(self) -> Checkbox:
+        return Checkbox(_("Stream"), value=True, id=f"{self.TAB_ID}-stream", compact=True)
+
+    @property
+    def streaming(self) -> bool:
+        boxes = self.query(f"#{self.TAB_ID}-stream")
+        return bool(boxes) and bool(boxes.first(Checkbox).value)
+
+    def send(self, verb: str, *, tag: str = "", quiet: bool = False, **fields: Any) -> None:
+        self.post_message(SendCommand(verb, tag=tag, quiet=quiet, **fields))
+
+    def focus_target(self) -> Widget:
+        """What gets the focus when the tab is shown (its bindings then work at once)."""
+        return self
+
+    def notify_error(self, text: str) -> None:
+        self.app.notify(text, severity="error", timeout=6)
+
+    def refresh_view(self, model: Model) -> None:
+        """Draw what changed (called only while the tab shows)."""
+
+    def command_done(self, tag: str, applied: dict[str, Any], error: str) -> None:
+        """A reply to a command this tab sent with ``tag``."""

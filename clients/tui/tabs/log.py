@@ -1,0 +1,97 @@
+"""Log: the robot's events as they come, and recording the session to a file (MCAP, or the
+original's plain text for ``.txt``/``.log``) with :class:`clients.recording.Recorder`."""
+
+from __future__ import annotations
+
+import time
+
+from rich.text import Text
+from textual.app import ComposeResult
+from textual.binding import Binding
+from textual.containers import Horizontal
+from textual.message import Message
+from textual.widgets import Button, Input, RichLog, Static
+
+from clients.tui.i18n import N_, _
+from clients.tui.model import Model
+from clients.tui.tabs.base import TabView
+from schemas.messages import Event
+
+LEVELS = {"fault": "bold red", "servo_alarm": "red", "fall": "bold red", "lease": "cyan"}
+
+
+def event_line(event: Event) -> Text:
+    # UTC with a Z: the same on every machine of a fleet, and what the recordings carry.
+    clock = time.strftime("%H:%M:%S", time.gmtime(event.stamp))
+    line = Text(no_wrap=False)
+    line.append(f"{clock}Z ", style="dim")
+    line.append(f"{event.kind:<14} ", style=LEVELS.get(event.kind, "green"))
+    line.append(event.message)
+    return line
+
+
+class LogTab(TabView):
+    TAB_ID = "log"
+    WATCHES = ("events",)
+    DEFAULT_CSS = """
+    LogTab RichLog { height: 1fr; border: round $primary-darken-2; }
+    LogTab #record-path { width: 1fr; }
+    LogTab Button { min-width: 0; margin-left: 1; }
+    LogTab #record-state { width: auto; margin-left: 1; }
+    """
+    BINDINGS = [Binding("r", "record", N_("Record on/off"))]
+
+    class Record(Message):
+        """Start recording to ``path``, or stop when ``path`` is None."""
+
+        def __init__(self, path: str | None) -> None:
+            super().__init__()
+            self.path = path
+
+    def __init__(self, model: Model) -> None:
+        super().__init__(model)
+        self._shown = 0
+        self.recording = False
+
+    def compose(self) -> ComposeResult:
+        with Horizontal(classes="bar"):
+            yield self.stream_box()
+            yield Input("session.mcap", id="record-path", compact=True)
+            yield Button(_("Record"), id="record-button", compact=True)
+            yield Static("", id="record-state")
+        yield RichLog(id="events", wrap=True, markup=False, max_lines=2000)
+
+    def on_mount(self) -> None:
+        self.query_one(RichLog).border_title = _("Events")
+        self.refresh_view(self.model)
+
+    def refresh_view(self, model: Model) -> None:
+        log = self.query_one(RichLog)
+        # The model keeps the last EVENTS; write only those not yet shown.
+        new = min(model.event_count - self._shown, len(model.events))
+        for event in list(model.events)[len(model.events) - new :] if new > 0 else []:
+            log.write(event_line(event))
+        self._shown = model.event_count
+
+    def set_recording(self, on: bool, detail: str) -> None:
+        self.recording = on
+        self.query_one("#record-button", Button).label = _("Stop") if on else _("Record")
+        self.query_one("#record-state", Static).update(
+            Text(detail, style="bold red" if on else "dim")
+        )
+
+    def action_record(self) -> None:
+        path = self.query_one("#record-path", Input).value.strip()
+        if self.recording:
+            self.post_message(self.Record(None))
+        elif not path:
+            self.notify_error(_("Type the file to record to, e.g. session.mcap"))
+        else:
+            self.post_message(self.Record(path))
+
+    def on_button_pressed(self, event: Button.Pressed) -> None:
+        self.action_record()
+
+    def on_input_submitted(self, event: Input.Submitted) -> None:
+        if not self.recording:
+            self.action_record()

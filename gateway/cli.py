@@ -1,0 +1,69 @@
+"""``darwin gateway``: serve the legacy TCP JSON protocol to any number of clients.
+
+Prints one line ``gateway: HOST:PORT`` once listening (port 0 becomes the real port), then logs
+connects, disconnects and rejected input on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import logging
+import signal
+
+from gateway.server import Gateway
+from gateway.settings import load_settings
+from schemas.session import resolve
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--connect",
+        metavar="ENDPOINT",
+        help="the robot's Zenoh endpoint (default: $DARWIN_ENDPOINT, else tcp/127.0.0.1:7447)",
+    )
+    parser.add_argument(
+        "--robot", metavar="NAME", help="robot name (default: $DARWIN_ROBOT, else op1)"
+    )
+    parser.add_argument(
+        "--listen",
+        metavar="HOST:PORT",
+        help="where legacy clients connect (default from [gateway] listen: 127.0.0.1:9000; "
+        "port 0 picks a free one)",
+    )
+    parser.add_argument("--config", metavar="FILE", help="a user config file (TOML)")
+    parser.add_argument(
+        "--monitor-period", type=float, metavar="S", help="default monitoring period in seconds"
+    )
+
+
+async def serve(args: argparse.Namespace) -> int:
+    settings = load_settings(args.config).with_overrides(
+        listen=args.listen, monitor_period=args.monitor_period
+    )
+    target = resolve(args.connect, args.robot)
+    gateway = Gateway(settings, target)
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        with contextlib.suppress(NotImplementedError, RuntimeError):
+            loop.add_signal_handler(sig, stop.set)
+    try:
+        host, port = await gateway.start()
+        print(f"gateway: {host}:{port}", flush=True)
+        server = asyncio.create_task(gateway.serve_forever())
+        await stop.wait()
+        server.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await server
+    finally:
+        await gateway.close()
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.verbose:
+        # Connects, disconnects and (rate-limited) rejections are worth seeing by default.
+        logging.getLogger("gateway").setLevel(logging.INFO)
+    return asyncio.run(serve(args))

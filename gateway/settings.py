@@ -1,0 +1,90 @@
+"""The gateway's settings: ``[gateway]`` in config/gateway.toml, a user file, then the CLI."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+from config.loader import load_section
+from schemas.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class WalkMapping:
+    """Legacy walk units (ROBOTIS step amplitudes) to the walk verb's SI units."""
+
+    x_mps_per_unit: float = 0.0066667
+    y_mps_per_unit: float = 0.0033333
+    a_radps_per_unit: float = 0.0581776
+
+
+@dataclass(frozen=True)
+class GatewaySettings:
+    listen: str = "127.0.0.1:9000"
+    max_message: int = 1 << 20
+    monitor_period: float = 0.1
+    max_rate: float = 200.0
+    burst: int = 50
+    lease_idle_timeout: float = 30.0
+    command_timeout: float = 3.0
+    workers: int = 16
+    write_buffer: int = 65536
+    socket_send_buffer: int = 0
+    max_pending_replies: int = 256
+    operate_all_duration: float = 1.0
+    log_interval: float = 5.0
+    walk: WalkMapping = WalkMapping()
+
+    @property
+    def host_port(self) -> tuple[str, int]:
+        return parse_listen(self.listen)
+
+    def with_overrides(self, **values: Any) -> GatewaySettings:
+        return replace(self, **{k: v for k, v in values.items() if v is not None})
+
+
+def parse_listen(listen: str) -> tuple[str, int]:
+    host, sep, port = listen.rpartition(":")
+    if not sep or not host or not port.isdigit() or int(port) > 65535:
+        raise ConfigError(
+            f"gateway listen address {listen!r} is not HOST:PORT (e.g. 127.0.0.1:9000; "
+            "port 0 picks a free one)"
+        )
+    return host.strip("[]"), int(port)
+
+
+def _typed(cls: type, section: dict[str, Any], where: str) -> dict[str, Any]:
+    known = {f.name: f for f in fields(cls)}
+    out: dict[str, Any] = {}
+    for name, value in section.items():
+        if name not in known:
+            raise ConfigError(
+                f"[{where}] has an unknown setting {name!r}; known: {', '.join(known)}"
+            )
+        default = getattr(cls(), name)
+        if isinstance(default, WalkMapping):
+            continue
+        kind = type(default)
+        if kind is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, kind) or isinstance(value, bool) != isinstance(default, bool):
+            raise ConfigError(
+                f"[{where}] {name} = {value!r} should be a {kind.__name__} (like {default!r})"
+            )
+        out[name] = value
+    return out
+
+
+def load_settings(path: str | os.PathLike[str] | None = None) -> GatewaySettings:
+    section = dict(load_section("gateway", path))
+    walk = section.pop("walk", {})
+    values = _typed(GatewaySettings, section, "gateway")
+    settings = GatewaySettings(
+        **values, walk=WalkMapping(**_typed(WalkMapping, walk, "gateway.walk"))
+    )
+    parse_listen(settings.listen)
+    for name in ("max_message", "monitor_period", "max_rate", "burst", "workers", "write_buffer"):
+        if getattr(settings, name) <= 0:
+            raise ConfigError(f"[gateway] {name} must be positive, not {getattr(settings, name)!r}")
+    return settings

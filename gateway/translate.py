@@ -1,0 +1,68 @@
+"""Legacy requests to arbiter commands (verb + fields in the verb's SI units). Pure: no I/O.
+
+Whether a command needs the control lease is read from the contract (``schemas``), never
+decided here, so the gateway asks for the lease exactly when the arbiter would want it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from gateway.messages import JOINT_IDS, Led, Operate, Playball, Walk
+from gateway.settings import WalkMapping
+from schemas import units
+from schemas.commands import OPS_WITHOUT_LEASE
+from schemas.keys import LEASE_FREE_VERBS
+
+
+@dataclass(frozen=True)
+class Command:
+    verb: str
+    fields: dict[str, Any]
+
+    @property
+    def needs_lease(self) -> bool:
+        if self.verb in LEASE_FREE_VERBS:
+            return False
+        return self.fields.get("op") not in OPS_WITHOUT_LEASE.get(self.verb, frozenset())
+
+
+def deg_to_rad(deg: float) -> float:
+    """Degrees to rad at the servo's own resolution (the conversion the bus applies)."""
+    return units.raw_to_rad(units.deg_to_raw(deg))  # type: ignore[return-value]
+
+
+def operate_command(req: Operate, all_duration: float) -> Command:
+    rad = deg_to_rad(req.position_deg)
+    if req.joint is None:
+        positions = {str(jid): rad for jid in JOINT_IDS}
+        return Command("pose", {"positions": positions, "duration": all_duration})
+    return Command("joint", {"id": req.joint, "position": rad})
+
+
+def led_command(req: Led) -> Command:
+    return Command("led", {req.target: list(req.rgb)})
+
+
+def walk_command(req: Walk, mapping: WalkMapping) -> Command:
+    """Start walking, or change the speeds of a walk already running (``start`` does both)."""
+    if req.stop:
+        return Command("walk", {"op": "stop"})
+    return Command(
+        "walk",
+        {
+            "op": "start",
+            "x": req.x * mapping.x_mps_per_unit,
+            "y": req.y * mapping.y_mps_per_unit,
+            "turn": req.a * mapping.a_radps_per_unit,
+        },
+    )
+
+
+def playball_command(req: Playball) -> Command:
+    return Command("playball", {"op": "start" if req.start else "stop"})
+
+
+def orchestrate_stop_command() -> Command:
+    return Command("choreography", {"op": "stop"})

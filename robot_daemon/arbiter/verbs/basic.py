@@ -1,0 +1,269 @@
+"""The basic verbs: lease, joint, pose, torque, led, halt, config, registers.
+
+Every value is checked before anything is queued or written; a handler that raises ``Reject``
+has touched nothing. Bus failures become ``unavailable`` errors that say what to do.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from robot_daemon.arbiter import fields as F
+from robot_daemon.arbiter.lease import Lease
+from robot_daemon.arbiter.registry import MotionContext, Reject, Request, verb
+from robot_daemon.bus.tables import CM730, CM730_TABLE_SIZE, MX28, MX28_TABLE_SIZE
+from robot_daemon.motion.direct import DirectModule
+from schemas import units
+from schemas.commands import LeaseOp
+from schemas.errors import BusError, ErrorCode
+
+MAX_POSE_DURATION = 60.0
+
+
+def _bus_error(exc: BusError) -> Reject:
+    return Reject(ErrorCode.UNAVAILABLE, f"{exc} (see status.bus)")
+
+
+def _direct(ctx: MotionContext) -> DirectModule:
+    module = ctx.manager.get("direct")
+    if not isinstance(module, DirectModule):
+        raise Reject(ErrorCode.UNAVAILABLE, "direct joint control is not part of this daemon")
+    return module
+
+
+def _check_online(ctx: MotionContext, jid: int, field_name: str) -> None:
+    frame = ctx.frame
+    if frame is not None and not frame.online[jid]:
+        raise Reject(
+            ErrorCode.UNAVAILABLE,
+            f"joint {ctx.robot.by_id[jid].name} (id {jid}) is offline: not moved "
+            "(see status.bus.offline)",
+            field_name,
+        )
+    if frame is not None and not frame.torque_enabled[jid]:
+        raise Reject(
+            ErrorCode.UNAVAILABLE,
+            f"joint {ctx.robot.by_id[jid].name} (id {jid}) has torque off: enable it first "
+            "(`torque` enable=true)",
+            field_name,
+        )
+
+
+@verb("lease")
+def lease(req: Request, ctx: MotionContext) -> dict[str, Any]:
+    op = F.text(req.fields, "op", {o.value for o in LeaseOp}, default=LeaseOp.STATUS.value)
+    state: Lease = ctx.extras["lease"]
+    if op == LeaseOp.ACQUIRE:
+        holder = state.acquire(req.client, req.name)
+        return {"op": op, "holder": holder.to_dict(), "you": True}
+    if op == LeaseOp.RELEASE:
+        released = state.release(req.client)
+        return {"op": op, "released": released, "holder": state.status()}
+    holder_d = state.status()
+    return {
+        "op": op,
+        "holder": holder_d,
+        "you": bool(holder_d and holder_d["client"] == req.client),
+        "idle_timeout": state.idle_timeout,
+    }
+
+
+@verb("joint")
+def joint(req: Request, ctx: MotionContext) -> dict[str, Any]:
+    key = "id" if req.fields.get("id") is not None else "name"
+    j = F.joint_ref(ctx.robot, F.present(req.fields, key), key)
+    position = F.joint_position(j, req.fields.get("position"), "position")
+    speed = F.number(req.fields, "speed", 0.0, ctx.robot.max_speed, default=0.0)
+    _check_online(ctx, j.id, key)
+    _direct(ctx).set_joint(j.id, position, speed or None)
+    return {"id": j.id, "name": j.name, "position": position, "speed": speed}
+
+
+@verb("pose")
+def pose(req: Request, ctx: MotionContext) -> dict[str, Any]:
+    positions = F.present(req.fields, "positions")
+    if not isinstance(positions, dict) or not positions:
+        raise Reject(
+            ErrorCode.INVALID,
+            f"positions must be a non-empty map of joint → rad, got {positions!r}",
+            "positions",
+        )
+    duration = F.number(req.fields, "duration", 0.0, MAX_POSE_DURATION, default=1.0)
+    if duration <= 0:
+        raise Reject(ErrorCode.OUT_OF_RANGE, "duration must be > 0 s", "duration")
+    targets: dict[int, float] = {}
+    for k, v in positions.items():
+        field_name = f"positions.{k}"
+        j = F.joint_ref(ctx.robot, k, field_name)
+        targets[j.id] = F.joint_position(j, v, field_name)
+        _check_online(ctx, j.id, field_name)
+    _direct(ctx).set_pose(targets, duration)
+    return {
+        "positions": {ctx.robot.by_id[i].name: p for i, p in sorted(targets.items())},
+        "duration": duration,
+    }
+
+
+@verb("torque")
+def torque(req: Request, ctx: MotionContext) -> dict[str, Any]:
+    enable = F.boolean(req.fields, "enable")
+    raw_ids = req.fields.get("ids")
+    if raw_ids is None:
+        ids = list(ctx.robot.ids)
+    else:
+        if not isinstance(raw_ids, list) or not raw_ids:
+            raise Reject(ErrorCode.INVALID, f"ids must be a non-empty list, got {raw_ids!r}", "ids")
+        ids = [F.joint_ref(ctx.robot, v, f"ids[{i}]").id for i, v in enumerate(raw_ids)]
+    frame = ctx.frame
+    offline = [j for j in ids if frame is not None and not frame.online[j]]
+    ids = [j for j in ids if j not in offline]
+    if not enable:
+        # A joint without torque must not keep an owner that would write goals to it.
+        for module in ctx.manager.modules:
+            owned = module.owned() & set(ids)
+            if owned:
+                module.release(owned)
+    try:
+        ctx.bus.set_torque(ids, enable)
+    except BusError as exc:
+        raise _bus_error(exc) from None
+    return {"enable": enable, "ids": ids, "offline": offline}
+
+
+@verb("led")
+def led(req: Request, ctx: MotionContext) -> dict[str, Any]:
+    head = F.rgb(req.fields, "head")
+    eye = F.rgb(req.fields, "eye")
+    panel = None
+    if req.fields.get("panel") is not None:
+        panel = F.integer(req.fields, "panel", 0, 7)
+    if head is None and eye is None and panel is None:
+        raise Reject(ErrorCode.INVALID, "give at least one of head, eye, panel", "head")
+    head_w = units.rgb_to_color_word(*head) if head else None
+    eye_w = units.rgb_to_color_word(*eye) if eye else None
+    try:
+        ctx.bus.set_leds(head_w, eye_w, panel)
+    except BusError as exc:
+        raise _bus_error(exc) from None
+    out: dict[str, Any] = {}
+    if head_w is not None:
+        out["head"] = list(units.color_word_to_rgb(head_w))
+    if eye_w is not None:
+        out["eye"] = list(units.color_word_to_rgb(eye_w))
+    if panel is not None:
+        out["panel"] = panel
+    return out
+
+
+@verb("halt")
+def halt(req: Request, ctx: MotionContext) -> dict[str, Any]:
+    ctx.manager.halt()
+    ctx.emit("halt", f"halt by {req.name!r}", client=req.client)
+    return {"halted": True, "by": req.name}
+
+
+@verb("config")
+def config(req: Request, ctx: MotionContext) -> dict[str, Any]:
+    daemon = ctx.extras.get("daemon")
+    dcfg = ctx.settings.get("daemon", {})
+    return {
+        "robot": daemon.options.robot if daemon is not None else ctx.robot.name,
+        "tick_ms": daemon.options.tick_ms if daemon is not None else dcfg.get("tick_ms", 8.0),
+        "max_speed": ctx.robot.max_speed,
+        "allow_eeprom": bool(ctx.extras.get("allow_eeprom")),
+        "lease_idle_timeout": ctx.settings.get("daemon", {})
+        .get("lease", {})
+        .get("idle_timeout", 60.0),
+        "joints": [
+            {
+                "id": j.id,
+                "name": j.name,
+                "urdf": j.urdf,
+                "min": j.min_rad,
+                "max": j.max_rad,
+                "min_deg": j.min_deg,
+                "max_deg": j.max_deg,
+                "offset_deg": j.offset_deg,
+                "direction": j.direction,
+                "pid": [j.p, j.i, j.d],
+            }
+            for j in ctx.robot.joints
+        ],
+        "walking": ctx.settings.get("walking", {}),
+        "imu": ctx.settings.get("imu", {}),
+    }
+
+
+def _table(ctx: MotionContext, dxl_id: int) -> tuple[type[MX28] | type[CM730], int]:
+    if dxl_id == ctx.robot.cm730_id:
+        return CM730, CM730_TABLE_SIZE
+    if dxl_id in ctx.robot.by_id:
+        return MX28, MX28_TABLE_SIZE
+    raise Reject(
+        ErrorCode.UNKNOWN,
+        f"no device {dxl_id}: servos are {min(ctx.robot.ids)}..{max(ctx.robot.ids)}, "
+        f"the CM-730 is {ctx.robot.cm730_id}",
+        "id",
+    )
+
+
+@verb("registers")
+def registers(req: Request, ctx: MotionContext) -> dict[str, Any]:
+    dxl_id = F.integer(req.fields, "id", 0, 253)
+    table, size = _table(ctx, dxl_id)
+    address = F.integer(req.fields, "address", 0, size - 1)
+    if req.fields.get("data") is None:
+        length = F.integer(req.fields, "length", 1, size - address, default=1)
+        try:
+            data = ctx.bus.read_registers(dxl_id, address, length)
+        except BusError as exc:
+            raise _bus_error(exc) from None
+        return {"id": dxl_id, "address": address, "data": list(data)}
+    data = req.fields["data"]
+    if (
+        not isinstance(data, list)
+        or not data
+        or any(isinstance(b, bool) or not isinstance(b, int) or not 0 <= b <= 255 for b in data)
+    ):
+        raise Reject(
+            ErrorCode.INVALID, f"data must be a list of bytes 0..255, got {data!r}", "data"
+        )
+    end = address + len(data)
+    if end > size:
+        raise Reject(
+            ErrorCode.OUT_OF_RANGE, f"{len(data)} bytes from {address} run past {size}", "data"
+        )
+    for reg in table:  # type: ignore[attr-defined]
+        r = reg.reg
+        if r.address < end and address < r.end:
+            if r.eeprom and not ctx.extras.get("allow_eeprom"):
+                raise Reject(
+                    ErrorCode.REFUSED,
+                    f"{reg.name} ({r.address}) is EEPROM: writes are refused unless the daemon "
+                    "runs with --allow-eeprom",
+                    "address",
+                )
+            if r.access.value == "r":
+                raise Reject(ErrorCode.REFUSED, f"{reg.name} ({r.address}) is read-only", "address")
+    goal = MX28.GOAL_POSITION.reg.address
+    if table is MX28 and address < goal + 2 and end > goal:
+        _check_goal_write(ctx, dxl_id, address, bytes(data))
+    try:
+        ctx.bus.write_registers(dxl_id, address, bytes(data))
+    except BusError as exc:
+        raise _bus_error(exc) from None
+    return {"id": dxl_id, "address": address, "data": list(data)}
+
+
+def _check_goal_write(ctx: MotionContext, dxl_id: int, address: int, data: bytes) -> None:
+    """A raw goal write still has to respect the joint's configured limits."""
+    goal = MX28.GOAL_POSITION.reg.address
+    if not (address <= goal and goal + 1 < address + len(data)):
+        raise Reject(
+            ErrorCode.INVALID, "write both bytes of the goal position (30 and 31) at once", "data"
+        )
+    raw = data[goal - address] | (data[goal - address + 1] << 8)
+    j = ctx.robot.by_id[dxl_id]
+    rad = j.direction * (units.raw_to_rad(raw) - math.radians(j.offset_deg))
+    F.joint_position(j, rad, "data")

@@ -1,0 +1,197 @@
+"""The serial port: opened exclusively, read with a blocking, time-bounded wait.
+
+The SDK's receive loop calls ``readPort`` until the bytes are there or its packet timeout
+passes; with pyserial's ``timeout=0`` that loop spins a CPU core. Here ``readPort`` waits in
+``select`` for the bytes or the deadline, so waiting on the bus costs no CPU.
+
+Exclusive access has two layers: a lock file holding the owner's PID (so a second process gets
+"in use by PID …" instead of a garbled bus) and ``TIOCEXCL`` on the tty itself.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import logging
+import os
+import select
+import termios
+import time
+from pathlib import Path
+
+import serial
+from dynamixel_sdk import PortHandler
+
+from schemas.errors import PortError, PortInUseError
+
+log = logging.getLogger(__name__)
+
+# What pyserial raises when the device goes away under it: OS errors, its own exception,
+# termios errors from tcflush, and TypeError/AttributeError/ValueError once its fd is gone.
+_PORT_FAILURES = (
+    OSError,
+    serial.SerialException,
+    termios.error,
+    TypeError,
+    AttributeError,
+    ValueError,
+)
+
+LOCK_DIR = Path(os.environ.get("DARWIN_LOCK_DIR", "/tmp"))
+
+
+def lock_path(port_name: str) -> Path:
+    real = os.path.realpath(port_name)
+    return LOCK_DIR / f"darwin-{real.strip('/').replace('/', '_')}.lock"
+
+
+class PortLock:
+    """An flock'd lock file naming the PID that owns a serial port."""
+
+    def __init__(self, port_name: str) -> None:
+        self.port_name = port_name
+        self.path = lock_path(port_name)
+        self._fd: int | None = None
+
+    def acquire(self) -> None:
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            owner = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise PortInUseError(
+                f"serial port {self.port_name} is in use by PID {owner} (lock {self.path}); "
+                "stop that process (another `darwin daemon`?) or choose another --port"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        self._fd = fd
+
+    def release(self) -> None:
+        if self._fd is not None:
+            with contextlib.suppress(OSError):
+                os.ftruncate(self._fd, 0)
+            os.close(self._fd)
+            self._fd = None
+
+
+class BlockingPortHandler(PortHandler):
+    """A dynamixel-sdk ``PortHandler`` that never spins and owns its port exclusively.
+
+    ``reply_margin_ms`` replaces the SDK's fixed 2 × 16 ms latency allowance: on the emulator or
+    a USB adapter whose latency timer is 1 ms a few ms are plenty, and a silent servo then costs
+    a few ms of the tick instead of 34.
+    """
+
+    def __init__(self, port_name: str, reply_margin_ms: float = 4.0) -> None:
+        super().__init__(port_name)
+        self.reply_margin_ms = reply_margin_ms
+        self._lock = PortLock(port_name)
+        self.bytes_written = 0
+        self.bytes_read = 0
+
+    # -- open / close ----------------------------------------------------------------------
+    def open(self, baudrate: int) -> None:
+        """Open the port exclusively or raise ``PortError``/``PortInUseError``."""
+        if not os.path.exists(self.port_name):
+            raise PortError(
+                f"serial port {self.port_name} does not exist; is the robot's USB cable in "
+                "(`ls /dev/ttyUSB*`), or is the emulator running (`darwin sim`)?"
+            )
+        self._lock.acquire()
+        try:
+            self.baudrate = baudrate
+            if not self.setBaudRate(baudrate):
+                raise PortError(f"baud rate {baudrate} is not supported on {self.port_name}")
+        except serial.SerialException as exc:
+            self._lock.release()
+            if "lock" in str(exc).lower():
+                raise PortInUseError(
+                    f"serial port {self.port_name} is locked by another process: {exc}"
+                ) from exc
+            raise PortError(f"cannot open serial port {self.port_name}: {exc}") from exc
+        except BaseException:
+            self._lock.release()
+            raise
+
+    def setupPort(self, cflag_baud: int) -> bool:
+        if self.is_open:
+            self.closePort()
+        self.ser = serial.Serial(
+            port=self.port_name,
+            baudrate=self.baudrate,
+            bytesize=serial.EIGHTBITS,
+            timeout=0,
+            exclusive=True,
+        )
+        with contextlib.suppress(OSError):
+            # Refuse any further open() of the tty (root still may: the lock file covers that).
+            fcntl.ioctl(self.ser.fileno(), termios.TIOCEXCL)
+        self.is_open = True
+        self.ser.reset_input_buffer()
+        self.tx_time_per_byte = (1000.0 / self.baudrate) * 10.0
+        return True
+
+    def close(self) -> None:
+        if self.ser is not None:
+            with contextlib.suppress(Exception):
+                fcntl.ioctl(self.ser.fileno(), termios.TIOCNXCL)
+            with contextlib.suppress(Exception):
+                self.ser.close()
+        self.is_open = False
+        self._lock.release()
+
+    # -- the SDK's I/O hooks ---------------------------------------------------------------
+    def setPacketTimeout(self, packet_length: int) -> None:
+        self.packet_start_time = self.getCurrentTime()
+        self.packet_timeout = self.tx_time_per_byte * packet_length + self.reply_margin_ms
+
+    def getCurrentTime(self) -> float:
+        # Monotonic, in ms: the SDK's wall clock would jump with NTP.
+        return time.monotonic() * 1000.0
+
+    def readPort(self, length: int) -> bytes:
+        try:
+            data = self.ser.read(length)
+            if data:
+                self.bytes_read += len(data)
+                return data
+            remaining = (self.packet_timeout - self.getTimeSinceStart()) / 1000.0
+            if remaining <= 0:
+                return b""
+            ready, _, _ = select.select([self.ser.fileno()], [], [], remaining)
+            if not ready:
+                return b""
+            data = self.ser.read(length)
+        except _PORT_FAILURES as exc:
+            raise PortError(f"serial port {self.port_name} failed while reading: {exc}") from exc
+        if not data:
+            # select said readable but nothing came: the device is gone (EOF / hang-up).
+            raise PortError(f"serial port {self.port_name} vanished (read returned EOF)")
+        self.bytes_read += len(data)
+        return data
+
+    def writePort(self, packet: list[int] | bytes) -> int:
+        try:
+            n = self.ser.write(bytes(packet))
+        except _PORT_FAILURES as exc:
+            raise PortError(f"serial port {self.port_name} failed while writing: {exc}") from exc
+        self.bytes_written += n or 0
+        return n
+
+    def clearPort(self) -> None:
+        try:
+            self.ser.reset_input_buffer()
+        except _PORT_FAILURES as exc:
+            raise PortError(f"serial port {self.port_name} failed: {exc}") from exc
+
+
+def latency_timer_ms(port_name: str) -> int | None:
+    """The FTDI USB latency timer of a ttyUSB port (ms), or None if it has none."""
+    dev = os.path.basename(os.path.realpath(port_name))
+    path = Path(f"/sys/bus/usb-serial/devices/{dev}/latency_timer")
+    try:
+        return int(path.read_text().strip())
+    except (OSError, ValueError):
+        return None

@@ -1,0 +1,460 @@
+"""The robot on the bus: the CM-730 and the 20 servos, their last known state, and the
+per-tick transactions (sync-write goals and gains, bulk-read sensors, round-robin slow reads).
+
+Joint angles are calibrated here and only here: ``servo = direction · joint + offset``.
+A servo that misses ``offline_after`` bulk reads in a row goes offline (left out of the bulk
+read so it cannot stall the others) and is probed in the round-robin until it answers again.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from config.loader import RobotConfig
+from robot_daemon.bus.dxl import DxlBus, error_names
+from robot_daemon.bus.port import BlockingPortHandler, latency_timer_ms
+from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, word
+from robot_daemon.bus.tables import (
+    CM730,
+    CM730_BULK_LENGTH,
+    CM730_BULK_START,
+    CM730_MODEL,
+    IMU_ACCEL_AXES,
+    IMU_GYRO_AXES,
+    MX28,
+    MX28_MODEL,
+    SERVO_BULK_LENGTH,
+    SERVO_BULK_START,
+    SYNC_WRITE_LENGTH,
+    SYNC_WRITE_START,
+    ErrorBit,
+)
+from robot_daemon.motion.interface import N_SLOTS, JointFrame, Targets
+from schemas import units
+from schemas.errors import BusError, NoReplyError, PortError
+
+log = logging.getLogger(__name__)
+
+# Round-robin slow block: torque enable (24) … present temperature (43).
+SLOW_START = MX28.TORQUE_ENABLE.reg.address
+SLOW_LENGTH = MX28.PRESENT_TEMPERATURE.reg.address + 1 - SLOW_START
+# Alarms the firmware protects against by dropping torque (the MX-28's default shutdown mask).
+PROTECT_BITS = ErrorBit.OVERHEATING | ErrorBit.OVERLOAD
+# A device is asked this many times at start before it is called missing.
+SCAN_TRIES = 3
+# How long the daemon keeps asking the CM-730 at start before it gives up (s).
+CM730_WAIT_S = 5.0
+
+
+def _signed_11bit(raw: np.ndarray) -> np.ndarray:
+    """:func:`schemas.units.signed_11bit` on a whole array."""
+    magnitude = raw & 0x3FF
+    return np.where(raw & 0x400, -magnitude, magnitude)
+
+
+class RobotBus:
+    """Owns the port; every method runs in the motion thread."""
+
+    def __init__(
+        self, port_name: str, robot: RobotConfig, settings: dict[str, Any], emit: Any
+    ) -> None:
+        daemon = settings.get("daemon", {})
+        bus_cfg = settings.get("bus", {})
+        self.port_name = port_name
+        self.robot = robot
+        self.baud = int(daemon.get("baud", 1_000_000))
+        self.offline_after = int(daemon.get("offline_after_misses", 5))
+        self.slow_per_tick = int(daemon.get("slow_reads_per_tick", 1))
+        # An offline servo is probed once every this many ticks (a silent probe costs a wait).
+        self.probe_every = max(1, int(bus_cfg.get("probe_offline_every", 25)))
+        self.reply_margin_ms = float(bus_cfg.get("reply_margin_ms", 4.0))
+        self.gap_ms = float(bus_cfg.get("reply_gap_ms", 2.0))
+        self.power_on_delay = float(bus_cfg.get("power_on_delay_ms", 300.0)) / 1000.0
+        self.torque_on_start = bool(daemon.get("torque_on_start", True))
+        imu = settings.get("imu", {})
+        self.gyro_dps = float(imu.get("gyro_full_scale_dps", units.GYRO_DPS_FULL_SCALE))
+        self.emit = emit  # emit(kind, message, **data)
+        self.cm730_id = robot.cm730_id
+        self.ids = robot.ids
+        self.state = ServoState()
+        self.cm730: bytes = bytes(CM730_BULK_LENGTH)
+        self.cm730_online = False
+        self.counters = BusCounters()
+        self.warnings: list[str] = []
+        self.handler: BlockingPortHandler | None = None
+        self.dxl: DxlBus | None = None
+        self._rr = 0
+        self._sign = np.ones(N_SLOTS)
+        self._offset = np.zeros(N_SLOTS)
+        self._min = np.full(N_SLOTS, -math.pi)
+        self._max = np.full(N_SLOTS, math.pi)
+        for j in robot.joints:
+            self._sign[j.id] = j.direction
+            self._offset[j.id] = math.radians(j.offset_deg)
+            self._min[j.id], self._max[j.id] = j.min_rad, j.max_rad
+
+    # -- calibration ---------------------------------------------------------------------------
+    def raw_to_joint(self, jid: int, raw: int | float) -> float:
+        return float(self._sign[jid] * (units.raw_to_rad(raw) - self._offset[jid]))
+
+    def joint_to_raw(self, jid: int, rad: float) -> int:
+        raw = units.rad_to_raw(self._sign[jid] * rad + self._offset[jid])
+        return max(0, min(units.POSITION_MAX, raw))
+
+    # -- port lifecycle ------------------------------------------------------------------------
+    @property
+    def is_open(self) -> bool:
+        return self.dxl is not None
+
+    def open(self) -> None:
+        handler = BlockingPortHandler(self.port_name, self.reply_margin_ms)
+        handler.open(self.baud)
+        self.handler, self.dxl = handler, DxlBus(handler, self.gap_ms)
+
+    def close(self) -> None:
+        if self.handler is not None:
+            self.handler.close()
+        self.handler = self.dxl = None
+
+    def _bus(self) -> DxlBus:
+        if self.dxl is None:
+            raise BusError(f"serial port {self.port_name} is not open (lost; reopening)")
+        return self.dxl
+
+    def power_on(self) -> None:
+        """Power the servo bus (CM-730 DXL_POWER = 1), paint the head LED orange, and wait."""
+        head = units.rgb_to_color_word(255, 128, 0)
+        # The CM-730 may still be booting (or the machine busy): keep asking for a while.
+        deadline = time.monotonic() + CM730_WAIT_S
+        while True:
+            try:
+                self._write_retry(self.cm730_id, CM730.DXL_POWER.reg.address, b"\x01")
+                break
+            except PortError:
+                raise
+            except BusError as exc:
+                if time.monotonic() > deadline:
+                    raise NoReplyError(
+                        f"the CM-730 (id {self.cm730_id}) on {self.port_name} did not answer "
+                        f"for {CM730_WAIT_S:.0f} s: is the robot switched on, and is this its "
+                        f"port? ({exc})"
+                    ) from exc
+        try:  # the framework's "connected" colour: nice to have, not worth failing for
+            self._write_retry(self.cm730_id, CM730.LED_HEAD.reg.address, head.to_bytes(2, "little"))
+        except PortError:
+            raise
+        except BusError as exc:
+            log.info("could not paint the head LED: %s", exc)
+        # A little past the nominal delay: a servo asked too early looks absent.
+        time.sleep(self.power_on_delay * 1.2)
+
+    def scan(self) -> dict[int, int]:
+        """Ping the CM-730 and every joint; check firmware, return delay and the USB latency
+        timer. Returns id → model number of what answered."""
+        bus = self._bus()
+        found: dict[int, int] = {}
+        self.warnings = []
+        for dxl_id in (self.cm730_id, *self.ids):
+            data = self._read_retry(bus, dxl_id, 0, 6)
+            if data is None:
+                continue
+            model, firmware, delay = word(data, 0), data[2], data[5]
+            found[dxl_id] = model
+            self.state.firmware[dxl_id] = firmware
+            expected = CM730_MODEL if dxl_id == self.cm730_id else MX28_MODEL
+            if model != expected:
+                self._warn(f"device {dxl_id} reports model {model:#x}, expected {expected:#x}")
+            if delay != 0:
+                self._warn(
+                    f"device {dxl_id} has return delay {delay} ({delay * 2} µs per reply); set "
+                    f"it to 0 (`darwin scan --port {self.port_name} --fix-return-delay`)"
+                )
+        missing = [i for i in self.ids if i not in found]
+        if missing:
+            self._warn(f"servos {missing} do not answer on {self.port_name}; they stay offline")
+        timer = latency_timer_ms(self.port_name)
+        if timer is not None and timer > 1:
+            self._warn(
+                f"the USB latency timer of {self.port_name} is {timer} ms: every reply waits that "
+                "long. Set it to 1: echo 1 | sudo tee /sys/bus/usb-serial/devices/"
+                f"{self.port_name.rsplit('/', 1)[-1]}/latency_timer (README, udev rule)"
+            )
+        self.cm730_online = self.cm730_id in found
+        for jid in self.ids:
+            self.state.online[jid] = jid in found
+            self.state.misses[jid] = 0
+        return found
+
+    def _write_retry(self, dxl_id: int, address: int, data: bytes) -> None:
+        bus = self._bus()
+        for attempt in range(SCAN_TRIES):
+            try:
+                bus.write(dxl_id, address, data)
+                return
+            except PortError:
+                raise
+            except BusError:
+                if attempt == SCAN_TRIES - 1:
+                    raise
+
+    @staticmethod
+    def _read_retry(bus: DxlBus, dxl_id: int, address: int, length: int) -> bytes | None:
+        for _ in range(SCAN_TRIES):
+            try:
+                return bus.read(dxl_id, address, length)[0]
+            except PortError:
+                raise
+            except BusError:
+                continue
+        return None
+
+    def _warn(self, text: str) -> None:
+        log.warning(text)
+        self.warnings.append(text)
+
+    def initial_read(self) -> None:
+        """Read every online servo's slow block once, then hold its present pose."""
+        for jid in self.ids:
+            if self.state.online[jid]:
+                data = self._read_retry(self._bus(), jid, SLOW_START, SLOW_LENGTH)
+                if data is None:
+                    self.state.online[jid] = False
+                    self._warn(f"servo {jid} stopped answering after the scan; offline")
+                else:
+                    self._apply_slow(jid, data, 0)
+        self.state.goal[:] = self.state.position
+        rows = {}
+        for jid in self.ids:
+            if self.state.online[jid]:
+                rows[jid] = self._sync_row(jid, int(self.state.position[jid]), None)
+        if rows:
+            self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
+        if self.torque_on_start:
+            online = [j for j in self.ids if self.state.online[j]]
+            self.set_torque(online, True)
+
+    # -- per tick ----------------------------------------------------------------------------
+    def _sync_row(self, jid: int, goal_raw: int, pid: tuple[int, int, int] | None) -> bytes:
+        j = self.robot.by_id[jid]
+        p, i, d = pid if pid is not None else (j.p, j.i, j.d)
+        return bytes((d, i, p, 0, goal_raw & 0xFF, goal_raw >> 8))
+
+    def write_targets(self, targets: Targets) -> None:
+        """Sync-write gains and goals of the joints the motion layer drives this tick."""
+        rows: dict[int, bytes] = {}
+        st = self.state
+        for jid, rad in targets.goal.items():
+            if not (st.online[jid] and st.torque[jid]):
+                self.counters.skipped_goals += 1
+                continue
+            if not self._min[jid] - 1e-9 <= rad <= self._max[jid] + 1e-9:
+                # The arbiter rejects out-of-range commands; this guards module bugs.
+                self.counters.limit_clamps += 1
+                rad = min(max(rad, self._min[jid]), self._max[jid])
+            raw = self.joint_to_raw(jid, rad)
+            rows[jid] = self._sync_row(jid, raw, targets.gains.get(jid))
+            st.goal[jid] = raw
+        if rows:
+            self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
+            self.counters.sync_writes += 1
+            self.counters.goal_writes += len(rows)
+
+    def read_sensors(self) -> None:
+        """One bulk read: position/speed/load of the online servos, the slow block (torque …
+        temperature) of one servo in turn, the CM-730's sensors, and now and then a probe of
+        an offline servo (last, so a silent one delays nobody)."""
+        st = self.state
+        online = [j for j in self.ids if st.online[j]]
+        n = min(self.slow_per_tick, len(online))
+        slow = {online[(self._rr * n + k) % len(online)] for k in range(n)}
+        self._rr += 1
+        blocks = [
+            (j, SLOW_START, SLOW_LENGTH) if j in slow else (j, SERVO_BULK_START, SERVO_BULK_LENGTH)
+            for j in online
+        ]
+        blocks.append((self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH))
+        offline = [j for j in self.ids if not st.online[j]]
+        probe = None
+        if offline and self._rr % self.probe_every == 0:
+            probe = offline[(self._rr // self.probe_every) % len(offline)]
+            blocks.append((probe, SLOW_START, SLOW_LENGTH))
+        res = self._bus().bulk_read(blocks)
+        c = self.counters
+        c.bulk_reads += 1
+        c.missing_replies += len([j for j in res.missing if j != probe])
+        c.corrupt_replies += res.corrupt
+        c.retries += int(res.retried)
+        if (set(res.missing) - {probe}) or res.corrupt:
+            c.stale_ticks += 1
+        for jid, data in res.data.items():
+            if jid == self.cm730_id:
+                self.cm730 = data
+                self.cm730_online = True
+                continue
+            if jid in slow or jid == probe:
+                self._apply_slow(jid, data, res.errors.get(jid, 0))
+                if jid == probe:
+                    st.online[jid] = True
+                    self.emit(
+                        "servo_online",
+                        f"servo {jid} ({self.robot.by_id[jid].name}) answers again",
+                        id=jid,
+                    )
+            else:
+                st.position[jid] = word(data, 0)
+                st.speed[jid] = word(data, 2)
+                st.load[jid] = word(data, 4)
+                self._alarm(jid, res.errors.get(jid, 0))
+            st.misses[jid] = 0
+        if res.stalled:
+            c.bus_stalls += 1
+            return
+        for jid in res.missing:
+            if jid in (self.cm730_id, probe):
+                continue
+            st.misses[jid] += 1
+            if st.misses[jid] >= self.offline_after and st.online[jid]:
+                st.online[jid] = False
+                self.emit(
+                    "servo_offline",
+                    f"servo {jid} ({self.robot.by_id[jid].name}) missed {st.misses[jid]} reads "
+                    "in a row: offline (check its cable; it comes back when it answers)",
+                    id=jid,
+                )
+
+    def _slow_read(self, jid: int) -> None:
+        data, error = self._bus().read(jid, SLOW_START, SLOW_LENGTH)
+        self._apply_slow(jid, data, error)
+
+    def _apply_slow(self, jid: int, data: bytes, error: int) -> None:
+        st = self.state
+
+        def at(reg: MX28) -> int:
+            return reg.reg.address - SLOW_START
+
+        st.torque[jid] = bool(data[at(MX28.TORQUE_ENABLE)])
+        st.goal[jid] = word(data, at(MX28.GOAL_POSITION))
+        st.position[jid] = word(data, at(MX28.PRESENT_POSITION))
+        st.speed[jid] = word(data, at(MX28.PRESENT_SPEED))
+        st.load[jid] = word(data, at(MX28.PRESENT_LOAD))
+        st.voltage[jid] = units.voltage_raw_to_v(data[at(MX28.PRESENT_VOLTAGE)])
+        st.temperature[jid] = float(data[at(MX28.PRESENT_TEMPERATURE)])
+        self._alarm(jid, error)
+
+    def _alarm(self, jid: int, bits: int) -> None:
+        st = self.state
+        if bits == st.alarm[jid]:
+            return
+        old, st.alarm[jid] = int(st.alarm[jid]), bits
+        if not bits:
+            self.emit("servo_alarm_cleared", f"servo {jid} alarm cleared", id=jid, bits=0)
+            return
+        names = error_names(bits)
+        protect = bool(bits & PROTECT_BITS) and not old & PROTECT_BITS
+        self.emit(
+            "servo_alarm",
+            f"servo {jid} ({self.robot.by_id[jid].name}) alarm: {', '.join(names)}"
+            + ("; torque off to protect it" if protect else ""),
+            id=jid,
+            bits=bits,
+            alarms=names,
+        )
+        if protect and st.torque[jid]:
+            # As the firmware's alarm shutdown does: no torque until someone re-enables it.
+            self.set_torque([jid], False)
+
+    # -- frame ---------------------------------------------------------------------------------
+    def frame(self, tick: int, now: float, dt: float) -> JointFrame:
+        st = self.state
+        f = JointFrame(tick=tick, time=now, dt=dt)
+        # Whole arrays at once (slot 0 is unused and stays meaningless): this runs every tick.
+        f.position[:] = self._sign * (units.raw_to_rad(st.position) - self._offset)
+        f.velocity[:] = self._sign * _signed_11bit(st.speed) * units.RAD_S_PER_SPEED_UNIT
+        f.load[:] = self._sign * _signed_11bit(st.load) * (units.LOAD_PERCENT_PER_UNIT / 100.0)
+        f.online[:] = st.online
+        f.torque_enabled[:] = st.torque
+        gyro_raw, accel_raw = self.imu_raw()
+        f.gyro_raw = np.array(gyro_raw)
+        f.accel_raw = np.array(accel_raw)
+        f.gyro = np.array(
+            [
+                s * units.gyro_raw_to_rad_s(r, self.gyro_dps)
+                for r, (_, s) in zip(gyro_raw, IMU_GYRO_AXES, strict=True)
+            ]
+        )
+        f.accel = np.array(
+            [
+                s * units.accel_raw_to_ms2(r)
+                for r, (_, s) in zip(accel_raw, IMU_ACCEL_AXES, strict=True)
+            ]
+        )
+        return f
+
+    def imu_raw(self) -> tuple[list[int], list[int]]:
+        return imu_raw(self.cm730)
+
+    def cm730_status(self) -> dict[str, Any]:
+        return cm730_status(self.cm730) if self.cm730_online else cm730_status(b"")
+
+    # -- BusCommands (registry.py), run by verb handlers in the motion thread ---------------------
+    def set_leds(self, head: int | None, eye: int | None, panel: int | None) -> None:
+        cm = self.cm730_id
+        if panel is not None:
+            self._write_retry(cm, CM730.LED_PANEL.reg.address, bytes((panel,)))
+        if head is not None:
+            self._write_retry(cm, CM730.LED_HEAD.reg.address, head.to_bytes(2, "little"))
+        if eye is not None:
+            self._write_retry(cm, CM730.LED_EYE.reg.address, eye.to_bytes(2, "little"))
+
+    def set_torque(self, ids: list[int], enable: bool) -> None:
+        ids = [j for j in ids if self.state.online[j]]
+        if not ids:
+            return
+        bus = self._bus()
+        if enable:
+            # Hold where the servo is now, so enabling torque never makes it jump.
+            rows = {j: self._sync_row(j, int(self.state.position[j]), None) for j in ids}
+            bus.sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
+            for j in ids:
+                self.state.goal[j] = self.state.position[j]
+        flag = bytes((1 if enable else 0,))
+        bus.sync_write(MX28.TORQUE_ENABLE.reg.address, 1, dict.fromkeys(ids, flag))
+        for j in ids:
+            self.state.torque[j] = enable
+
+    def read_registers(self, dxl_id: int, address: int, length: int) -> bytes:
+        bus = self._bus()
+        for attempt in range(SCAN_TRIES):  # a read has no side effect: ask again
+            try:
+                return bus.read(dxl_id, address, length)[0]
+            except PortError:
+                raise
+            except BusError:
+                if attempt == SCAN_TRIES - 1:
+                    raise
+        raise AssertionError("unreachable")
+
+    def write_registers(self, dxl_id: int, address: int, data: bytes) -> None:
+        # Writing the same bytes again is harmless, so a lost status packet is retried.
+        self._write_retry(dxl_id, address, data)
+        if dxl_id in self.ids and address <= MX28.TORQUE_ENABLE.reg.address < address + len(data):
+            self.state.torque[dxl_id] = bool(data[MX28.TORQUE_ENABLE.reg.address - address])
+
+    def status(self) -> dict[str, Any]:
+        st = self.state
+        return {
+            "port": self.port_name,
+            "open": self.is_open,
+            **self.counters.to_dict(),
+            "offline": [j for j in self.ids if not st.online[j]],
+            "torque_off": [j for j in self.ids if st.online[j] and not st.torque[j]],
+            "cm730_online": self.cm730_online,
+            "warnings": list(self.warnings),
+            "bytes_written": self.handler.bytes_written if self.handler else 0,
+            "bytes_read": self.handler.bytes_read if self.handler else 0,
+        }

@@ -1,0 +1,85 @@
+"""What the daemon knows of the devices between ticks: raw servo state, the CM-730's sensor
+block decoded, and the bus counters published in ``status.bus``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from robot_daemon.bus.tables import CM730, CM730_BULK_START, IMU_ACCEL_AXES, IMU_GYRO_AXES
+from robot_daemon.motion.interface import N_SLOTS
+from schemas import units
+
+
+def word(data: bytes, offset: int) -> int:
+    return data[offset] | (data[offset + 1] << 8)
+
+
+@dataclass
+class BusCounters:
+    bulk_reads: int = 0
+    missing_replies: int = 0
+    corrupt_replies: int = 0
+    retries: int = 0
+    stale_ticks: int = 0
+    bus_stalls: int = 0  # ticks where nothing answered at all (not counted against servos)
+    sync_writes: int = 0
+    goal_writes: int = 0
+    skipped_goals: int = 0  # goals not written: joint offline or torque off
+    limit_clamps: int = 0
+    port_reopens: int = 0
+
+    def to_dict(self) -> dict[str, int]:
+        return dict(vars(self))
+
+
+@dataclass
+class ServoState:
+    """Last known raw state of every joint, by id (slot 0 unused)."""
+
+    position: np.ndarray = field(default_factory=lambda: np.full(N_SLOTS, 2048, dtype=int))
+    speed: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
+    load: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
+    temperature: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS))
+    voltage: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS))
+    torque: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=bool))
+    online: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=bool))
+    misses: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
+    alarm: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
+    goal: np.ndarray = field(default_factory=lambda: np.full(N_SLOTS, 2048, dtype=int))
+    firmware: dict[int, int] = field(default_factory=dict)
+
+
+def cm730_field(block: bytes, reg: CM730) -> int:
+    """A register out of the CM-730's bulk-read block (30 bytes from ``CM730_BULK_START``)."""
+    off = reg.reg.address - CM730_BULK_START
+    return word(block, off) if reg.reg.size == 2 else block[off]
+
+
+def imu_raw(block: bytes) -> tuple[list[int], list[int]]:
+    """Gyro and accelerometer counts in robot axes (x, y, z)."""
+    if not block:
+        return [units.IMU_CENTER] * 3, [units.IMU_CENTER] * 3
+    return (
+        [cm730_field(block, reg) for reg, _ in IMU_GYRO_AXES],
+        [cm730_field(block, reg) for reg, _ in IMU_ACCEL_AXES],
+    )
+
+
+def cm730_status(block: bytes) -> dict[str, Any]:
+    """LEDs, buttons, voltage and power from the block; empty before the CM-730 answered."""
+    if not block or not any(block):
+        return {"leds": {}, "buttons": {}, "voltage": 0.0}
+    buttons = cm730_field(block, CM730.BUTTON)
+    return {
+        "leds": {
+            "head": list(units.color_word_to_rgb(cm730_field(block, CM730.LED_HEAD))),
+            "eye": list(units.color_word_to_rgb(cm730_field(block, CM730.LED_EYE))),
+            "panel": cm730_field(block, CM730.LED_PANEL),
+        },
+        "buttons": {"mode": bool(buttons & 1), "start": bool(buttons & 2)},
+        "voltage": units.voltage_raw_to_v(cm730_field(block, CM730.VOLTAGE)),
+        "power": bool(cm730_field(block, CM730.DXL_POWER)),
+    }

@@ -1,0 +1,144 @@
+"""The camera thread: captures and JPEG-encodes frames only while someone subscribes.
+
+A Zenoh matching listener on the camera publisher says when the first subscriber arrives and
+the last one leaves; in between, the thread reads the source at its frame rate (absolute
+deadlines), encodes and publishes. Never in the motion loop.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import threading
+import time
+from typing import Any
+
+import cv2
+import zenoh
+
+from robot_daemon.vision.sources import CameraSource, SourceContext, open_source
+from schemas.keys import Keys
+from schemas.messages import CameraFrame, encode
+
+log = logging.getLogger(__name__)
+
+
+class CameraThread:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: Keys,
+        spec: str,
+        ctx: SourceContext,
+        quality: int = 80,
+    ) -> None:
+        self.spec = spec
+        self.ctx = ctx
+        self.quality = quality
+        self.period = 1.0 / max(ctx.fps, 1.0)
+        self.captured = 0
+        self.published = 0
+        self.errors = 0
+        self.last_error = ""
+        self._source: CameraSource | None = None
+        self._cond = threading.Condition()
+        self._subscribed = False
+        self._stop = False
+        self._pub = session.declare_publisher(
+            keys.camera_jpeg, congestion_control=zenoh.CongestionControl.DROP
+        )
+        self._listener = self._pub.declare_matching_listener(self._on_matching)
+        self._subscribed = self._pub.matching_status.matching
+        self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
+        self._thread.start()
+
+    @classmethod
+    def from_settings(
+        cls, session: zenoh.Session, keys: Keys, spec: str, settings: dict[str, Any]
+    ) -> CameraThread:
+        cam = settings.get("daemon", {}).get("camera", {})
+        ctx = SourceContext(
+            width=int(cam.get("width", 320)),
+            height=int(cam.get("height", 240)),
+            fps=float(cam.get("fps", 30)),
+            session=session,
+            robot=keys.robot,
+            settings=settings,
+        )
+        return cls(session, keys, spec, ctx, int(cam.get("jpeg_quality", 80)))
+
+    def _on_matching(self, status: zenoh.MatchingStatus) -> None:
+        with self._cond:
+            self._subscribed = status.matching
+            self._cond.notify_all()
+
+    def _run(self) -> None:
+        next_t = time.monotonic()
+        while True:
+            with self._cond:
+                while not self._subscribed and not self._stop:
+                    self._close_source()
+                    self._cond.wait()
+                if self._stop:
+                    self._close_source()
+                    return
+            next_t = max(next_t + self.period, time.monotonic())
+            self._capture_one()
+            with self._cond:
+                if not self._stop:
+                    self._cond.wait(max(0.0, next_t - time.monotonic()))
+
+    def _capture_one(self) -> None:
+        try:
+            if self._source is None:
+                self._source = open_source(self.spec, self.ctx)
+                if self._source is None:
+                    self._stop = True
+                    return
+            img = self._source.read()
+            if img is None:
+                return
+            self.captured += 1
+            ok, jpeg = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, self.quality])
+            if not ok:
+                raise RuntimeError("JPEG encoding failed")
+            h, w = img.shape[:2]
+            msg = CameraFrame(jpeg=jpeg.tobytes(), width=w, height=h, seq=self.captured)
+            self._pub.put(encode(msg))
+            self.published += 1
+        except Exception as exc:  # a camera unplugged mid-run: report, retry after a pause
+            self.errors += 1
+            self.last_error = str(exc)
+            log.warning("camera %s: %s", self.spec, exc)
+            self._close_source()
+            with self._cond:
+                self._cond.wait(1.0)
+
+    def _close_source(self) -> None:
+        if self._source is not None:
+            with contextlib.suppress(Exception):
+                self._source.close()
+            self._source = None
+
+    def status(self) -> dict[str, Any]:
+        return {
+            "source": self.spec,
+            "subscribed": self._subscribed,
+            "captured": self.captured,
+            "published": self.published,
+            "errors": self.errors,
+            "last_error": self.last_error,
+            "fps": self.ctx.fps,
+            "width": self.ctx.width,
+            "height": self.ctx.height,
+        }
+
+    def close(self) -> None:
+        with self._cond:
+            self._stop = True
+            self._cond.notify_all()
+        self._thread.join(timeout=2.0)
+        with contextlib.suppress(Exception):
+            self._listener.undeclare()
+        with contextlib.suppress(Exception):
+            self._pub.undeclare()

@@ -1,0 +1,174 @@
+"""`darwin daemon`: the robot daemon on a serial port (`--port`) or on the emulator (`--sim`).
+
+Prints ``port: PATH`` and then ``zenoh: ENDPOINT`` (flushed) once it serves; SIGINT/SIGTERM
+stop it cleanly (and the emulator it started).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import sys
+import tempfile
+from typing import Any
+
+from config.loader import load_all, robot_from_dict
+from robot_daemon.children import Child, relay_to_stderr
+from robot_daemon.daemon import Daemon, DaemonOptions
+from robot_daemon.vision.sources import check_spec
+from schemas.keys import check_robot_name
+from schemas.session import check_endpoint, endpoint_host_port, free_tcp_port
+
+log = logging.getLogger(__name__)
+
+# The emulator answers from a Python process that shares the CPU with everything else: give it
+# more time than a real CM-730 needs, so a busy machine costs a late tick, not a lost servo.
+SIM_REPLY_MARGIN_MS = 15.0
+SIM_REPLY_GAP_MS = SIM_REPLY_MARGIN_MS
+# ... and a servo is called offline only after this many missed ticks in a row (200 ms).
+SIM_OFFLINE_AFTER = 25
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--port", help="serial port of the CM-730 (config daemon.port)")
+    where.add_argument(
+        "--sim", action="store_true", help="start the emulator (`darwin sim`) and use its pty"
+    )
+    parser.add_argument("--robot", help="robot name in every key (config robot.name)")
+    parser.add_argument(
+        "--listen",
+        action="append",
+        help="Zenoh endpoint to listen on, repeatable (config zenoh.listen); port 0 = any free",
+    )
+    parser.add_argument("--tick-ms", type=float, help="motion loop period (config daemon.tick_ms)")
+    parser.add_argument(
+        "--camera",
+        help="none | sim | pattern | device index or path (config daemon.camera.source)",
+    )
+    parser.add_argument(
+        "--allow-eeprom",
+        action="store_true",
+        default=None,
+        help="let the `registers` verb write EEPROM (config daemon.allow_eeprom_writes)",
+    )
+    parser.add_argument("--config", help="user config file (TOML) on top of the shipped one")
+    parser.add_argument(
+        "--reply-margin-ms",
+        type=float,
+        help="time allowed for a reply beyond its wire time (config bus.reply_margin_ms; "
+        f"with --sim at least {SIM_REPLY_MARGIN_MS:.0f}, the emulator being a Python process)",
+    )
+    parser.add_argument(
+        "--sim-arg",
+        action="append",
+        default=[],
+        metavar="ARG",
+        help="extra argument for the emulator with --sim (repeatable), e.g. --sim-arg=--drop=0.05",
+    )
+    parser.add_argument(
+        "--wire-timing",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="with --sim: model 1 Mbps wire time in the emulator",
+    )
+
+
+def _resolve_listen(listen: list[str]) -> list[str]:
+    out = []
+    for ep in listen:
+        check_endpoint(ep)
+        host, port = endpoint_host_port(ep)
+        if port == 0:
+            ep = f"{ep.split('/', 1)[0]}/{host}:{free_tcp_port(host)}"
+        out.append(ep)
+    return out
+
+
+def sim_command(sim_args: list[str], wire_timing: bool | None) -> list[str]:
+    args = ["sim", *sim_args]
+    if wire_timing is False:  # the emulator times the wire unless told not to
+        args.append("--no-wire-timing")
+    return args
+
+
+def build(args: argparse.Namespace, port: str) -> tuple[Daemon, dict[str, Any]]:
+    settings = load_all(args.config)
+    bus = settings.setdefault("bus", {})
+    if args.reply_margin_ms is not None:
+        bus["reply_margin_ms"] = args.reply_margin_ms
+    elif args.sim:
+        bus["reply_margin_ms"] = max(SIM_REPLY_MARGIN_MS, float(bus.get("reply_margin_ms", 0)))
+    if args.sim:
+        bus["reply_gap_ms"] = max(SIM_REPLY_GAP_MS, float(bus.get("reply_gap_ms", 0)))
+        daemon_cfg = settings.setdefault("daemon", {})
+        daemon_cfg["offline_after_misses"] = max(
+            SIM_OFFLINE_AFTER, int(daemon_cfg.get("offline_after_misses", 0))
+        )
+    robot = robot_from_dict(settings["robot"])
+    dcfg = settings.get("daemon", {})
+    name = check_robot_name(args.robot or robot.name)
+    listen = _resolve_listen(args.listen or list(settings.get("zenoh", {}).get("listen", [])))
+    camera = check_spec(args.camera or str(dcfg.get("camera", {}).get("source", "none")))
+    opts = DaemonOptions(
+        robot=name,
+        port=port,
+        listen=listen,
+        tick_ms=float(args.tick_ms or dcfg.get("tick_ms", 8.0)),
+        camera=camera,
+        allow_eeprom=bool(
+            args.allow_eeprom
+            if args.allow_eeprom is not None
+            else dcfg.get("allow_eeprom_writes", False)
+        ),
+    )
+    return Daemon(opts, robot, settings), settings
+
+
+def run(args: argparse.Namespace) -> int:
+    emulator: Child | None = None
+    connect: list[str] = []
+    if args.sim:
+        sim_args = list(args.sim_arg)
+        if not any(a.startswith("--control-listen") for a in sim_args):
+            # The emulator's control ops (faults…) and world, reachable through the daemon.
+            control = f"tcp/127.0.0.1:{free_tcp_port()}"
+            robot_name = args.robot or load_all(args.config)["robot"].get("name", "op1")
+            sim_args += [f"--control-listen={control}", f"--robot={robot_name}"]
+            connect.append(control)
+        if not any(a.startswith("--link") for a in sim_args):
+            # A stable path: when the emulator's port vanishes and comes back (a new pty),
+            # the daemon reopens the same name.
+            sim_args.append(f"--link={tempfile.gettempdir()}/darwin-sim-{os.getpid()}.tty")
+        emulator = Child("sim", sim_command(sim_args, args.wire_timing), relay_to_stderr)
+        port = emulator.wait_line("port:", timeout=20.0)
+    else:
+        port = args.port or str(load_all(args.config).get("daemon", {}).get("port"))
+    daemon: Daemon | None = None
+    try:
+        daemon, _ = build(args, port)
+        daemon.options.connect = connect
+
+        def on_signal(signum: int, _frame: object) -> None:
+            log.info("signal %d: stopping", signum)
+            daemon.stop()  # type: ignore[union-attr]
+
+        signal.signal(signal.SIGTERM, on_signal)
+        signal.signal(signal.SIGINT, on_signal)
+        # Fail fast on a wrong or busy port at start; later losses are reopened with back-off.
+        daemon.connect_bus()
+        daemon.start_network()
+        print(f"port: {port}", flush=True)
+        print(f"robot: {daemon.options.robot}", flush=True)
+        for ep in daemon.options.listen:
+            print(f"zenoh: {ep}", flush=True)
+        daemon.run()
+        return 0
+    finally:
+        if daemon is not None:
+            daemon.close()
+        if emulator is not None:
+            emulator.stop()
+        sys.stdout.flush()

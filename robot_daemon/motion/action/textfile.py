@@ -1,0 +1,270 @@
+"""The project's readable action-page format (TOML), the twin of the ROBOTIS ``.bin``.
+
+    [[page]]
+    number = 15            # the page number (the stock numbers where the framework has one)
+    name = "sit down"      # at most 14 characters
+    repeat = 1             # times the page plays
+    schedule = "time"      # "time" (0x0A) or "speed" (0x00)
+    speed = 32             # 32 = real time; 64 plays twice as fast
+    accel = 32             # ramp length of the trapezoidal profile, time units
+    next = 0               # page chained after this one (0 = none)
+    exit = 0               # page played instead of `next` when stopped (0 = none)
+
+    [[page.step]]
+    time = 125             # time units (8 ms at speed 32) to reach this key frame
+    pause = 0              # time units to hold it
+    r_shoulder_pitch = -48.34   # servo degrees (0 = raw 2048), joints by config name
+    ...                         # a joint left out is not driven by this step
+
+Only what the stock tool would not write by itself appears beyond that (``slopes``,
+``reserved``, ``checksum``, ``name_tail``, per-step ``raw`` and ``spare``, and
+``[[page.leftover]]`` steps stored after the step count), so that ``.bin`` → text → ``.bin`` is
+byte-identical. Pages absent from a text file are blank.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from robot_daemon.motion.action.binfile import (
+    DEFAULT_RESERVED,
+    DEFAULT_SLOPES,
+    DEFAULT_SPARE,
+    JOINT_SLOTS,
+    MAX_STEPS,
+    NOT_DRIVEN,
+    SCHEDULE_SPEED,
+    SCHEDULE_TIME,
+    SLOPES_SIZE,
+    SPARE_SLOTS,
+    MotionFileError,
+    Page,
+    Step,
+)
+from schemas.units import POSITION_MAX, deg_to_raw, raw_to_deg
+
+SCHEDULES = {"time": SCHEDULE_TIME, "speed": SCHEDULE_SPEED}
+PAGE_KEYS = {
+    "number",
+    "name",
+    "repeat",
+    "schedule",
+    "speed",
+    "accel",
+    "next",
+    "exit",
+    "step",
+    "leftover",
+    "slopes",
+    "reserved",
+    "checksum",
+    "name_tail",
+    "zero",
+}
+STEP_KEYS = {"time", "pause", "raw", "spare"}
+
+HEADER = """\
+# DARwIn-OP action pages, darwin-zenoh text format (README, "Motion").
+# time, pause: time units (8 ms at speed 32). Joints: servo degrees (0 = raw 2048);
+# a joint left out of a step is not driven by it.
+"""
+
+
+def default_joint_names() -> dict[int, str]:
+    from config.loader import load_robot
+
+    robot = load_robot()
+    return {j.id: j.name for j in robot.joints}
+
+
+# -- writing -----------------------------------------------------------------------------------
+def _fmt_deg(raw: int) -> str:
+    # Two decimals round-trip exactly: a raw unit is 0.088°.
+    return f"{raw_to_deg(raw):.2f}"
+
+
+def _step_lines(step: Step, table: str, names: dict[int, str]) -> list[str]:
+    lines = [f"[[{table}]]", f"time = {step.time}", f"pause = {step.pause}"]
+    raw: dict[str, int] = {}
+    for slot in JOINT_SLOTS:
+        word = step.words[slot]
+        name = names.get(slot, f"joint{slot}")
+        if word == NOT_DRIVEN:
+            continue
+        if word <= POSITION_MAX:
+            lines.append(f"{name} = {_fmt_deg(word)}")
+        else:
+            raw[name] = word
+    if raw:
+        lines.append("raw = { " + ", ".join(f"{k} = {v}" for k, v in raw.items()) + " }")
+    spare = tuple(step.words[s] for s in SPARE_SLOTS)
+    if spare != DEFAULT_SPARE:
+        lines.append(f"spare = {list(spare)}")
+    return lines
+
+
+def page_text(page: Page, names: dict[int, str]) -> str:
+    if page.zero:
+        return f"[[page]]\nnumber = {page.number}\nzero = true\n"
+    schedule = next((k for k, v in SCHEDULES.items() if v == page.schedule), page.schedule)
+    lines = [
+        "[[page]]",
+        f"number = {page.number}",
+        f"name = {json.dumps(page.name)}",
+        f"repeat = {page.repeat}",
+        f"schedule = {json.dumps(schedule)}",
+        f"speed = {page.speed}",
+        f"accel = {page.accel}",
+        f"next = {page.next}",
+        f"exit = {page.exit}",
+    ]
+    if page.slopes != DEFAULT_SLOPES:
+        lines.append(f'slopes = "{page.slopes.hex()}"')
+    if page.reserved != DEFAULT_RESERVED:
+        items = ", ".join(f"{k} = {v}" for k, v in sorted(page.reserved.items()))
+        lines.append(f"reserved = {{ {items} }}" if items else "reserved = {}")
+    if page.checksum is not None:
+        lines.append(f"checksum = {page.checksum}")
+    if page.name_tail:
+        lines.append(f'name_tail = "{page.name_tail.hex()}"')
+    for step in page.steps:
+        lines += ["", *_step_lines(step, "page.step", names)]
+    for step in page.leftover:
+        lines += ["", *_step_lines(step, "page.leftover", names)]
+    return "\n".join(lines) + "\n"
+
+
+def dumps(pages: Iterable[Page], names: dict[int, str] | None = None) -> str:
+    """Text for the pages worth writing (not the blank ones, not an all-zero page 0)."""
+    names = names or default_joint_names()
+    chunks = [HEADER]
+    for page in sorted(pages, key=lambda p: p.number):
+        if (page.number == 0 and page.zero) or page.blank:
+            continue
+        chunks.append(page_text(page, names))
+    return "\n".join(chunks)
+
+
+def write_text(path: str | Path, pages: Iterable[Page], names: dict[int, str] | None = None):
+    Path(path).write_text(dumps(pages, names), encoding="utf-8")
+
+
+# -- reading -----------------------------------------------------------------------------------
+def _int(d: dict[str, Any], key: str, where: str, default: int, low: int = 0, high: int = 255):
+    value = d.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise MotionFileError(f"{where}: {key} must be an integer {low}..{high}, got {value!r}")
+    return value
+
+
+def _parse_step(d: dict[str, Any], where: str, ids: dict[str, int]) -> Step:
+    if not isinstance(d, dict):
+        raise MotionFileError(f"{where}: a step must be a table")
+    step = Step(time=_int(d, "time", where, 0), pause=_int(d, "pause", where, 0))
+    for key, value in d.items():
+        if key in STEP_KEYS:
+            continue
+        if key not in ids:
+            raise MotionFileError(f"{where}: unknown joint {key!r}; joints are {', '.join(ids)}")
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise MotionFileError(f"{where}: {key} must be degrees (a number), got {value!r}")
+        raw = deg_to_raw(float(value))
+        if not 0 <= raw <= POSITION_MAX:
+            raise MotionFileError(f"{where}: {key} = {value}° is outside the servo's range")
+        step.words[ids[key]] = raw
+    for key, value in (d.get("raw") or {}).items():
+        if key not in ids:
+            raise MotionFileError(f"{where}: unknown joint {key!r} in raw")
+        step.words[ids[key]] = _int({key: value}, key, where, 0, 0, 0xFFFF)
+    spare = d.get("spare")
+    if spare is not None:
+        if not isinstance(spare, list) or len(spare) != len(SPARE_SLOTS):
+            raise MotionFileError(f"{where}: spare must list {len(SPARE_SLOTS)} words")
+        for slot, value in zip(SPARE_SLOTS, spare, strict=True):
+            step.words[slot] = _int({"spare": value}, "spare", where, 0, 0, 0xFFFF)
+    return step
+
+
+def _parse_page(d: dict[str, Any], source: str, ids: dict[str, int]) -> Page:
+    number = d.get("number")
+    if isinstance(number, bool) or not isinstance(number, int) or not 0 <= number <= 255:
+        raise MotionFileError(f"{source}: a page needs a number 0..255, got {number!r}")
+    where = f"{source}, page {number}"
+    unknown = set(d) - PAGE_KEYS
+    if unknown:
+        raise MotionFileError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+    if d.get("zero"):
+        return Page(number, zero=True)
+    name = d.get("name", "")
+    if not isinstance(name, str) or len(name.encode("latin-1", "replace")) > 14:
+        raise MotionFileError(f"{where}: name must be a string of at most 14 characters")
+    schedule = d.get("schedule", "time")
+    schedule = SCHEDULES.get(schedule, schedule) if isinstance(schedule, str) else schedule
+    if not isinstance(schedule, int) or isinstance(schedule, bool):
+        raise MotionFileError(f"{where}: schedule must be 'time' or 'speed', got {schedule!r}")
+    steps = [_parse_step(s, f"{where}, step {i + 1}", ids) for i, s in enumerate(d.get("step", []))]
+    leftover = [
+        _parse_step(s, f"{where}, leftover {i + 1}", ids)
+        for i, s in enumerate(d.get("leftover", []))
+    ]
+    if len(steps) + len(leftover) > MAX_STEPS:
+        raise MotionFileError(f"{where}: {len(steps)} steps; a page holds at most {MAX_STEPS}")
+    page = Page(
+        number,
+        name=name,
+        repeat=_int(d, "repeat", where, 1),
+        schedule=_int({"schedule": schedule}, "schedule", where, 0),
+        speed=_int(d, "speed", where, 32, 1),
+        accel=_int(d, "accel", where, 32),
+        next=_int(d, "next", where, 0),
+        exit=_int(d, "exit", where, 0),
+        steps=steps,
+        leftover=leftover,
+    )
+    if "slopes" in d:
+        try:
+            page.slopes = bytes.fromhex(d["slopes"])
+        except (TypeError, ValueError):
+            page.slopes = b""
+        if len(page.slopes) != SLOPES_SIZE:
+            raise MotionFileError(f"{where}: slopes must be {SLOPES_SIZE} bytes of hex")
+    if "reserved" in d:
+        page.reserved = {int(k): _int(d["reserved"], k, where, 0) for k in d["reserved"]}
+    if "checksum" in d:
+        page.checksum = _int(d, "checksum", where, 0)
+    if "name_tail" in d:
+        page.name_tail = bytes.fromhex(d["name_tail"])
+    return page
+
+
+def loads(text: str, source: str = "motion text", names: dict[int, str] | None = None):
+    """Pages from text; raises :class:`MotionFileError` naming the file, page and field."""
+    names = names or default_joint_names()
+    ids = {name: jid for jid, name in names.items()}
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise MotionFileError(f"{source} is not valid TOML: {exc}") from exc
+    unknown = set(doc) - {"page"}
+    if unknown:
+        raise MotionFileError(f"{source}: unknown top-level key(s) {', '.join(sorted(unknown))}")
+    pages = [_parse_page(p, source, ids) for p in doc.get("page", [])]
+    seen: set[int] = set()
+    for p in pages:
+        if p.number in seen:
+            raise MotionFileError(f"{source}: page {p.number} appears twice")
+        seen.add(p.number)
+    return pages
+
+
+def read_text(path: str | Path, names: dict[int, str] | None = None) -> list[Page]:
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise MotionFileError(f"cannot read motion file {p}: {exc.strerror}") from exc
+    return loads(text, str(p), names)

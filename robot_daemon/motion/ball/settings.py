@@ -1,0 +1,97 @@
+"""Ball play settings: the ``[ballplay]`` config section (config/ballplay.toml).
+
+Angles stay in degrees and steps in mm here, as the framework's BallTracker/BallFollower use
+them; the module converts at its edges (detections and joints are rad).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+from schemas.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class HeadSettings:
+    pan_limit_deg: float = 70.0
+    tilt_min_deg: float = -25.0
+    tilt_max_deg: float = 40.0
+    home_pan_deg: float = 0.0
+    home_tilt_deg: float = 10.0
+    pan_p: float = 0.1
+    pan_d: float = 0.22
+    tilt_p: float = 0.1
+    tilt_d: float = 0.22
+    max_speed_dps: float = 240.0
+
+
+@dataclass(frozen=True)
+class TrackerSettings:
+    lost_frames: int = 15
+    search_pan_deg: float = 65.0
+    search_tilts_deg: tuple[float, ...] = (0.0, 25.0)
+    search_speed_dps: float = 90.0
+    sweeps_before_turn: int = 1
+    search_turn_deg: float = 20.0
+    search_timeout_s: float = 40.0
+
+
+@dataclass(frozen=True)
+class FollowerSettings:
+    kick_pan_deg: float = 30.0
+    kick_top_deg: float = -5.0
+    kick_frames: int = 10
+    follow_max_step_mm: float = 30.0
+    follow_min_step_mm: float = 5.0
+    follow_max_turn_deg: float = 35.0
+    fit_max_turn_deg: float = 35.0
+    unit_step_mm: float = 0.3
+    unit_turn_deg: float = 1.0
+    no_ball_frames: int = 10
+    right_kick_page: int = 12
+    left_kick_page: int = 13
+    kick_timeout_s: float = 6.0
+
+
+@dataclass(frozen=True)
+class BallPlaySettings:
+    color: str = "red"
+    vision_hz: float = 30.0
+    kicks: int = 1
+    head: HeadSettings = HeadSettings()
+    tracker: TrackerSettings = TrackerSettings()
+    follower: FollowerSettings = FollowerSettings()
+
+    @classmethod
+    def from_config(cls, ballplay: dict[str, Any]) -> BallPlaySettings:
+        try:
+            return cls(
+                color=str(ballplay.get("color", "red")),
+                vision_hz=float(ballplay.get("vision_hz", 30.0)),
+                kicks=int(ballplay.get("kicks", 1)),
+                head=_section(HeadSettings, ballplay.get("head", {})),
+                tracker=_section(TrackerSettings, ballplay.get("tracker", {})),
+                follower=_section(FollowerSettings, ballplay.get("follower", {})),
+            )
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(
+                f"[ballplay] in config/ballplay.toml or the user file: {exc}"
+            ) from exc
+
+
+def _section(cls: type, values: dict[str, Any]) -> Any:
+    known = {f.name: f for f in fields(cls)}
+    unknown = sorted(set(values) - set(known))
+    if unknown:
+        raise ValueError(f"unknown setting(s) {', '.join(unknown)}; known: {', '.join(known)}")
+    out: dict[str, Any] = {}
+    for name, value in values.items():
+        default = getattr(cls(), name)
+        if isinstance(default, tuple):
+            out[name] = tuple(float(v) for v in value)
+        elif isinstance(default, int) and not isinstance(default, bool):
+            out[name] = int(value)
+        else:
+            out[name] = float(value)
+    return cls(**out)

@@ -1,0 +1,93 @@
+"""Fall detection from the accelerometer (the framework's rule) and recovery.
+
+The mean of the last ``fall_window`` (30) accel Y samples (the CM-730 register; the robot's
+fore/aft axis, ``JointFrame.accel_raw[0]``) below ``fall_forward_below`` (390)
+means fallen forward, above ``fall_backward_above`` (580) fallen backward ([imu] config). A fall
+stops every module (walking, behaviours), publishes an event, and when ``[fall] recover`` is on,
+plays the matching get-up page (10 front, 11 back).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+from robot_daemon.motion.interface import JointFrame, MotionModule
+
+UPRIGHT, FORWARD, BACKWARD = "upright", "fallen_forward", "fallen_backward"
+
+
+class FallMonitor(MotionModule):
+    name = "fall"
+
+    def __init__(self, imu: dict[str, Any] | None = None, fall: dict[str, Any] | None = None):
+        super().__init__()
+        imu, fall = imu or {}, fall or {}
+        self.forward_below = float(imu.get("fall_forward_below", 390))
+        self.backward_above = float(imu.get("fall_backward_above", 580))
+        self.window: deque[float] = deque(maxlen=int(imu.get("fall_window", 30)))
+        self.recover = bool(fall.get("recover", True))
+        self.front_page = int(fall.get("get_up_front_page", 10))
+        self.back_page = int(fall.get("get_up_back_page", 11))
+        self.settle_ticks = int(fall.get("settle_ticks", 60))
+        self.state = UPRIGHT
+        self.falls = 0
+        self._upright_ticks = 0
+
+    def classify(self) -> str:
+        if len(self.window) < (self.window.maxlen or 1):
+            return UPRIGHT
+        mean = sum(self.window) / len(self.window)
+        if mean < self.forward_below:
+            return FORWARD
+        if mean > self.backward_above:
+            return BACKWARD
+        return UPRIGHT
+
+    def observe(self, frame: JointFrame) -> None:
+        # The framework's "accel Y" register is the robot's fore/aft axis, which JointFrame
+        # holds first (robot axes x y z; see IMU_ACCEL_AXES in bus/tables.py).
+        self.window.append(float(frame.accel_raw[0]))
+        now = self.classify()
+        if now == UPRIGHT:
+            self._upright_ticks += 1
+            if self.state != UPRIGHT and self._upright_ticks >= self.settle_ticks:
+                self.state = UPRIGHT
+                self.emit("fall", "upright again", state=UPRIGHT)
+            return
+        self._upright_ticks = 0
+        if self.state != UPRIGHT:
+            return
+        self.state = now
+        self.falls += 1
+        self._on_fall(now)
+
+    def _on_fall(self, state: str) -> None:
+        manager = self.manager
+        assert manager is not None
+        # Everything that moves the body stops now (walking, behaviours, ball play); the head
+        # may keep its pose and the action player is about to get up.
+        for m in manager.modules:
+            if m is not self and m.name not in ("action", "head"):
+                m.halt()
+        page = self.front_page if state == FORWARD else self.back_page
+        action = manager.get("action")
+        recovering = False
+        if self.recover and action is not None:
+            try:
+                action.play(page)  # type: ignore[attr-defined]
+                recovering = True
+            except (KeyError, ValueError):
+                recovering = False
+        direction = "forward" if state == FORWARD else "backward"
+        self.emit(
+            "fall",
+            f"fell {direction}; motion stopped"
+            + (f", getting up (page {page})" if recovering else ""),
+            state=state,
+            recovering=recovering,
+            page=page if recovering else None,
+        )
+
+    def status(self) -> dict[str, Any]:
+        return {"active": False, "state": self.state, "falls": self.falls, "recover": self.recover}

@@ -1,0 +1,92 @@
+"""Sounds and phrases. Where the robot has a speaker, a configured player runs in a
+subprocess (``aplay``/``mpg123`` for files, ``espeak-ng`` for text) so the motion loop never
+waits; in the simulator (``backend = "event"``) the sound is published as an event instead."""
+
+from __future__ import annotations
+
+import logging
+import shutil
+import subprocess
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger(__name__)
+
+Emit = Callable[..., None]
+
+
+class SoundPlayer:
+    def __init__(self, section: dict[str, Any] | None = None) -> None:
+        s = section or {}
+        self.backend = str(s.get("backend", "event"))
+        if self.backend not in ("event", "command"):
+            raise ValueError(f"[sound] backend must be 'event' or 'command', not {self.backend!r}")
+        self.play_command = list(s.get("play_command", ["aplay", "-q", "{file}"]))
+        self.say_command = list(s.get("say_command", ["espeak-ng", "-v", "{lang}", "{text}"]))
+        self.language = str(s.get("language", "en"))
+        self.sounds_dir = Path(s["sounds_dir"]) if s.get("sounds_dir") else None
+        self._proc: subprocess.Popen[bytes] | None = None
+        self._stopped: list[subprocess.Popen[bytes]] = []  # terminated, reaped by polling
+        self.last: dict[str, Any] | None = None
+
+    def resolve(self, file: str) -> Path:
+        p = Path(file)
+        return self.sounds_dir / p if self.sounds_dir and not p.is_absolute() else p
+
+    def play(
+        self, emit: Emit, file: str | None = None, say: str | None = None, lang: str | None = None
+    ) -> dict[str, Any]:
+        """Start a sound (a file) or a phrase (text); returns what was done. Never blocks."""
+        if not file and not say:
+            raise ValueError("a sound needs a file or a phrase (say)")
+        lang = lang or self.language
+        what = {"file": file, "say": say, "lang": lang, "backend": self.backend}
+        self.last = what
+        if self.backend == "event":
+            text = f"sound {file}" if file else f"say {say!r}"
+            emit("sound", text, **what)
+            return {**what, "played": "event"}
+        if file:
+            path = self.resolve(file)
+            if not path.is_file():
+                raise ValueError(f"sound file {path} does not exist (check [sound] sounds_dir)")
+            argv = [a.format(file=str(path)) for a in self.play_command]
+        else:
+            argv = [a.format(text=say, lang=lang) for a in self.say_command]
+        if shutil.which(argv[0]) is None:
+            raise ValueError(
+                f"sound player {argv[0]!r} is not installed; set [sound] play_command/"
+                'say_command, or backend = "event"'
+            )
+        self.stop()
+        self._proc = subprocess.Popen(
+            argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
+        emit("sound", f"playing {file or repr(say)}", **what)
+        return {**what, "played": argv[0]}
+
+    def playing(self) -> bool:
+        self._stopped = [p for p in self._stopped if p.poll() is None]
+        return self._proc is not None and self._proc.poll() is None
+
+    def stop(self) -> None:
+        proc, self._proc = self._proc, None
+        if proc is not None and proc.poll() is None:
+            proc.terminate()
+            # Reaped later by poll(); never wait in the motion thread.
+            self._stopped.append(proc)
+
+    def close(self, timeout: float = 2.0) -> None:
+        """Stop and reap every player (at shutdown, not from the motion loop)."""
+        self.stop()
+        for proc in self._stopped:
+            try:
+                proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        self._stopped.clear()
+
+    def status(self) -> dict[str, Any]:
+        return {"backend": self.backend, "playing": self.playing(), "last": self.last}

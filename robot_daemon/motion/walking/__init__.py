@@ -1,0 +1,1 @@
+"""The omnidirectional walking engine: gait generator, leg inverse kinematics, parameters."""

@@ -1,0 +1,375 @@
+"""The omnidirectional gait of the ROBOTIS framework (Walking.cpp), as a motion module.
+
+A clock advances one tick at a time and wraps at the period T. The left foot swings from
+(1−SSP)·T/4 to (1+SSP)·T/4, the right half a period later (SSP = 1 − dsp_ratio), along
+half-cosines in x, y and yaw, lifting along a raised cosine to ``foot_height``; the body sways
+sideways (period T), fore/aft and up/down (period T/2). Commanded amplitudes are latched only at
+mid-swing, moving toward the command by at most ``accel_*`` per step. Stopping zeroes the
+command at the next step boundary, so walking ends at the end of a step.
+
+Commands in SI map to the framework's amplitudes (T in s):
+  X [mm] = x [m/s] · T · 1000 / 4   (the body advances 2·X per step, 4·X per cycle)
+  Y [mm] = y [m/s] · T · 1000 / 2   (the body moves Y per step)
+  A [°]  = turn [rad/s] · T / 2 in degrees (the body turns A per step)
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.motion.walking.ik import leg_servo_angles
+from robot_daemon.motion.walking.params import WalkParams
+
+LEG_IDS = tuple(range(7, 19))
+ARM_IDS = (1, 2)
+WALK_IDS = (*ARM_IDS, *LEG_IDS)
+ARM_INIT_DEG = {1: -48.345, 2: 41.313}  # the framework's shoulder pitch while walking
+# Framework servo directions used by the gyro feedback (Walking.cpp ``dir``).
+_DIR = {9: -1, 10: -1, 13: 1, 14: -1, 15: -1, 16: 1, 17: 1, 18: 1}
+GYRO_CENTER = 512
+
+
+def _wsin(t: float, period: float, shift: float, mag: float, mag_shift: float) -> float:
+    return mag * math.sin(2 * math.pi / period * t - shift) + mag_shift
+
+
+def amplitudes_from_si(x: float, y: float, turn: float, period_ms: float) -> tuple[float, ...]:
+    """(X mm, Y mm, A deg) for speeds x, y (m/s) and turn (rad/s)."""
+    t = period_ms / 1000.0
+    return (x * t * 1000 / 4, y * t * 1000 / 2, math.degrees(turn * t / 2))
+
+
+def si_from_amplitudes(x_mm: float, y_mm: float, a_deg: float, period_ms: float):
+    t = period_ms / 1000.0
+    return (x_mm * 4 / 1000 / t, y_mm * 2 / 1000 / t, math.radians(a_deg) * 2 / t)
+
+
+class WalkingModule(MotionModule):
+    name = "walking"
+
+    def __init__(self, params: WalkParams | None = None) -> None:
+        super().__init__()
+        self.params = params or WalkParams()
+        self.cmd = [0.0, 0.0, 0.0]  # commanded X mm, Y mm, A deg
+        self.latched = [0.0, 0.0, 0.0]  # amplitudes in use
+        self.ctrl_running = False
+        self.running = False
+        self.time_ms = 0.0
+        self.steps = 0
+        self.skipped = 0
+        self._ready_t: float | None = None  # s left in the blend into the stance
+        self._ready_from: dict[int, float] = {}
+        self._phase_flags: set[str] = set()
+        self._last: dict[int, float] = {}
+        self._gyro_f = [0.0, 0.0]  # low-passed gyro counts (right/left, front/back)
+        self._update_time()
+        self._update_move()
+
+    # -- commands --------------------------------------------------------------------------------
+    def start(
+        self, x: float | None = None, y: float | None = None, turn: float | None = None
+    ) -> tuple[float, ...]:
+        """Start (or keep) walking; with speeds x, y (m/s) and turn (rad/s) also set them (else
+        the last command stands). Returns the (X mm, Y mm, A deg) command."""
+        if x is not None or y is not None or turn is not None:
+            self.set_speed(x or 0.0, y or 0.0, turn or 0.0)
+        if not self.running:
+            self.claim(WALK_IDS)
+            self.running = True
+            self.time_ms = 0.0
+            self.latched = [0.0, 0.0, 0.0]
+            self._update_time()
+            self._ready_t = self.params.ready_time
+            self._ready_from = {}
+            self.emit("walk", "walking started", state="started")
+        self.ctrl_running = True
+        return tuple(self.cmd)
+
+    def set_speed(self, x: float, y: float, turn: float) -> tuple[float, ...]:
+        """Command speeds x, y (m/s) and turn (rad/s); see the module docstring for units."""
+        return self.set_amplitudes(*amplitudes_from_si(x, y, turn, self.params.period_time))
+
+    def set_amplitudes(self, x: float, y: float, turn: float) -> tuple[float, ...]:
+        """Command the framework's amplitudes: X, Y in mm, turn A in degrees (per step),
+        clamped to the configured maxima."""
+        p = self.params
+        xa, ya, aa = x, y, turn
+        self.cmd = [
+            max(-p.max_x, min(p.max_x, xa)),
+            max(-p.max_y, min(p.max_y, ya)),
+            max(-p.max_turn, min(p.max_turn, aa)),
+        ]
+        return tuple(self.cmd)
+
+    def stop(self) -> None:
+        """Finish the current step and stand."""
+        self.ctrl_running = False
+
+    def halt(self) -> None:
+        self.ctrl_running = self.running = False
+        self.cmd = [0.0, 0.0, 0.0]
+        self.latched = [0.0, 0.0, 0.0]
+        self._ready_t = None
+
+    def on_released(self, ids: set[int]) -> None:
+        if self.running and set(LEG_IDS) & ids:
+            self.halt()
+            self.emit("walk", "walking interrupted: another module took the legs", state="stopped")
+
+    @property
+    def walking(self) -> bool:
+        return self.running
+
+    # -- the framework's parameter updates -------------------------------------------------------
+    def _update_time(self) -> None:
+        p = self.params
+        t = p.period_time
+        ssp = 1.0 - p.dsp_ratio
+        self.period = t
+        self.ssp_start_l = (1 - ssp) * t / 4
+        self.ssp_end_l = (1 + ssp) * t / 4
+        self.ssp_start_r = (3 - ssp) * t / 4
+        self.ssp_end_r = (3 + ssp) * t / 4
+        self.x_move_period = self.y_move_period = self.a_move_period = t * ssp
+        self.z_move_period = t * ssp / 2
+        self.phase1 = (self.ssp_end_l + self.ssp_start_l) / 2
+        self.phase2 = (self.ssp_start_r + self.ssp_end_l) / 2
+        self.phase3 = (self.ssp_end_r + self.ssp_start_r) / 2
+
+    def _update_move(self) -> None:
+        """Latch the command at mid-swing (where every foot trajectory crosses zero, so the
+        change is smooth), within the acceleration limits; when stopping, latch zero."""
+        p = self.params
+        if not self.ctrl_running:
+            self.latched = [0.0, 0.0, 0.0]
+            return
+        for k, lim in enumerate((p.accel_x, p.accel_y, p.accel_turn)):
+            delta = max(-lim, min(lim, self.cmd[k] - self.latched[k]))
+            self.latched[k] += delta
+
+    def _boundary(self) -> None:
+        """A step boundary (time 0 or phase 2): stop here when asked and the feet are together
+        (amplitudes zero), else take one more step, latching zero at its mid-swing."""
+        self._update_time()
+        self.steps += 1
+        if not self.ctrl_running and all(abs(a) < 1e-9 for a in self.latched):
+            self.running = False
+            self.cmd = [0.0, 0.0, 0.0]
+            self.emit("walk", "walking stopped", state="stopped", steps=self.steps)
+
+    # -- the tick --------------------------------------------------------------------------------
+    def step(self, frame: JointFrame) -> dict[int, float]:
+        if not self.running:
+            if self._last and self.active:
+                # Standing after a stop: hand the joints back, holding the last pose.
+                self._last = {}
+                self.release()
+            return {}
+        tick_ms = frame.dt * 1000.0
+        if self._ready_t is not None:
+            return self._blend(frame)
+        self._clock(tick_ms)
+        goals = self._pose(frame)
+        if self.running:
+            self.time_ms += tick_ms
+            if self.time_ms >= self.period - 1e-9:
+                self.time_ms = 0.0
+        if goals is None:
+            self.skipped += 1
+            return {}
+        self._last = goals
+        return goals
+
+    def _clock(self, tick_ms: float) -> None:
+        t, half = self.time_ms, tick_ms / 2
+        if t == 0.0:
+            self._boundary()
+        elif self.phase1 - half <= t < self.phase1 + half:
+            self._update_move()
+        elif self.phase2 - half <= t < self.phase2 + half:
+            self.time_ms = self.phase2
+            self._boundary()
+        elif self.phase3 - half <= t < self.phase3 + half:
+            self._update_move()
+
+    def _blend(self, frame: JointFrame) -> dict[int, float]:
+        """Move smoothly from the present pose into the gait's stance before the clock runs."""
+        stance = self._pose(frame, balance=False)
+        if stance is None:
+            self.halt()
+            self.emit("walk", "walking refused: the stance is out of reach", state="stopped")
+            return {}
+        if not self._ready_from:
+            self._ready_from = {j: float(frame.position[j]) for j in stance}
+        total = max(self.params.ready_time, 1e-6)
+        assert self._ready_t is not None
+        self._ready_t -= frame.dt
+        s = min(1.0, 1.0 - self._ready_t / total) if self.params.ready_time > 0 else 1.0
+        w = (1 - math.cos(math.pi * s)) / 2
+        goals = {j: self._ready_from[j] + (g - self._ready_from[j]) * w for j, g in stance.items()}
+        if s >= 1.0:
+            self._ready_t = None
+        self._last = goals
+        return goals
+
+    def _pose(self, frame: JointFrame, balance: bool = True) -> dict[int, float] | None:
+        p, t = self.params, self.time_ms
+        xm, ym_cmd, am_cmd = self.latched
+        x_swap_amp = xm * p.step_forward_back_ratio
+        ym = ym_cmd / 2
+        y_swap_amp = p.swing_right_left + abs(ym) * 0.04
+        zm = p.foot_height / 2
+        am = math.radians(am_cmd) / 2
+        x_swap = _wsin(t, self.period / 2, math.pi, x_swap_amp, 0)
+        y_swap = _wsin(t, self.period, 0, y_swap_amp, 0)
+        z_swap = _wsin(t, self.period / 2, math.pi * 3 / 2, p.swing_top_down, p.swing_top_down)
+
+        def move(tt: float, period: float, start: float, extra: float, mag: float, shift: float):
+            return _wsin(tt, period, math.pi / 2 + 2 * math.pi / period * start + extra, mag, shift)
+
+        # Left foot swings in [start_l, end_l], the right in [start_r, end_r]; outside its own
+        # window each trajectory holds the value at the window's edge (Walking.cpp).
+        sl, el, sr, er = self.ssp_start_l, self.ssp_end_l, self.ssp_start_r, self.ssp_end_r
+        if t <= sl:
+            txy, start, extra, zl_t, zr_t = sl, sl, 0.0, sl, sr
+        elif t <= el:
+            txy, start, extra, zl_t, zr_t = t, sl, 0.0, t, sr
+        elif t <= sr:
+            txy, start, extra, zl_t, zr_t = el, sl, 0.0, el, sr
+        elif t <= er:
+            txy, start, extra, zl_t, zr_t = t, sr, math.pi, el, t
+        else:
+            txy, start, extra, zl_t, zr_t = er, sr, math.pi, el, er
+        tl = tr = txy
+        el = extra
+        x_l = move(tl, self.x_move_period, start, el, xm, 0)
+        y_l = move(tl, self.y_move_period, start, el, ym, abs(ym))
+        c_l = move(tl, self.a_move_period, start, el, am, abs(am))
+        x_r = move(tr, self.x_move_period, start, el, -xm, 0)
+        y_r = move(tr, self.y_move_period, start, el, -ym, -abs(ym))
+        c_r = move(tr, self.a_move_period, start, el, -am, -abs(am))
+        z_l = move(zl_t, self.z_move_period, self.ssp_start_l, 0, zm, zm)
+        z_r = move(zr_t, self.z_move_period, self.ssp_start_r, 0, zm, zm)
+
+        pelvis = math.radians(p.pelvis_offset)
+        pelvis_swing = pelvis * 0.35
+        pel_l = pel_r = 0.0
+        if self.ssp_start_l < t <= self.ssp_end_l:
+            ph = math.pi / 2 + 2 * math.pi / self.z_move_period * self.ssp_start_l
+            pel_l = _wsin(t, self.z_move_period, ph, pelvis_swing / 2, pelvis_swing / 2)
+            pel_r = _wsin(t, self.z_move_period, ph, -pelvis / 2, -pelvis / 2)
+        elif self.ssp_start_r < t <= self.ssp_end_r:
+            ph = math.pi / 2 + 2 * math.pi / self.z_move_period * self.ssp_start_r
+            pel_l = _wsin(t, self.z_move_period, ph, pelvis / 2, pelvis / 2)
+            pel_r = _wsin(t, self.z_move_period, ph, -pelvis_swing / 2, -pelvis_swing / 2)
+
+        r_off, p_off, a_off = (
+            math.radians(v) for v in (p.roll_offset, p.pitch_offset, p.yaw_offset)
+        )
+        mm = 0.001
+        right = (
+            (x_swap + x_r + p.x_offset) * mm,
+            (y_swap + y_r - p.y_offset / 2) * mm,
+            (z_swap + z_r + p.z_offset) * mm,
+            -r_off / 2,
+            p_off,
+            c_r - a_off / 2,
+        )
+        left = (
+            (x_swap + x_l + p.x_offset) * mm,
+            (y_swap + y_l + p.y_offset / 2) * mm,
+            (z_swap + z_l + p.z_offset) * mm,
+            r_off / 2,
+            p_off,
+            c_l + a_off / 2,
+        )
+        hip_pitch = math.radians(p.hip_pitch_offset)
+        r_servo = leg_servo_angles("right", right, hip_pitch)
+        l_servo = leg_servo_angles("left", left, hip_pitch)
+        if r_servo is None or l_servo is None:
+            return None
+        goals = {**r_servo, **l_servo}
+        goals[9] += -pel_r  # framework: dir · pelvis offset, dir = −1 on both hip rolls
+        goals[10] += -pel_l
+        arm = 0.0 if xm == 0 else _wsin(t, self.period, math.pi * 1.5, xm * p.arm_swing_gain, 0)
+        goals[1] = math.radians(ARM_INIT_DEG[1] - arm)
+        goals[2] = math.radians(ARM_INIT_DEG[2] - arm)
+        if balance and p.balance_enable:
+            self._balance(goals, frame)
+        if not self._within_limits(goals):
+            return None
+        return goals
+
+    def _balance(self, goals: dict[int, float], frame: JointFrame) -> None:
+        """The framework's gyro feedback (servo units per count × gain × 4), low-passed over
+        ``balance_filter`` s and limited to ``balance_limit`` degrees per joint: on a body
+        without compliance (the simulator) the raw law feeds its own correction back."""
+        p = self.params
+        raw = (
+            float(frame.gyro_raw[0]) - GYRO_CENTER,  # right/left rate (gyro X)
+            float(frame.gyro_raw[1]) - GYRO_CENTER,  # front/back rate (gyro Y)
+        )
+        a = 1.0 if p.balance_filter <= 0 else min(1.0, frame.dt / (p.balance_filter + frame.dt))
+        self._gyro_f = [f + (r - f) * a for f, r in zip(self._gyro_f, raw, strict=True)]
+        rl, fb = self._gyro_f
+        unit = 2 * math.pi / 4096  # the framework adds servo units
+        limit = math.radians(p.balance_limit)
+        terms = {
+            9: _DIR[9] * rl * p.balance_hip_roll_gain,
+            10: _DIR[10] * rl * p.balance_hip_roll_gain,
+            13: -_DIR[13] * fb * p.balance_knee_gain,
+            14: -_DIR[14] * fb * p.balance_knee_gain,
+            15: -_DIR[15] * fb * p.balance_ankle_pitch_gain,
+            16: -_DIR[16] * fb * p.balance_ankle_pitch_gain,
+            17: -_DIR[17] * rl * p.balance_ankle_roll_gain,
+            18: -_DIR[18] * rl * p.balance_ankle_roll_gain,
+        }
+        for j, term in terms.items():
+            goals[j] += max(-limit, min(limit, term * 4 * unit))
+
+    def _within_limits(self, goals: dict[int, float]) -> bool:
+        if self.manager is None:
+            return True
+        by_id = self.manager.robot.by_id
+        return all(j not in by_id or by_id[j].within(g) for j, g in goals.items())
+
+    def gains(self) -> dict[int, tuple[int, int, int]]:
+        p = self.params
+        return {j: (p.p_gain, p.i_gain, p.d_gain) for j in LEG_IDS}
+
+    def status(self) -> dict[str, Any]:
+        x, y, a = si_from_amplitudes(*self.latched, self.params.period_time)
+        return {
+            "active": self.active,
+            "walking": self.running,
+            "stopping": self.running and not self.ctrl_running,
+            "command": {"x_mm": self.cmd[0], "y_mm": self.cmd[1], "turn_deg": self.cmd[2]},
+            "amplitude": {
+                "x_mm": self.latched[0],
+                "y_mm": self.latched[1],
+                "turn_deg": self.latched[2],
+            },
+            "speed": {"x": x, "y": y, "turn": a},
+            "phase_ms": self.time_ms,
+            "steps": self.steps,
+            "skipped_ticks": self.skipped,
+        }
+
+
+def foot_heights(goals: dict[int, float], lean: float = 0.0) -> tuple[float, float]:
+    """Height (m) of each sole above the lower one, from servo goals, measured in a body frame
+    pitched forward by ``lean`` (rad; the gait's hip pitch offset makes the feet level)."""
+    from schemas.kinematics import leg_fk, rot_y
+
+    pos = np.zeros(21)
+    for j, g in goals.items():
+        pos[j] = g
+    level = rot_y(lean)
+    zr = (level @ leg_fk(pos, "right")[:3, 3])[2]
+    zl = (level @ leg_fk(pos, "left")[:3, 3])[2]
+    low = min(zr, zl)
+    return zr - low, zl - low

@@ -1,0 +1,95 @@
+"""Publication off the motion thread: the loop drops messages into 1-slot mailboxes and a
+publisher thread encodes and sends them, so a slow network never delays a tick.
+
+Per topic only the newest message waits (a stale joints frame is worth nothing); events go
+through a bounded FIFO because each one matters.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import deque
+from typing import Any
+
+import zenoh
+
+from schemas.keys import Keys
+from schemas.messages import Event, Message, encode
+
+log = logging.getLogger(__name__)
+
+# Topics the daemon publishes from the loop, by name → key property of ``Keys``.
+LOOP_TOPICS = ("joints", "imu", "status")
+
+
+class Publishers:
+    def __init__(self, session: zenoh.Session, keys: Keys) -> None:
+        self.session = session
+        self.keys = keys
+        self._pubs: dict[str, zenoh.Publisher] = {}
+        for topic in LOOP_TOPICS:
+            self._pubs[topic] = session.declare_publisher(
+                getattr(keys, topic),
+                congestion_control=zenoh.CongestionControl.DROP,
+                express=True,
+            )
+        self._pubs["events"] = session.declare_publisher(
+            keys.events, congestion_control=zenoh.CongestionControl.DROP
+        )
+        self._slots: dict[str, Message] = {}
+        self._events: deque[Event] = deque(maxlen=1000)
+        self._cond = threading.Condition()
+        self._stop = False
+        self.published = dict.fromkeys(self._pubs, 0)
+        self.dropped_events = 0
+        self._event_seq = 0
+        self._thread = threading.Thread(target=self._run, name="publisher", daemon=True)
+        self._thread.start()
+
+    def post(self, topic: str, msg: Message) -> None:
+        """Hand ``msg`` over; a message of the same topic not yet sent is replaced."""
+        with self._cond:
+            self._slots[topic] = msg
+            self._cond.notify()
+
+    def event(self, kind: str, message: str, **data: Any) -> None:
+        with self._cond:
+            self._event_seq += 1
+            if len(self._events) == self._events.maxlen:
+                self.dropped_events += 1
+            self._events.append(Event(kind=kind, message=message, data=data, seq=self._event_seq))
+            self._cond.notify()
+
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                while not self._slots and not self._events and not self._stop:
+                    self._cond.wait()
+                if self._stop and not self._slots and not self._events:
+                    return
+                slots, self._slots = self._slots, {}
+                events = list(self._events)
+                self._events.clear()
+            for ev in events:
+                self._put("events", ev)
+            for topic, msg in slots.items():
+                self._put(topic, msg)
+
+    def _put(self, topic: str, msg: Message) -> None:
+        try:
+            self._pubs[topic].put(encode(msg))
+            self.published[topic] += 1
+        except Exception:  # a closed session at shutdown, a value msgpack refuses
+            log.exception("publishing %s failed", topic)
+
+    def close(self) -> None:
+        with self._cond:
+            self._stop = True
+            self._cond.notify()
+        self._thread.join(timeout=2.0)
+        for pub in self._pubs.values():
+            try:
+                pub.undeclare()
+            except Exception:
+                log.debug("undeclare failed at shutdown", exc_info=True)

@@ -1,0 +1,269 @@
+"""The simulated Dynamixel bus: a CM-730 and MX-28 servos answering Protocol 1.0 frames.
+
+:meth:`Bus.handle` takes one parsed frame and returns the status packets the devices send, in
+bus order. No I/O and no clock of its own: the emulator feeds it bytes from the pty and time
+through :meth:`Bus.step`, and applies wire timing and faults to what it returns.
+
+Which instructions answer (as the firmware does):
+
+* status return level 0: PING only; 1: PING, READ and BULK_READ; 2: everything;
+* broadcast (ID 254): SYNC_WRITE, WRITE, REG_WRITE, ACTION and RESET act silently; BULK_READ is
+  answered by each listed device in the listed order; PING and READ to 254 get no answer;
+* a frame with a bad checksum is not executed; the addressed device answers with CHECKSUM
+  (0x10) if its return level would answer that instruction;
+* an unknown instruction, wrong parameter count, ACTION with nothing registered or SYNC_WRITE
+  and BULK_READ to a single ID earn INSTRUCTION (0x40);
+* servos behind the CM-730 are silent and inert while DXL_POWER is 0 and for
+  ``power_on_delay_s`` after it becomes 1; a ``silent`` ID never answers but still obeys.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_daemon.bus.packet import BadChecksum, Frame, Packet, status_packet
+from robot_daemon.bus.tables import BROADCAST_ID, CM730_ID, SERVO_IDS, ErrorBit, Instruction
+from robot_daemon.sim.devices import CM730Device, Device, Environment, Servo
+
+_MAX_READ = 250 - 6  # a status packet must fit the SDK's 250-byte receive buffer
+_READ_ONLY = frozenset((Instruction.PING, Instruction.READ, Instruction.BULK_READ))
+
+
+@dataclass(frozen=True)
+class Reply:
+    device_id: int
+    packet: bytes
+    return_delay_s: float
+
+
+def _answers(level: int, instruction: int) -> bool:
+    if instruction == Instruction.PING:
+        return True
+    if level == 1:
+        return instruction in (Instruction.READ, Instruction.BULK_READ)
+    return level >= 2
+
+
+class Bus:
+    def __init__(
+        self,
+        rng: np.random.Generator,
+        env: Environment | None = None,
+        servo_ids: Iterable[int] = SERVO_IDS,
+        imu_noise: float = 1.0,
+        gyro_full_scale_dps: float = 500.0,
+        power_on_delay_s: float = 0.3,
+        initial_positions: dict[int, int] | None = None,
+    ) -> None:
+        self.env = env or Environment()
+        self.cm730 = CM730Device(self.env, rng, imu_noise, gyro_full_scale_dps)
+        self.cm730.on_power = self._on_power
+        positions = initial_positions or {}
+        self.servos = {i: Servo(i, self.env, positions.get(i, 2048)) for i in servo_ids}
+        self.power_on_delay_s = power_on_delay_s
+        self.silent: set[int] = set()
+        self.time = 0.0
+        self._power_ready_at: float | None = None
+        self._registered: dict[int, tuple[int, bytes]] = {}
+        # ID → device, rebuilt after anything that can change who answers (power, writes).
+        self._index: dict[int, Device] | None = None
+
+    # ---- power and time -----------------------------------------------------------------------
+
+    @property
+    def servo_power(self) -> bool:
+        return any(s.powered for s in self.servos.values())
+
+    def _on_power(self, on: bool) -> None:
+        self._index = None
+        if not on:
+            self._power_ready_at = None
+            for servo in self.servos.values():
+                servo.power(False)
+        elif self._power_ready_at is None and not self.servo_power:
+            self._power_ready_at = self.time + self.power_on_delay_s
+            self._check_power()
+
+    def _check_power(self) -> None:
+        if self._power_ready_at is not None and self.time >= self._power_ready_at - 1e-9:
+            self._power_ready_at = None
+            self._index = None
+            for servo in self.servos.values():
+                servo.power(True)
+
+    def step(self, dt: float) -> None:
+        self.time += dt
+        self._check_power()
+        for servo in self.servos.values():
+            servo.step(dt)
+
+    def restore(self, power: bool | None = None) -> None:
+        """Every device back to its defaults and its configured ID, the servo bus powered as
+        ``power`` says or, if None, as it was (tests and the ``restore`` control op: undo
+        whatever a client wrote)."""
+        powered = self.servo_power if power is None else power
+        self._registered.clear()
+        self.cm730.factory_reset()
+        self.cm730.table["ID"] = CM730_ID
+        for dxl_id, servo in self.servos.items():
+            servo.factory_reset()
+            servo.table["ID"] = dxl_id
+            servo.power(False)
+        if powered:
+            self.cm730.table["DXL_POWER"] = 1
+            for servo in self.servos.values():
+                servo.power(True)
+        self._index = None
+
+    # ---- addressing -----------------------------------------------------------------------------
+
+    def devices(self) -> list[Device]:
+        """Every device that hears the bus right now (CM-730 first)."""
+        return [self.cm730, *(s for s in self.servos.values() if s.powered)]
+
+    def device(self, dxl_id: int) -> Device | None:
+        if self._index is None:
+            self._index = {}
+            for dev in reversed(self.devices()):  # on a shared ID the first device wins
+                self._index[dev.id] = dev
+        return self._index.get(dxl_id)
+
+    def servo(self, dxl_id: int) -> Servo:
+        """A servo by its configured ID, powered or not (for the control API)."""
+        try:
+            return self.servos[dxl_id]
+        except KeyError:
+            raise KeyError(
+                f"no servo with ID {dxl_id} on the simulated bus "
+                f"(IDs {min(self.servos)}..{max(self.servos)})"
+            ) from None
+
+    def _reply(
+        self, dev: Device, instruction: int, error: int, data: bytes = b"", level: int | None = None
+    ) -> list[Reply]:
+        level = dev.status_return_level if level is None else level
+        if dev.id in self.silent or not _answers(level, instruction):
+            return []
+        return [Reply(dev.id, status_packet(dev.id, error, data), dev.return_delay_s)]
+
+    # ---- frames ------------------------------------------------------------------------------
+
+    def handle(self, frame: Frame) -> list[Reply]:
+        try:
+            return self._handle(frame)
+        finally:
+            if frame.code not in _READ_ONLY:  # a write may have changed an ID
+                self._index = None
+
+    def _handle(self, frame: Frame) -> list[Reply]:
+        if isinstance(frame, BadChecksum):
+            dev = self.device(frame.id)
+            if dev is None:
+                return []
+            return self._reply(dev, frame.code, ErrorBit.CHECKSUM | dev.alarm_bits())
+        if frame.id == BROADCAST_ID:
+            return self._broadcast(frame)
+        dev = self.device(frame.id)
+        if dev is None:
+            return []
+        level = dev.status_return_level  # the level the packet arrived under decides the reply
+        error, data = self._execute(dev, frame)
+        return self._reply(dev, frame.code, error, data, level)
+
+    def _execute(self, dev: Device, p: Packet) -> tuple[int, bytes]:
+        inst, params = p.code, p.params
+        if inst == Instruction.PING:
+            return dev.alarm_bits(), b""
+        if inst == Instruction.READ:
+            if len(params) != 2:
+                return ErrorBit.INSTRUCTION | dev.alarm_bits(), b""
+            address, length = params
+            if length > _MAX_READ:
+                return ErrorBit.RANGE | dev.alarm_bits(), b""
+            data, error = dev.read(address, length)
+            return error, data
+        if inst == Instruction.WRITE:
+            if len(params) < 2:
+                return ErrorBit.INSTRUCTION | dev.alarm_bits(), b""
+            return dev.write(params[0], params[1:]), b""
+        if inst == Instruction.REG_WRITE:
+            if len(params) < 2:
+                return ErrorBit.INSTRUCTION | dev.alarm_bits(), b""
+            self._register(dev, params[0], params[1:])
+            return dev.alarm_bits(), b""
+        if inst == Instruction.ACTION:
+            return self._action(dev) | dev.alarm_bits(), b""
+        if inst == Instruction.RESET:
+            self._reset(dev)
+            return dev.alarm_bits(), b""
+        return ErrorBit.INSTRUCTION | dev.alarm_bits(), b""
+
+    def _register(self, dev: Device, address: int, data: bytes) -> None:
+        self._registered[id(dev)] = (address, bytes(data))
+        if "REGISTERED" in dev.table.registers:
+            dev.table["REGISTERED"] = 1
+
+    def _action(self, dev: Device) -> int:
+        pending = self._registered.pop(id(dev), None)
+        if pending is None:
+            return ErrorBit.INSTRUCTION
+        if "REGISTERED" in dev.table.registers:
+            dev.table["REGISTERED"] = 0
+        return dev.write(*pending)
+
+    def _reset(self, dev: Device) -> None:
+        self._registered.pop(id(dev), None)
+        dev.factory_reset()
+        if dev is self.cm730:
+            self._on_power(False)
+
+    def _broadcast(self, p: Packet) -> list[Reply]:
+        inst, params = p.code, p.params
+        if inst == Instruction.SYNC_WRITE:
+            self._sync_write(params)
+        elif inst == Instruction.BULK_READ:
+            return self._bulk_read(params)
+        elif inst in (Instruction.WRITE, Instruction.REG_WRITE) and len(params) >= 2:
+            for dev in self.devices():
+                if inst == Instruction.WRITE:
+                    dev.write(params[0], params[1:])
+                else:
+                    self._register(dev, params[0], params[1:])
+        elif inst == Instruction.ACTION:
+            for dev in self.devices():
+                if id(dev) in self._registered:
+                    self._action(dev)
+        elif inst == Instruction.RESET:
+            for dev in self.devices():
+                self._reset(dev)
+        return []
+
+    def _sync_write(self, params: bytes) -> None:
+        if len(params) < 2 or params[1] == 0:
+            return
+        start, size = params[0], params[1]
+        block = size + 1
+        body = params[2:]
+        # An incomplete trailing block is ignored; complete blocks before it still apply.
+        for i in range(0, len(body) - block + 1, block):
+            dev = self.device(body[i])
+            if dev is not None:
+                dev.write(start, body[i + 1 : i + block])
+
+    def _bulk_read(self, params: bytes) -> list[Reply]:
+        replies: list[Reply] = []
+        body = params[1:]  # params[0] is the 0x00 the protocol puts first
+        for i in range(0, len(body) - 2, 3):
+            length, dxl_id, address = body[i], body[i + 1], body[i + 2]
+            dev = self.device(dxl_id)
+            if dev is None:
+                continue
+            if length > _MAX_READ:
+                replies += self._reply(dev, Instruction.BULK_READ, ErrorBit.RANGE)
+                continue
+            data, error = dev.read(address, length)
+            replies += self._reply(dev, Instruction.BULK_READ, error, data)
+        return replies

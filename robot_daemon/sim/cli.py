@@ -1,0 +1,181 @@
+"""``darwin sim``: the hardware emulator on a pseudo-terminal until SIGINT/SIGTERM.
+
+Prints one line ``port: <path>`` on stdout once the port accepts clients. With
+``--control-listen ENDPOINT`` it also serves the control ops (faults, state, body motion…) on
+``darwin/<robot>/sim/control``.
+
+Extensions (the simulated world): if ``robot_daemon.sim.world.plugin`` exists it is imported;
+its ``add_arguments(parser)`` adds options here and ``attach(emulator, args, session)`` is
+called once the emulator runs (``session`` is the control session or None) and may return a
+function called at shutdown.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import logging
+import signal
+import sys
+import threading
+from types import ModuleType
+from typing import Any
+
+from robot_daemon.sim.emulator import Emulator
+from robot_daemon.sim.settings import EmulatorSettings
+
+log = logging.getLogger(__name__)
+PLUGIN = "robot_daemon.sim.world.plugin"
+
+
+def _plugin() -> ModuleType | None:
+    try:
+        return importlib.import_module(PLUGIN)
+    except ModuleNotFoundError as exc:
+        if exc.name and PLUGIN.startswith(exc.name):
+            return None
+        raise
+
+
+def _ids(text: str) -> list[int]:
+    try:
+        ids = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of IDs") from None
+    if any(not 0 <= i <= 253 for i in ids):
+        raise argparse.ArgumentTypeError(f"IDs in {text!r} must be 0..253")
+    return ids
+
+
+def _probability(text: str) -> float:
+    try:
+        p = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 <= p <= 1.0:
+        raise argparse.ArgumentTypeError(f"probability {p} is outside 0..1")
+    return p
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--config", metavar="FILE", help="user config file (its [emulator] section)"
+    )
+    parser.add_argument(
+        "--seed", type=int, metavar="N", help="seed of every random draw (replays a run)"
+    )
+    parser.add_argument(
+        "--no-wire-timing",
+        dest="wire_timing",
+        action="store_false",
+        default=None,
+        help="answer at once instead of at 1 Mbps wire speed",
+    )
+    parser.add_argument(
+        "--drop", metavar="P", type=_probability, help="probability of a dropped reply"
+    )
+    parser.add_argument(
+        "--corrupt", metavar="P", type=_probability, help="probability of a corrupted reply"
+    )
+    parser.add_argument(
+        "--delay", metavar="P", type=_probability, help="probability of a delayed reply"
+    )
+    parser.add_argument(
+        "--delay-ms", metavar="MS", type=float, help="how late a delayed reply is (ms)"
+    )
+    parser.add_argument(
+        "--silent-ids", metavar="IDS", type=_ids, help="IDs that never answer, e.g. 7,8"
+    )
+    parser.add_argument(
+        "--overheat",
+        type=_ids,
+        dest="overheat_ids",
+        metavar="IDS",
+        help="servo IDs stuck above their limit",
+    )
+    parser.add_argument("--voltage", metavar="V", type=float, help="supply voltage (V)")
+    parser.add_argument(
+        "--imu-noise", metavar="COUNTS", type=float, help="IMU noise, standard deviation in counts"
+    )
+    parser.add_argument(
+        "--power-on-delay",
+        type=float,
+        dest="power_on_delay_s",
+        metavar="S",
+        help="servos answer this long after DXL_POWER is set (s)",
+    )
+    parser.add_argument(
+        "--link", metavar="PATH", help="keep a symlink to the pty at this path (stable port path)"
+    )
+    parser.add_argument(
+        "--control-listen", metavar="ENDPOINT", help="Zenoh endpoint for the control ops"
+    )
+    parser.add_argument(
+        "--robot", metavar="NAME", help="robot name in the control key (default op1)"
+    )
+    plugin = _plugin()
+    if plugin is not None:
+        plugin.add_arguments(parser)
+
+
+def settings_from_args(args: argparse.Namespace) -> EmulatorSettings:
+    names = (
+        "seed",
+        "wire_timing",
+        "drop",
+        "corrupt",
+        "delay",
+        "delay_ms",
+        "silent_ids",
+        "overheat_ids",
+        "voltage",
+        "imu_noise",
+        "power_on_delay_s",
+        "link",
+    )
+    return EmulatorSettings.load(args.config, **{n: getattr(args, n) for n in names})
+
+
+def run(args: argparse.Namespace) -> int:
+    settings = settings_from_args(args)
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: Any) -> None:
+        stop.set()
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, on_signal)
+    closers = []
+    with contextlib.ExitStack() as stack:
+        try:
+            emulator = stack.enter_context(Emulator(settings))
+        except (KeyError, ValueError) as exc:
+            message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+            print(f"darwin sim: {message}", file=sys.stderr)
+            return 2
+        except OSError as exc:
+            print(f"darwin sim: cannot create the port ({exc}); check --link", file=sys.stderr)
+            return 2
+        session = None
+        if args.control_listen:
+            from robot_daemon.sim.control import serve_control
+            from schemas.session import open_server, resolve
+
+            target = resolve(args.control_listen, args.robot)
+            session = open_server([target.endpoint])
+            stack.callback(session.close)
+            queryable = serve_control(session, target.robot, emulator)
+            stack.callback(queryable.undeclare)
+            log.info("sim control on %s (robot %s)", target.endpoint, target.robot)
+        plugin = _plugin()
+        if plugin is not None:
+            closer = plugin.attach(emulator, args, session)
+            if closer is not None:
+                closers.append(closer)
+        print(f"port: {emulator.port}", flush=True)
+        print(f"seed {emulator.seed} on {emulator.port}", file=sys.stderr, flush=True)
+        stop.wait()
+        for closer in reversed(closers):
+            closer()
+    return 0

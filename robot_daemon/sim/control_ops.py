@@ -1,0 +1,136 @@
+"""The emulator's built-in control ops (see :mod:`robot_daemon.sim.control`).
+
+| op | fields | does |
+|---|---|---|
+| `ops` | | lists the ops |
+| `state` | | snapshot: time, power, LEDs, buttons, IMU, faults, stats, servos |
+| `faults` | `drop`, `corrupt`, `delay` (0..1), `delay_ms`, `silent_ids` | sets reply faults |
+| `clear_faults` | | no dropped/corrupt/delayed replies, no silent or overheated servo, 12 V |
+| `restore` | | every device back to its defaults and IDs (power kept) |
+| `silence` | `id`, `silent` (true) | a device stops (or resumes) answering |
+| `overheat` | `id`, `on` (true) | pins a servo above its temperature limit |
+| `voltage` | `volts` | supply voltage |
+| `body_motion` | `gyro` [x,y,z] rad/s, `accel` [x,y,z] m/s² | what the IMU feels (robot axes) |
+| `button` | `name` (mode/start), `pressed` (true) | presses or releases a button |
+| `set_position` | `id`, `rad` | moves a servo's horn from outside |
+| `load` | `id`, `fraction` | external load on a servo (−1..1 of max torque) |
+| `advance` | `dt` (s) | steps the dynamics now |
+| `vanish` / `reappear` | | the serial port goes away / comes back (reply: `port`) |
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from robot_daemon.sim.control import control_op, control_ops, field
+
+Request = dict[str, Any]
+
+
+@control_op("ops")
+def _ops(emu, req: Request) -> dict[str, Any]:
+    return {"ops": control_ops()}
+
+
+@control_op("state")
+def _state(emu, req: Request) -> dict[str, Any]:
+    return emu.state()
+
+
+@control_op("faults")
+def _faults(emu, req: Request) -> dict[str, Any]:
+    values = {
+        name: field(req, name, float, None) for name in ("drop", "corrupt", "delay", "delay_ms")
+    }
+    silent = field(req, "silent_ids", list, None)
+    if silent is not None:
+        if not all(isinstance(i, int) and not isinstance(i, bool) for i in silent):
+            raise ValueError(f"field 'silent_ids' must be a list of IDs, got {silent!r}")
+        with emu.lock:
+            for dxl_id in list(emu.bus.silent):
+                emu.silence(dxl_id, False)
+            for dxl_id in silent:
+                emu.silence(dxl_id, True)
+    emu.set_faults(**values)
+    return emu.fault_state()
+
+
+@control_op("clear_faults")
+def _clear_faults(emu, req: Request) -> dict[str, Any]:
+    with emu.lock:
+        emu.set_faults(drop=0.0, corrupt=0.0, delay=0.0)
+        for dxl_id in list(emu.bus.silent):
+            emu.silence(dxl_id, False)
+        for dxl_id, servo in emu.bus.servos.items():
+            if servo.forced_temperature is not None:
+                emu.overheat(dxl_id, False)
+        emu.set_voltage(emu.settings.voltage)
+        return emu.fault_state()
+
+
+@control_op("restore")
+def _restore(emu, req: Request) -> dict[str, Any]:
+    with emu.lock:
+        emu.bus.restore()
+    return {}
+
+
+@control_op("silence")
+def _silence(emu, req: Request) -> dict[str, Any]:
+    emu.silence(field(req, "id", int), field(req, "silent", bool, True))
+    return emu.fault_state()
+
+
+@control_op("overheat")
+def _overheat(emu, req: Request) -> dict[str, Any]:
+    emu.overheat(field(req, "id", int), field(req, "on", bool, True))
+    return emu.fault_state()
+
+
+@control_op("voltage")
+def _voltage(emu, req: Request) -> dict[str, Any]:
+    emu.set_voltage(field(req, "volts", float))
+    return emu.fault_state()
+
+
+@control_op("body_motion")
+def _body_motion(emu, req: Request) -> dict[str, Any]:
+    gyro = field(req, "gyro", list, [0.0, 0.0, 0.0])
+    accel = field(req, "accel", list, [0.0, 0.0, 9.80665])
+    emu.set_body_motion(gyro, accel)
+    return {"gyro": gyro, "accel": accel}
+
+
+@control_op("button")
+def _button(emu, req: Request) -> dict[str, Any]:
+    emu.press_button(field(req, "name", str), field(req, "pressed", bool, True))
+    return {"buttons": emu.register(emu.bus.cm730.id, "BUTTON")}
+
+
+@control_op("set_position")
+def _set_position(emu, req: Request) -> dict[str, Any]:
+    emu.set_present_position(field(req, "id", int), field(req, "rad", float))
+    return {}
+
+
+@control_op("load")
+def _load(emu, req: Request) -> dict[str, Any]:
+    emu.set_external_load(field(req, "id", int), field(req, "fraction", float))
+    return {}
+
+
+@control_op("advance")
+def _advance(emu, req: Request) -> dict[str, Any]:
+    emu.advance(field(req, "dt", float))
+    return {"sim_time": emu.sim_time}
+
+
+@control_op("vanish")
+def _vanish(emu, req: Request) -> dict[str, Any]:
+    emu.vanish()
+    return {}
+
+
+@control_op("reappear")
+def _reappear(emu, req: Request) -> dict[str, Any]:
+    return {"port": emu.reappear()}

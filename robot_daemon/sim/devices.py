@@ -1,0 +1,258 @@
+"""The simulated devices: an MX-28 servo (with its dynamics) and the CM-730 (with its IMU).
+
+Each device owns a :class:`ControlTable`; the bus engine calls :meth:`Device.read` and
+:meth:`Device.write`, the emulator calls :meth:`Servo.step` to move time on.
+
+Modelling choices (documented, not firmware-exact):
+
+* A servo with torque on moves its present position toward the goal at the moving speed
+  (0 = the MX-28's maximum, 55 rpm at 12 V, scaled with the supply voltage); torque off leaves it
+  where it is (the world may move it with :meth:`Servo.set_position`).
+* Present load is the external load the world applies plus a share for accelerating the horn;
+  over the torque limit it raises OVERLOAD.
+* Temperature follows a first-order model: it settles at ``ambient + heat_gain · load²`` with
+  time constant ``thermal_tau_s``. Above the temperature limit OVERHEATING is raised, and it
+  stays until the servo has cooled ``OVERHEAT_HYSTERESIS_C`` below the limit.
+* An alarm whose bit is in ALARM_SHUTDOWN turns torque off and keeps it off while it lasts
+  (torque enable writes are accepted but torque stays off, as the firmware's shutdown does).
+* Power-up (CM-730 DXL_POWER 0 → 1) restores the RAM area, with the goal at the present position.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_daemon.bus.tables import (
+    CM730,
+    CM730_TABLE_SIZE,
+    IMU_ACCEL_AXES,
+    IMU_GYRO_AXES,
+    MX28,
+    MX28_TABLE_SIZE,
+    ErrorBit,
+)
+from robot_daemon.sim.table import ControlTable
+from schemas import units
+
+# The overheating alarm, once raised, lasts until the servo is this much below its limit.
+OVERHEAT_HYSTERESIS_C = 5.0
+
+
+@dataclass
+class Environment:
+    """What every device shares: the supply voltage and the room."""
+
+    voltage: float = 12.0
+    ambient_c: float = 35.0
+    heat_gain_c: float = 70.0
+    thermal_tau_s: float = 60.0
+
+
+class Device:
+    def __init__(self, table: ControlTable, env: Environment) -> None:
+        self.table = table
+        self.env = env
+
+    @property
+    def id(self) -> int:
+        return self.table["ID"]
+
+    @property
+    def status_return_level(self) -> int:
+        return self.table["STATUS_RETURN_LEVEL"]
+
+    @property
+    def return_delay_s(self) -> float:
+        return self.table["RETURN_DELAY_TIME"] * 2e-6
+
+    def alarm_bits(self) -> int:
+        """Standing error bits every status packet of this device carries."""
+        return 0
+
+    def refresh(self) -> None:
+        """Bring computed registers up to date before a read."""
+
+    def read(self, address: int, length: int) -> tuple[bytes, int]:
+        self.refresh()
+        data, err = self.table.read(address, length)
+        return data, err | self.alarm_bits()
+
+    def write(self, address: int, data: bytes) -> int:
+        locked = bool(self.table.registers.get("LOCK") and self.table["LOCK"])
+        changes, err = self.table.check_write(address, data, locked)
+        err |= self.check_values(changes)
+        if not err:
+            for reg, value in changes:
+                self.table.put(reg, value)
+            self.after_write([reg for reg, _ in changes])
+        return err | self.alarm_bits()
+
+    def check_values(self, changes: list) -> int:
+        return 0
+
+    def after_write(self, changed: list) -> None:
+        pass
+
+    def factory_reset(self) -> None:
+        """RESET: every default back, except the ID, so the simulated bus stays addressable."""
+        keep = self.id
+        self.table.reset()
+        self.table["ID"] = keep
+
+
+class Servo(Device):
+    def __init__(self, dxl_id: int, env: Environment, position: int = 2048) -> None:
+        super().__init__(ControlTable(MX28, MX28_TABLE_SIZE), env)
+        self.table["ID"] = dxl_id
+        self.position = float(position)  # raw units, kept fractional between steps
+        self.velocity = 0.0  # raw units per second
+        self.temperature = env.ambient_c
+        self.external_load = 0.0  # fraction of max torque the world applies, signed
+        self.forced_temperature: float | None = None
+        self.overheated = False
+        self.powered = False
+        self._sync_registers()
+
+    # ---- alarms -----------------------------------------------------------------------------
+
+    def alarm_bits(self) -> int:
+        t = self.table
+        bits = 0
+        v10 = self.env.voltage * 10
+        if not t["MIN_VOLTAGE_LIMIT"] <= v10 <= t["MAX_VOLTAGE_LIMIT"]:
+            bits |= ErrorBit.INPUT_VOLTAGE
+        limit = t["TEMPERATURE_LIMIT"]
+        if self.temperature > limit:
+            self.overheated = True
+        elif self.temperature < limit - OVERHEAT_HYSTERESIS_C:
+            self.overheated = False
+        if self.overheated:
+            bits |= ErrorBit.OVERHEATING
+        if abs(self.load_fraction()) * 1023 > t["TORQUE_LIMIT"] and t["TORQUE_ENABLE"]:
+            bits |= ErrorBit.OVERLOAD
+        return bits
+
+    def _shutdown_active(self) -> bool:
+        return bool(self.alarm_bits() & self.table["ALARM_SHUTDOWN"])
+
+    # ---- writes -----------------------------------------------------------------------------
+
+    def check_values(self, changes: list) -> int:
+        cw, ccw = self.table["CW_ANGLE_LIMIT"], self.table["CCW_ANGLE_LIMIT"]
+        for reg, value in changes:
+            if reg == MX28.GOAL_POSITION.reg and (cw or ccw) and not cw <= value <= ccw:
+                return ErrorBit.ANGLE_LIMIT
+        return 0
+
+    def after_write(self, changed: list) -> None:
+        if MX28.TORQUE_ENABLE.reg in changed and self._shutdown_active():
+            self.table["TORQUE_ENABLE"] = 0
+
+    # ---- power and dynamics -----------------------------------------------------------------
+
+    def power(self, on: bool) -> None:
+        if on and not self.powered:
+            self.table.reset(eeprom=False)
+            self.table["GOAL_POSITION"] = round(self.position)
+        self.powered = on
+        if not on:
+            self.velocity = 0.0
+        self._sync_registers()
+
+    def max_speed(self) -> float:
+        """Speed limit in raw units per second for the current moving speed register."""
+        top = units.MX28_MAX_RPM * max(self.env.voltage, 0.0) / 12.0
+        rpm = self.table["MOVING_SPEED"] * units.RPM_PER_SPEED_UNIT
+        rpm = top if rpm == 0 else min(rpm, top)
+        return rpm * units.UNITS_PER_REV / 60.0
+
+    def load_fraction(self) -> float:
+        if not (self.powered and self.table["TORQUE_ENABLE"]):
+            return 0.0
+        top = units.MX28_MAX_RPM * units.UNITS_PER_REV / 60.0
+        return max(-1.0, min(1.0, self.external_load + 0.15 * self.velocity / top))
+
+    def step(self, dt: float) -> None:
+        if dt <= 0:
+            return
+        t = self.table
+        if self.powered and t["TORQUE_ENABLE"]:
+            goal = float(t["GOAL_POSITION"])
+            limit = self.max_speed() * dt
+            move = max(-limit, min(limit, goal - self.position))
+            self.position = min(float(units.POSITION_MAX), max(0.0, self.position + move))
+            self.velocity = move / dt
+        else:
+            self.velocity = 0.0
+        self._heat(dt)
+        if self._shutdown_active():
+            t["TORQUE_ENABLE"] = 0
+        self._sync_registers()
+
+    def _heat(self, dt: float) -> None:
+        if self.forced_temperature is not None:
+            self.temperature = self.forced_temperature
+            return
+        env = self.env
+        target = env.ambient_c + env.heat_gain_c * self.load_fraction() ** 2
+        self.temperature += (target - self.temperature) * (1 - math.exp(-dt / env.thermal_tau_s))
+
+    def set_position(self, raw: float) -> None:
+        """The world moves the horn (a limp joint pushed, a robot placed)."""
+        self.position = min(float(units.POSITION_MAX), max(0.0, float(raw)))
+        self._sync_registers()
+
+    def _sync_registers(self) -> None:
+        t = self.table
+        t["PRESENT_POSITION"] = round(self.position)
+        speed_units = self.velocity * 60.0 / units.UNITS_PER_REV / units.RPM_PER_SPEED_UNIT
+        t["PRESENT_SPEED"] = units.encode_signed_11bit(round(speed_units))
+        load_units = self.load_fraction() * 100.0 / units.LOAD_PERCENT_PER_UNIT
+        t["PRESENT_LOAD"] = units.encode_signed_11bit(round(load_units))
+        t["PRESENT_VOLTAGE"] = max(0, min(255, round(self.env.voltage * 10)))
+        t["PRESENT_TEMPERATURE"] = max(0, min(255, round(self.temperature)))
+        moving = t["TORQUE_ENABLE"] and abs(t["GOAL_POSITION"] - self.position) >= 1.0
+        t["MOVING"] = 1 if (self.powered and moving) else 0
+
+
+class CM730Device(Device):
+    """The sub-controller: power switch for the servo bus, LEDs, buttons, IMU and voltage."""
+
+    def __init__(
+        self,
+        env: Environment,
+        rng: np.random.Generator,
+        imu_noise: float = 1.0,
+        gyro_full_scale_dps: float = units.GYRO_DPS_FULL_SCALE,
+    ) -> None:
+        super().__init__(ControlTable(CM730, CM730_TABLE_SIZE), env)
+        self.rng = rng
+        self.imu_noise = imu_noise
+        self.gyro_full_scale_dps = gyro_full_scale_dps
+        self.gyro = (0.0, 0.0, 0.0)  # rad/s, robot axes
+        self.accel = (0.0, 0.0, units.GRAVITY)  # specific force, m/s², robot axes: upright
+        self.on_power = lambda on: None  # set by the bus: DXL_POWER writes switch the servos
+
+    def after_write(self, changed: list) -> None:
+        if CM730.DXL_POWER.reg in changed:
+            self.on_power(bool(self.table["DXL_POWER"]))
+
+    def refresh(self) -> None:
+        t = self.table
+        t["VOLTAGE"] = max(0, min(255, round(self.env.voltage * 10)))
+        for (member, sign), value in zip(IMU_GYRO_AXES, self.gyro, strict=True):
+            raw = units.rad_s_to_gyro_raw(sign * value, self.gyro_full_scale_dps)
+            t.put(member.value, self._noisy(raw))
+        for (member, sign), value in zip(IMU_ACCEL_AXES, self.accel, strict=True):
+            t.put(member.value, self._noisy(units.ms2_to_accel_raw(sign * value)))
+
+    def _noisy(self, raw: float) -> int:
+        if self.imu_noise > 0:
+            raw += self.rng.normal(0.0, self.imu_noise)
+        return max(0, min(1023, round(raw)))
+
+    def set_buttons(self, mask: int) -> None:
+        self.table["BUTTON"] = mask & 0x03

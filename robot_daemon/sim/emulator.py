@@ -1,0 +1,336 @@
+"""The hardware emulator: the simulated bus served on a pseudo-terminal, in a thread of its own.
+
+    with Emulator(EmulatorSettings(wire_timing=False)) as emu:
+        port = PortHandler(emu.port)        # dynamixel-sdk, exactly as on the robot
+
+One thread blocks in ``select`` on the pty (and a wake-up pipe), parses what arrives, lets the
+:class:`~robot_daemon.sim.bus.Bus` answer, and writes the replies when a 1 Mbps wire would have
+delivered them. Time: with ``realtime`` the servos advance to "now" before every packet, and a
+physics thread runs the physics hooks every ``idle_step_s`` (only while there are hooks);
+without it, only :meth:`advance` moves time (a simulated clock can then run faster than real
+time). Every public method is thread-safe.
+
+The seam for the simulated world (``robot_daemon/sim/world``): :meth:`add_physics_hook` gets
+``fn(dt, emulator)`` after every physics step (at most ``max_step_s`` long), and inside it the
+world reads :meth:`present_positions` / :meth:`goal_positions` and feeds back
+:meth:`set_body_motion` (and :meth:`set_present_position` for limp joints). Hooks run without
+the emulator's lock, so the bus keeps answering while they compute.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import select
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from robot_daemon.bus.packet import BadChecksum, Frame, PacketParser
+from robot_daemon.sim.bus import Bus
+from robot_daemon.sim.devices import Environment
+from robot_daemon.sim.faults import Faults
+from robot_daemon.sim.pty_link import PtyLink
+from robot_daemon.sim.settings import EmulatorSettings
+from robot_daemon.sim.state import EmulatorApi
+
+log = logging.getLogger(__name__)
+
+PhysicsHook = Callable[[float, "Emulator"], None]
+_EARLY = 50e-6  # write a reply this close to its due time rather than sleep again
+_MAX_CATCH_UP_S = 0.1
+
+
+class Emulator(EmulatorApi):
+    def __init__(self, settings: EmulatorSettings | None = None, **overrides: Any) -> None:
+        s = settings or EmulatorSettings()
+        for key, value in overrides.items():
+            if not hasattr(s, key):
+                raise TypeError(f"Emulator got an unknown setting {key!r}")
+            setattr(s, key, value)
+        self.settings = s
+        self.seed = s.seed or int(np.random.SeedSequence().entropy % 2**32)
+        self.rng = np.random.default_rng(self.seed)
+        self.lock = threading.RLock()
+        self.env = Environment(s.voltage, s.ambient_c, s.heat_gain_c, s.thermal_tau_s)
+        self.bus = Bus(
+            self.rng,
+            self.env,
+            imu_noise=s.imu_noise,
+            gyro_full_scale_dps=s.gyro_full_scale_dps,
+            power_on_delay_s=s.power_on_delay_s,
+            initial_positions=s.initial_positions,
+        )
+        self.set_voltage(s.voltage)  # checks the range
+        for dxl_id in s.silent_ids:
+            self.silence(dxl_id)
+        for dxl_id in s.overheat_ids:
+            self.overheat(dxl_id)
+        self.faults = Faults(s.drop, s.corrupt, s.delay, s.delay_ms)
+        self.wire_timing = s.wire_timing
+        self.byte_time_s = 10.0 / s.baud
+        self.link = PtyLink(s.link)
+        self.parser = PacketParser()
+        self.received: deque[Frame] = deque(maxlen=1000)
+        self.stats: dict[str, int] = dict.fromkeys(
+            (
+                "rx_bytes",
+                "frames",
+                "bad_checksums",
+                "replies",
+                "dropped",
+                "corrupted",
+                "delayed",
+                "collisions",
+                "overflow_bytes",
+            ),
+            0,
+        )
+        self._hooks: list[PhysicsHook] = []
+        self._out: deque[tuple[float, bytes]] = deque()
+        self._bus_free = 0.0
+        self._last_rx = 0.0
+        self._clock = time.monotonic()
+        self._thread: threading.Thread | None = None
+        self._physics_thread: threading.Thread | None = None
+        self._physics_wake = threading.Event()
+        self._hook_failures = 0
+        self._stopping = threading.Event()
+        self._wake_r = self._wake_w = -1  # a pipe that wakes the thread, made by start()
+        self._served = threading.Condition(self.lock)
+
+    # ---- lifecycle --------------------------------------------------------------------------
+
+    @property
+    def port(self) -> str:
+        """The path a client opens (the ``link`` symlink if one was asked for)."""
+        return self.link.path
+
+    def start(self) -> Emulator:
+        if self._thread is not None:
+            raise RuntimeError("this Emulator is already running; create another one")
+        self.link.open()
+        self._wake_r, self._wake_w = os.pipe()
+        self._clock = time.monotonic()
+        self._thread = threading.Thread(target=self._serve, name="darwin-sim-bus", daemon=True)
+        self._thread.start()
+        if self.settings.realtime:
+            self._physics_thread = threading.Thread(
+                target=self._physics, name="darwin-sim-physics", daemon=True
+            )
+            self._physics_thread.start()
+        log.info("emulator on %s (seed %d)", self.port, self.seed)
+        return self
+
+    def stop(self) -> None:
+        self._stopping.set()
+        self._physics_wake.set()
+        self._wake()
+        for thread in (self._thread, self._physics_thread):
+            if thread is not None:
+                thread.join(timeout=5)
+        self._thread = self._physics_thread = None
+        with self.lock:
+            self.link.close()
+        for fd in (self._wake_r, self._wake_w):
+            if fd >= 0:
+                os.close(fd)
+        self._wake_r = self._wake_w = -1
+
+    def __enter__(self) -> Emulator:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def _wake(self) -> None:
+        with contextlib.suppress(OSError):
+            os.write(self._wake_w, b"x")
+
+    # ---- the port vanishing ------------------------------------------------------------------
+
+    def vanish(self) -> None:
+        """Close the pty and remove the link: clients lose the port."""
+        with self.lock:
+            self.link.close()
+            self.parser.reset()
+            self._out.clear()
+        self._wake()
+
+    def reappear(self) -> str:
+        """A new pty (relinked if there is a link); returns the path to open."""
+        with self.lock:
+            self.link.open()
+        self._wake()
+        return self.port
+
+    # ---- time ---------------------------------------------------------------------------------
+
+    def add_physics_hook(self, fn: PhysicsHook) -> None:
+        with self.lock:
+            self._hooks.append(fn)
+        self._physics_wake.set()
+
+    def remove_physics_hook(self, fn: PhysicsHook) -> None:
+        with self.lock:
+            self._hooks.remove(fn)
+
+    def advance(self, dt: float) -> None:
+        """Step the dynamics by ``dt`` seconds now (in steps of at most ``max_step_s``)."""
+        if dt < 0:
+            raise ValueError(f"advance(dt={dt!r}): time only goes forward")
+        remaining = dt
+        while remaining > 1e-12:
+            h = min(remaining, self.settings.max_step_s)
+            with self.lock:
+                self.bus.step(h)
+            self._run_hooks(h)
+            remaining -= h
+
+    @property
+    def sim_time(self) -> float:
+        return self.bus.time
+
+    def _run_hooks(self, dt: float) -> None:
+        # Hooks run without the lock: the bus keeps answering while the world computes, and
+        # the emulator methods a hook calls take the lock themselves.
+        for hook in list(self._hooks):
+            try:
+                hook(dt, self)
+            except Exception:
+                self._hook_failures += 1
+                if self._hook_failures <= 3:
+                    log.exception("emulator: physics hook %r failed", hook)
+
+    def _sync_servos(self) -> None:
+        """Real-time clock: bring the servos to "now" (one exact step, cheap) before answering."""
+        now = time.monotonic()
+        dt, self._clock = now - self._clock, now
+        if dt > 0:
+            self.bus.step(dt)
+
+    def _physics(self) -> None:
+        """Real-time clock: run the physics hooks every ``idle_step_s`` while there are any."""
+        last = time.monotonic()
+        while not self._stopping.is_set():
+            if not self._hooks:
+                self._physics_wake.wait()
+                self._physics_wake.clear()
+                last = time.monotonic()
+                continue
+            if self._stopping.wait(self.settings.idle_step_s):
+                return
+            now = time.monotonic()
+            # After a stall (a debugger, a loaded machine) the world skips time, not replays it.
+            dt, last = min(now - last, _MAX_CATCH_UP_S), now
+            with self.lock:
+                self._sync_servos()
+            while dt > 1e-12:
+                h = min(dt, self.settings.max_step_s)
+                self._run_hooks(h)
+                dt -= h
+
+    # ---- the serving thread -----------------------------------------------------------------
+
+    def _serve(self) -> None:
+        while not self._stopping.is_set():
+            with self.lock:
+                fds = [self._wake_r] + ([self.link.master] if self.link.is_open else [])
+                timeout = self._timeout()
+            try:
+                readable, _, _ = select.select(fds, [], [], timeout)
+            except (OSError, ValueError):
+                continue  # the pty was closed under us (vanish); look again
+            if self._wake_r in readable:
+                with contextlib.suppress(OSError):
+                    os.read(self._wake_r, 512)
+            with self.lock:
+                try:
+                    self._service(readable)
+                except Exception:  # keep serving: a bug must not take the bus down
+                    log.exception("emulator: error while serving the bus")
+                self._served.notify_all()
+
+    def _timeout(self) -> float | None:
+        now = time.perf_counter()
+        waits = []
+        if self._out:
+            waits.append(self._out[0][0] - now)
+        if self.parser.pending:
+            waits.append(self._last_rx + self.settings.packet_timeout_s - now)
+        return max(0.0, min(waits)) if waits else None
+
+    def _service(self, readable: list[int]) -> None:
+        if self.settings.realtime:
+            self._sync_servos()
+        master = self.link.master
+        if master is not None and master in readable:
+            data = self.link.read()
+            if data:
+                now = time.perf_counter()
+                if self._out:  # the host talks while a reply is pending: they collide
+                    self.stats["collisions"] += len(self._out)
+                    self._out.clear()
+                    self._bus_free = now
+                self.stats["rx_bytes"] += len(data)
+                self._last_rx = now
+                self._process(self.parser.feed(data), now)
+        if self.parser.pending and (
+            time.perf_counter() - self._last_rx >= self.settings.packet_timeout_s
+        ):
+            self._process(self.parser.expire(), time.perf_counter())
+        self._flush()
+
+    def _process(self, frames: list[Frame], t_rx: float) -> None:
+        t = max(t_rx, self._bus_free)
+        for frame in frames:
+            self.received.append(frame)
+            self.stats["frames"] += 1
+            if isinstance(frame, BadChecksum):
+                self.stats["bad_checksums"] += 1
+                size = len(frame.raw)
+            else:
+                size = len(frame.params) + 6
+            if self.wire_timing:
+                t += size * self.byte_time_s
+            for reply in self.bus.handle(frame):
+                packet, extra, fault = self.faults.apply(self.rng, reply.packet)
+                if fault:
+                    self.stats[fault] += 1
+                if packet is None:
+                    continue
+                if self.wire_timing:
+                    t += reply.return_delay_s + len(packet) * self.byte_time_s
+                t += extra
+                self._out.append((t, packet))
+        self._bus_free = t
+
+    def _flush(self) -> None:
+        if not self._out or self.link.master is None:
+            return
+        now = time.perf_counter()
+        chunk = bytearray()
+        while self._out and self._out[0][0] <= now + _EARLY:
+            chunk += self._out.popleft()[1]
+            self.stats["replies"] += 1
+        if chunk:
+            written = self.link.write(bytes(chunk))
+            self.stats["overflow_bytes"] += len(chunk) - written
+
+    def wait_quiet(self, timeout: float = 5.0) -> bool:
+        """Block until no partial packet is held and no reply waits to be sent."""
+        with self._served:
+            return self._served.wait_for(lambda: not self.parser.pending and not self._out, timeout)
+
+    def wait_stat(self, name: str, at_least: int, timeout: float = 5.0) -> bool:
+        """Block until ``stats[name]`` reaches ``at_least``, e.g. until the emulator has taken
+        a packet that gets no reply (``"frames"``) or sent one (``"replies"``)."""
+        if name not in self.stats:
+            raise KeyError(f"no emulator statistic {name!r}; known: {', '.join(self.stats)}")
+        with self._served:
+            return self._served.wait_for(lambda: self.stats[name] >= at_least, timeout)

@@ -1,0 +1,59 @@
+"""Emulator settings: the ``[emulator]`` config section, overridable field by field."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+from config.loader import load_all
+from schemas.errors import ConfigError
+
+
+@dataclass
+class EmulatorSettings:
+    seed: int = 0  # 0: a fresh seed, logged so the run can be replayed
+    wire_timing: bool = True
+    baud: int = 1_000_000
+    power_on_delay_s: float = 0.3
+    voltage: float = 12.0
+    imu_noise: float = 1.0
+    gyro_full_scale_dps: float = 500.0
+    max_step_s: float = 0.01
+    idle_step_s: float = 0.02
+    packet_timeout_s: float = 0.01
+    drop: float = 0.0
+    corrupt: float = 0.0
+    delay: float = 0.0
+    delay_ms: float = 50.0
+    silent_ids: list[int] = field(default_factory=list)
+    overheat_ids: list[int] = field(default_factory=list)
+    ambient_c: float = 35.0
+    heat_gain_c: float = 70.0
+    thermal_tau_s: float = 60.0
+    # Not in the config file: how the emulator is reached and clocked.
+    link: str | None = None
+    realtime: bool = True  # False: time moves only through Emulator.advance(dt)
+    initial_positions: dict[int, int] = field(default_factory=dict)
+
+    @classmethod
+    def load(cls, path: str | None = None, **overrides: Any) -> EmulatorSettings:
+        """Shipped ``[emulator]`` values, the user file on top, then ``overrides`` (not None)."""
+        data = load_all(path)
+        section = dict(data.get("emulator", {}))
+        gyro = data.get("imu", {}).get("gyro_full_scale_dps")
+        if gyro is not None:
+            section.setdefault("gyro_full_scale_dps", gyro)
+        section.update({k: v for k, v in overrides.items() if v is not None})
+        return cls.from_dict(section)
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any]) -> EmulatorSettings:
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise ConfigError(
+                f"unknown [emulator] setting(s) {', '.join(unknown)}; "
+                f"known: {', '.join(sorted(known))}"
+            )
+        return cls(**values)

@@ -1,0 +1,200 @@
+"""The emulator's run-time API: the world's seam, faults on demand, and a snapshot of its state.
+
+A mixin of :class:`~robot_daemon.sim.emulator.Emulator` (which provides ``lock``, ``bus``,
+``env``, ``faults``); kept apart so the serving loop stays readable. Angles are servo angles in
+rad (raw 2048 = 0), as :mod:`schemas.units` converts them.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+from schemas import units
+
+if TYPE_CHECKING:
+    from robot_daemon.sim.bus import Bus
+    from robot_daemon.sim.devices import Environment
+    from robot_daemon.sim.faults import Faults
+
+BUTTONS = {"mode": 0x01, "start": 0x02}
+
+
+def _vector(name: str, value: Sequence[float]) -> tuple[float, float, float]:
+    values = tuple(float(v) for v in value)
+    if len(values) != 3:
+        raise ValueError(f"{name} needs 3 values (x, y, z in robot axes), got {len(values)}")
+    return values  # type: ignore[return-value]
+
+
+class EmulatorApi:
+    lock: threading.RLock
+    bus: Bus
+    env: Environment
+    faults: Faults
+    seed: int
+    stats: dict[str, int]
+
+    # ---- the world's seam ---------------------------------------------------------------------
+
+    def present_positions(self) -> dict[int, float]:
+        """Servo angle (rad) of every servo by ID, powered or not."""
+        with self.lock:
+            return {i: float(units.raw_to_rad(s.position)) for i, s in self.bus.servos.items()}
+
+    def goal_positions(self) -> dict[int, float]:
+        with self.lock:
+            return {
+                i: float(units.raw_to_rad(s.table["GOAL_POSITION"]))
+                for i, s in self.bus.servos.items()
+            }
+
+    def torque_enabled(self) -> dict[int, bool]:
+        with self.lock:
+            return {
+                i: bool(s.powered and s.table["TORQUE_ENABLE"]) for i, s in self.bus.servos.items()
+            }
+
+    def set_present_position(self, dxl_id: int, rad: float) -> None:
+        """Move a servo's horn from outside (a limp joint pushed, the robot placed)."""
+        raw = units.rad_to_raw(rad)
+        if not 0 <= raw <= units.POSITION_MAX:
+            raise ValueError(f"{rad} rad is outside the servo's range (raw {raw}, 0..4095)")
+        with self.lock:
+            self.bus.servo(dxl_id).set_position(raw)
+
+    def set_external_load(self, dxl_id: int, fraction: float) -> None:
+        """Torque the world applies on a servo, as a signed fraction of its maximum."""
+        with self.lock:
+            self.bus.servo(dxl_id).external_load = max(-1.0, min(1.0, float(fraction)))
+
+    def set_body_motion(
+        self,
+        gyro_rad_s: Sequence[float] = (0.0, 0.0, 0.0),
+        accel_ms2: Sequence[float] = (0.0, 0.0, units.GRAVITY),
+    ) -> None:
+        """What the CM-730's IMU feels, in robot axes (x forward, y left, z up).
+
+        ``accel_ms2`` is the specific force, gravity included: upright and still is (0, 0, +g).
+        """
+        gyro, accel = _vector("gyro_rad_s", gyro_rad_s), _vector("accel_ms2", accel_ms2)
+        with self.lock:
+            self.bus.cm730.gyro, self.bus.cm730.accel = gyro, accel
+
+    # ---- faults and inputs --------------------------------------------------------------------
+
+    def set_faults(
+        self,
+        drop: float | None = None,
+        corrupt: float | None = None,
+        delay: float | None = None,
+        delay_ms: float | None = None,
+    ) -> dict[str, float]:
+        with self.lock:
+            old = (self.faults.drop, self.faults.corrupt, self.faults.delay, self.faults.delay_ms)
+            for name, value in (
+                ("drop", drop),
+                ("corrupt", corrupt),
+                ("delay", delay),
+                ("delay_ms", delay_ms),
+            ):
+                if value is not None:
+                    setattr(self.faults, name, float(value))
+            try:
+                self.faults.check()
+            except ValueError:
+                self.faults.drop, self.faults.corrupt, self.faults.delay, self.faults.delay_ms = old
+                raise
+            return self.fault_state()
+
+    def fault_state(self) -> dict[str, Any]:
+        with self.lock:
+            return {
+                "drop": self.faults.drop,
+                "corrupt": self.faults.corrupt,
+                "delay": self.faults.delay,
+                "delay_ms": self.faults.delay_ms,
+                "silent_ids": sorted(self.bus.silent),
+                "overheat_ids": sorted(
+                    i for i, s in self.bus.servos.items() if s.forced_temperature is not None
+                ),
+                "voltage": self.env.voltage,
+            }
+
+    def silence(self, dxl_id: int, silent: bool = True) -> None:
+        """A device that stops answering (it still obeys writes)."""
+        with self.lock:
+            if dxl_id != self.bus.cm730.id:
+                self.bus.servo(dxl_id)  # a clear error for an unknown ID
+            if silent:
+                self.bus.silent.add(dxl_id)
+            else:
+                self.bus.silent.discard(dxl_id)
+
+    def overheat(self, dxl_id: int, on: bool = True) -> None:
+        """Pin a servo 5 °C above its limit; off brings it back to the ambient temperature."""
+        with self.lock:
+            servo = self.bus.servo(dxl_id)
+            if on:
+                servo.forced_temperature = servo.table["TEMPERATURE_LIMIT"] + 5.0
+                servo.temperature = servo.forced_temperature
+            else:
+                servo.forced_temperature = None
+                servo.temperature = self.env.ambient_c
+            servo.step(1e-6)  # alarm and shutdown take effect at once
+
+    def set_voltage(self, volts: float) -> None:
+        if not 0.0 <= volts <= 25.5:
+            raise ValueError(f"voltage {volts} V is outside 0..25.5 V")
+        with self.lock:
+            self.env.voltage = float(volts)
+
+    def press_button(self, name: str, pressed: bool = True) -> None:
+        if name not in BUTTONS:
+            raise ValueError(f"unknown button {name!r}; buttons: {', '.join(BUTTONS)}")
+        with self.lock:
+            mask = self.bus.cm730.table["BUTTON"]
+            mask = mask | BUTTONS[name] if pressed else mask & ~BUTTONS[name]
+            self.bus.cm730.set_buttons(mask)
+
+    # ---- inspection -----------------------------------------------------------------------------
+
+    def register(self, dxl_id: int, name: str) -> int:
+        """A register's value by name, straight from the table (tests and debugging)."""
+        with self.lock:
+            dev = self.bus.cm730 if dxl_id == self.bus.cm730.id else self.bus.servo(dxl_id)
+            dev.refresh()
+            return dev.table[name]
+
+    def state(self) -> dict[str, Any]:
+        """A plain snapshot (msgpack-able) for the control API and debugging."""
+        with self.lock:
+            cm = self.bus.cm730
+            servos = {}
+            for i, s in self.bus.servos.items():
+                t = s.table
+                servos[str(i)] = {
+                    "position": float(units.raw_to_rad(s.position)),
+                    "goal": float(units.raw_to_rad(t["GOAL_POSITION"])),
+                    "torque": bool(t["TORQUE_ENABLE"]),
+                    "temperature": round(s.temperature, 2),
+                    "alarm": s.alarm_bits() if s.powered else 0,
+                    "powered": s.powered,
+                }
+            return {
+                "seed": self.seed,
+                "sim_time": self.bus.time,
+                "dxl_power": bool(cm.table["DXL_POWER"]),
+                "servo_power": self.bus.servo_power,
+                "leds": {
+                    "panel": cm.table["LED_PANEL"],
+                    "head": cm.table["LED_HEAD"],
+                    "eye": cm.table["LED_EYE"],
+                },
+                "buttons": cm.table["BUTTON"],
+                "imu": {"gyro": list(cm.gyro), "accel": list(cm.accel)},
+                "faults": self.fault_state(),
+                "stats": dict(self.stats),
+                "servos": servos,
+            }

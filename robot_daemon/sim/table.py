@@ -1,0 +1,94 @@
+"""A device's control table in memory: bytes, register layout, access rules and range checks.
+
+The layout comes from :mod:`robot_daemon.bus.tables`. Error bits a WRITE can earn, as this
+emulator decides them (the Protocol 1.0 e-manual names the bits but not every case):
+
+* value of a register outside its range, write to a read-only register, write past the end
+  of the table, EEPROM write while LOCK is set: **RANGE (0x08)**, and nothing of the packet is
+  written (a write is all or nothing);
+* MX-28 goal position outside the CW..CCW angle limits: **ANGLE_LIMIT (0x02)**, not written;
+* addresses that are not in the table (reserved bytes such as the MX-28's 29, which the
+  framework sync-writes as 0 every tick) accept any value and read back 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from enum import Enum
+
+from robot_daemon.bus.tables import Access, ErrorBit, Register
+
+
+class ControlTable:
+    def __init__(self, registers: Iterable[Enum], size: int) -> None:
+        self.size = size
+        self.registers: dict[str, Register] = {m.name: m.value for m in registers}
+        self._by_address: dict[int, tuple[str, Register]] = {}
+        for name, reg in self.registers.items():
+            for a in range(reg.address, reg.end):
+                self._by_address[a] = (name, reg)
+        self.data = bytearray(size)
+        self.reset()
+
+    def reset(self, eeprom: bool = True) -> None:
+        """Defaults of every register (RAM only when ``eeprom`` is false, as at power-on)."""
+        for reg in self.registers.values():
+            if reg.default is not None and (eeprom or not reg.eeprom):
+                self.put(reg, reg.default)
+
+    # ---- raw access (the device model uses these; no checks) -------------------------------
+
+    def get(self, reg: Register) -> int:
+        a = reg.address
+        if reg.size == 1:
+            return self.data[a]
+        return self.data[a] | (self.data[a + 1] << 8)
+
+    def put(self, reg: Register, value: int) -> None:
+        a, v = reg.address, int(value)
+        self.data[a] = v & 0xFF
+        if reg.size == 2:
+            self.data[a + 1] = (v >> 8) & 0xFF
+
+    def __getitem__(self, name: str) -> int:
+        return self.get(self.registers[name])
+
+    def __setitem__(self, name: str, value: int) -> None:
+        self.put(self.registers[name], value)
+
+    # ---- bus access --------------------------------------------------------------------------
+
+    def read(self, address: int, length: int) -> tuple[bytes, int]:
+        """Bytes for a READ and the error bits: past the end reads as zeros with RANGE set."""
+        if address >= self.size or length == 0:
+            return bytes(length), ErrorBit.RANGE
+        end = min(address + length, self.size)
+        data = bytes(self.data[address:end]) + bytes(address + length - end)
+        return data, (ErrorBit.RANGE if end < address + length else 0)
+
+    def check_write(
+        self, address: int, data: bytes, eeprom_locked: bool = False
+    ) -> tuple[list[tuple[Register, int]], int]:
+        """Validate a WRITE: the registers it changes with their new values, and error bits.
+
+        On any error bit the list is empty: the caller writes nothing.
+        """
+        if not data or address + len(data) > self.size:
+            return [], ErrorBit.RANGE
+        image = bytearray(self.data)
+        image[address : address + len(data)] = data
+        changes: list[tuple[Register, int]] = []
+        seen: set[str] = set()
+        for a in range(address, address + len(data)):
+            entry = self._by_address.get(a)
+            if entry is None or entry[0] in seen:
+                continue
+            name, reg = entry
+            seen.add(name)
+            if reg.access is Access.R or (reg.eeprom and eeprom_locked):
+                return [], ErrorBit.RANGE
+            value = int.from_bytes(image[reg.address : reg.end], "little")
+            if not reg.low <= value <= reg.high:
+                return [], ErrorBit.RANGE
+            changes.append((reg, value))
+        return changes, 0

@@ -1,0 +1,1 @@
+"""Vision in the daemon: camera sources (``sources.py``) and the ball finder."""

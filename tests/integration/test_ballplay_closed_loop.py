@@ -1,0 +1,87 @@
+"""Ball play closed on the simulator, faster than real time: servo dynamics (the emulator's bus
+model), the world (odometry, falls, ball), the daemon's motion modules and the ball finder on
+rendered frames step together on a simulated clock (``SimRig``).
+
+The kick pages are the stock ROBOTIS ones (shared/data/motion_4096.bin), read in place.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from config.loader import load_all
+from robot_daemon.sim.world.rig import SimRig
+from tests.shared_data import STOCK_MOTIONS
+
+pytestmark = pytest.mark.skipif(
+    not STOCK_MOTIONS.exists(), reason="needs the stock motion file in shared/data"
+)
+
+
+def make_rig(seed: int, search_timeout: float = 40.0) -> SimRig:
+    settings = load_all()
+    settings.setdefault("motion", {})["library"] = str(STOCK_MOTIONS)
+    settings["ballplay"]["tracker"]["search_timeout_s"] = search_timeout
+    return SimRig(seed=seed, settings=settings)
+
+
+def distance(rig: SimRig) -> float:
+    d = rig.world.ball_distance()
+    assert d is not None
+    return d
+
+
+@pytest.mark.parametrize(
+    ("ball", "seed"),
+    [
+        pytest.param((0.5, 0.1), 1, id="ahead"),
+        pytest.param((0.35, 0.45), 2, id="left"),
+        pytest.param((0.35, -0.45), 3, id="right"),
+        pytest.param((-0.45, 0.1), 4, id="behind"),
+    ],
+)
+def test_finds_approaches_and_kicks_the_ball(ball: tuple[float, float], seed: int) -> None:
+    rig = make_rig(seed)
+    rig.world.place_robot(0.0, 0.0, 0.0)
+    rig.world.place_ball(*ball)
+    rig.run(0.3)
+    start = distance(rig)
+    phases: list[str] = []
+
+    def watch(r: SimRig) -> bool:
+        if not phases or phases[-1] != r.ball_play.phase:
+            phases.append(r.ball_play.phase)
+        return not r.ball_play.playing
+
+    rig.ball_play.start()
+    assert rig.run_until(watch, timeout=60.0), f"still {rig.ball_play.phase} after 60 s"
+    rig.run_until(lambda r: r.world.ball.state.speed == 0.0, timeout=10.0)
+    assert rig.ball_play.phase == "done", phases
+    assert "kicking" in phases and "approaching" in phases
+    assert rig.world.falls == 0
+    assert rig.world.ball.touches > 0
+    assert distance(rig) > start + 0.3, rig.world.snapshot()
+
+
+def test_without_a_ball_it_searches_turns_and_reports_lost_without_falling() -> None:
+    rig = make_rig(5, search_timeout=12.0)
+    rig.world.remove_ball()
+    rig.run(0.3)
+    yaw0 = rig.world.snapshot().robot["yaw"]
+    seen: set[str] = set()
+
+    def done(r: SimRig) -> bool:
+        seen.add(r.ball_play.phase)
+        return not r.ball_play.playing
+
+    rig.ball_play.start()
+    assert rig.run_until(done, timeout=20.0)
+    assert rig.ball_play.phase == "lost"
+    assert seen == {"searching", "lost"}
+    assert rig.world.falls == 0
+    # The search turned the body to look around, not only the head.
+    turned = abs(math.remainder(rig.world.snapshot().robot["yaw"] - yaw0, 2 * math.pi))
+    assert turned > math.radians(30)
+    assert not any(d.found for d in rig.detections)

@@ -1,0 +1,202 @@
+"""The daemon against a misbehaving bus: dropped and corrupt replies, a silent servo, a serial
+port that vanishes, a second process on the same port; and the camera captured only while
+watched."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import threading
+from collections.abc import Callable, Iterator
+
+import pytest
+
+from robot_daemon.sim.control import SimControl
+from schemas.errors import CommandError
+from schemas.messages import CameraFrame, Event
+from tests.fixtures.system import RunningSystem, start_system
+
+HEAD_PAN = 19
+
+
+class EventLog:
+    """Events as they arrive, with a wait: events and status travel separately, so a test
+    that saw a status change waits for the matching event rather than assume it is there."""
+
+    def __init__(self) -> None:
+        self.items: list[Event] = []
+        self._cond = threading.Condition()
+
+    def __call__(self, event: Event) -> None:
+        with self._cond:
+            self.items.append(event)
+            self._cond.notify_all()
+
+    def wait(self, predicate: Callable[[Event], bool], timeout: float = 15.0) -> Event:
+        with self._cond:
+            assert self._cond.wait_for(lambda: any(map(predicate, self.items)), timeout), [
+                (e.kind, e.message) for e in self.items
+            ]
+            return next(e for e in self.items if predicate(e))
+
+
+@pytest.fixture(scope="module")
+def faulty_system() -> Iterator[RunningSystem]:
+    """One system for this module, its emulator dropping and corrupting 1 % of the replies."""
+    with start_system(
+        sim_args=["--drop=0.01", "--corrupt=0.01", "--seed=7"], camera="sim", gateway=False
+    ) as system:
+        yield system
+
+
+def sim_goals(sim: SimControl) -> dict[str, float]:
+    return {k: v["goal"] for k, v in sim.call("state")["servos"].items()}
+
+
+def test_bad_replies_are_counted_and_no_unmeant_goal_is_written(
+    faulty_system: RunningSystem,
+) -> None:
+    with faulty_system.robot_client(name="faults") as robot:
+        sim = SimControl(robot.session, faulty_system.robot)
+        status = robot.wait_for(
+            "status",
+            lambda s: s.bus["missing_replies"] > 0 and s.bus["corrupt_replies"] > 0,
+            timeout=30,
+        )
+        assert status.bus["stale_ticks"] > 0
+        before_ticks = status.loop["ticks"]
+        goals_before = sim_goals(sim)
+        with robot.control():
+            target = 0.3 if abs(goals_before[str(HEAD_PAN)] - 0.3) > 0.1 else -0.3
+            robot.joint("head_pan", target)
+            robot.wait_for(
+                "joints", lambda m: abs(m.position[HEAD_PAN - 1] - target) < 0.03, timeout=15
+            )
+        goals_after = sim_goals(sim)
+        assert goals_after.pop(str(HEAD_PAN)) == pytest.approx(target, abs=0.002)
+        goals_before.pop(str(HEAD_PAN))
+        assert goals_after == goals_before  # nobody else's goal was touched
+        status = robot.wait_for("status", lambda s: s.loop["ticks"] > before_ticks + 100)
+        assert status.state in ("running", "degraded")
+
+
+def test_a_silent_servo_goes_offline_and_comes_back(faulty_system: RunningSystem) -> None:
+    with faulty_system.robot_client(name="silence") as robot:
+        sim = SimControl(robot.session, faulty_system.robot)
+        events = EventLog()
+        sub = robot.subscribe("events", events)
+        sim.call("silence", id=7, silent=True)
+        try:
+            status = robot.wait_for("status", lambda s: 7 in s.bus["offline"], timeout=15)
+            assert status.state == "degraded"
+            j = robot.wait_for("joints")
+            assert j.online[6] is False
+            with robot.control(), pytest.raises(CommandError) as info:
+                robot.joint(7, 0.1)
+            assert info.value.code == "unavailable" and info.value.field == "id"
+        finally:
+            sim.call("silence", id=7, silent=False)
+        robot.wait_for("status", lambda s: 7 not in s.bus["offline"], timeout=15)
+        events.wait(lambda e: e.kind == "servo_offline" and e.data.get("id") == 7)
+        events.wait(lambda e: e.kind == "servo_online" and e.data.get("id") == 7)
+        sub.close()
+
+
+def test_a_vanished_port_is_reopened(faulty_system: RunningSystem) -> None:
+    with faulty_system.robot_client(name="unplug") as robot:
+        sim = SimControl(robot.session, faulty_system.robot)
+        sim.call("vanish")
+        try:
+            status = robot.wait_for("status", lambda s: s.state == "port_lost", timeout=15)
+            assert status.bus["open"] is False
+            # Commands get a clear answer while the port is gone; halt still works.
+            robot.halt()
+            with robot.control(), pytest.raises(CommandError) as info:
+                robot.led(head=(0, 0, 255))
+            assert "not open" in info.value.message or info.value.code == "unavailable"
+        finally:
+            sim.call("reappear")
+        status = robot.wait_for("status", lambda s: s.state in ("running", "degraded"), timeout=30)
+        assert status.bus["port_reopens"] >= 1
+        robot.wait_for("joints", timeout=10)
+
+
+def test_a_second_daemon_gets_port_in_use(faulty_system: RunningSystem) -> None:
+    with faulty_system.robot_client() as robot:
+        port = robot.wait_for("status", fresh=False).bus["port"]
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "robot_daemon.cli",
+            "daemon",
+            "--port",
+            port,
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--robot",
+            "second",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert out.returncode == 1
+    assert "in use by PID" in out.stderr
+
+
+def test_camera_is_captured_only_while_watched(faulty_system: RunningSystem) -> None:
+    with faulty_system.robot_client(name="eyes") as robot:
+        first = robot.wait_for("status", timeout=10)
+        assert first.camera["source"] == "sim"
+        # Nobody watches: several status periods pass without a single capture.
+        for _ in range(5):
+            status = robot.wait_for("status")
+            assert status.camera["subscribed"] is False
+            assert status.camera["captured"] == first.camera["captured"]
+        frames: list[CameraFrame] = []
+        with robot.subscribe("camera", frames.append):
+            frame = robot.wait_for("camera", timeout=15)
+            assert frame.width == 320 and frame.height == 240
+            assert frame.jpeg[:2] == b"\xff\xd8"  # a JPEG
+            watched = robot.wait_for(
+                "status", lambda s: s.camera["captured"] > first.camera["captured"], timeout=10
+            )
+            assert watched.camera["subscribed"] is True
+        robot.wait_for("status", lambda s: not s.camera["subscribed"], timeout=10)
+        # A frame already being rendered when the last subscriber left may still complete.
+        robot.wait_for("status")
+        stopped = robot.wait_for("status")
+        for _ in range(5):
+            status = robot.wait_for("status")
+            assert status.camera["captured"] == stopped.camera["captured"]
+
+
+def test_imu_is_published_in_si_units(faulty_system: RunningSystem) -> None:
+    with faulty_system.robot_client() as robot:
+        imu = robot.wait_for("imu", timeout=10)
+        assert len(imu.gyro) == 3 and len(imu.accel_raw) == 3
+        # Standing still: gravity on z, within the emulator's noise.
+        assert math.isclose(imu.accel[2], 9.81, abs_tol=1.0)
+        assert imu.fall == "none"
+
+
+def test_an_overheating_servo_is_protected_and_reported(faulty_system: RunningSystem) -> None:
+    with faulty_system.robot_client(name="thermal") as robot:
+        sim = SimControl(robot.session, faulty_system.robot)
+        events = EventLog()
+        sub = robot.subscribe("events", events)
+        sim.call("overheat", id=5, on=True)
+        try:
+            robot.wait_for("status", lambda s: any(a["id"] == 5 for a in s.alarms), timeout=15)
+            robot.wait_for("status", lambda s: 5 in s.bus["torque_off"], timeout=15)
+            assert sim.call("state")["servos"]["5"]["torque"] is False
+        finally:
+            sim.call("overheat", id=5, on=False)
+        alarm = events.wait(lambda e: e.kind == "servo_alarm" and e.data["id"] == 5)
+        sub.close()
+        assert "overheating" in alarm.data["alarms"] and "torque off" in alarm.message
+        with robot.control():  # torque back on only when someone asks
+            robot.torque(True, [5])
+        robot.wait_for("status", lambda s: 5 not in s.bus["torque_off"], timeout=15)

@@ -1,0 +1,191 @@
+"""Replay over real Zenoh sessions: a recording made from a loopback publisher is republished
+into a fresh key space (in-process and by the `darwin replay` process) and a subscriber gets the
+same payloads in the same order; the control queryable pauses, seeks and reports status."""
+
+from __future__ import annotations
+
+import queue
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from clients.recording import Recorder, ReplayControl, Replayer, read_recording
+from clients.robot import Robot
+from schemas.errors import InvalidCommandError, RobotUnreachableError
+from schemas.keys import Keys
+from schemas.messages import Joints, decode
+from schemas.session import free_tcp_port, open_client, open_server
+from tests.integration.test_recording_mcap import ROBOT, Source, subscribed, wait_until
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, list[bytes]]]:
+    path = tmp_path_factory.mktemp("replay") / "session.mcap"
+    src = Source()
+    try:
+        with open_client(src.endpoint) as session:
+            rec = Recorder(session, path, robot=ROBOT).start()
+            subscribed(src)
+            src.burst(range(100), every=0.002)
+            total = sum(map(len, src.sent.values()))
+            wait_until(lambda: rec.stats.total == total, what="recording")
+            rec.stop()
+    finally:
+        src.close()
+    return path, src.sent
+
+
+class Listener:
+    """A client subscribed to every topic of one robot name, queueing (topic, payload)."""
+
+    def __init__(self, endpoint: str, robot: str) -> None:
+        self.session = open_client(endpoint)
+        self.got: queue.Queue[tuple[str, bytes]] = queue.Queue()
+        self.subs = [
+            self.session.declare_subscriber(
+                key, lambda s, t=topic: self.got.put((t, s.payload.to_bytes()))
+            )
+            for topic, key in Keys(robot).topics().items()
+        ]
+
+    def take(self, n: int, timeout: float = 20.0) -> list[tuple[str, bytes]]:
+        return [self.got.get(timeout=timeout) for _ in range(n)]
+
+    def close(self) -> None:
+        self.session.close()
+
+
+def by_topic(items: list[tuple[str, bytes]]) -> dict[str, list[bytes]]:
+    out: dict[str, list[bytes]] = {}
+    for topic, payload in items:
+        out.setdefault(topic, []).append(payload)
+    return out
+
+
+def test_darwin_replay_republishes_the_same_payloads(recording, tmp_path: Path) -> None:
+    path, sent = recording
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "robot_daemon.cli",
+            "replay",
+            str(path),
+            "--listen",
+            endpoint,
+            "--robot",
+            "fresh",
+            "--rate",
+            "4",
+            "--paused",
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    listener = None
+    try:
+        assert proc.stderr is not None
+        line = proc.stderr.readline()
+        assert line.startswith("replaying") and "as robot fresh" in line, line
+        listener = Listener(endpoint, "fresh")
+        ctl = ReplayControl(listener.session, "fresh", timeout=5.0)
+        assert ctl.status()["state"] == "paused"
+        total = sum(map(len, sent.values()))
+        assert ctl.resume()["state"] == "playing"
+        got = listener.take(total)
+        _, err = proc.communicate(timeout=20)  # exits by itself at the end
+        assert proc.returncode == 0, err
+        assert f"replayed {total} messages" in err
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        if listener:
+            listener.close()
+    assert by_topic(got) == sent
+    assert listener.got.empty()
+
+
+def test_control_pause_seek_status_and_bad_requests(recording) -> None:
+    path, _ = recording
+    rec = read_recording(path)
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    with open_server([endpoint]) as server:
+        listener = Listener(endpoint, "ctl")
+        replayer = Replayer(rec, server, "ctl", rate=1.0).start(paused=True)
+        try:
+            ctl = ReplayControl(listener.session, "ctl")
+            st = ctl.status()
+            assert st["state"] == "paused" and st["position"] == 0.0
+            with Robot(endpoint, "ctl") as viewer:
+                assert viewer.alive()  # viewers see the replayed robot as up
+            assert st["count"] == len(rec.messages) and st["source_robot"] == ROBOT
+            assert st["duration"] == pytest.approx(rec.duration, abs=1e-6)
+
+            # Seek past the middle while paused: nothing is sent until resume, then the rest.
+            middle = rec.messages[len(rec.messages) // 2]
+            t = (middle.log_ns - rec.start_ns) / 1e9
+            st = ctl.seek(t)
+            assert st["position"] == pytest.approx(t, abs=1e-6) and st["state"] == "paused"
+            assert listener.got.empty()
+            rest = [m for m in rec.messages if m.log_ns >= middle.log_ns]
+            ctl.rate(20.0)
+            ctl.resume()
+            got = listener.take(len(rest))
+            # Per topic: each topic's subscriber has a callback thread of its own.
+            assert by_topic(got) == by_topic([(m.topic, m.payload) for m in rest])
+            assert replayer.wait(timeout=20)
+            assert ctl.status()["state"] == "finished"
+
+            with pytest.raises(InvalidCommandError, match="outside the recording") as info:
+                ctl.seek(rec.duration + 5)
+            assert info.value.field == "t"
+            with pytest.raises(InvalidCommandError) as info:
+                ctl.rate(0)
+            assert info.value.field == "rate"
+            with pytest.raises(InvalidCommandError, match="unknown op 'jump'"):
+                ctl._ask("jump")
+
+            # Seeking a finished replay plays again from there.
+            ctl.seek(0.0)
+            again = listener.take(len(rec.messages))
+            assert by_topic(again) == by_topic([(m.topic, m.payload) for m in rec.messages])
+        finally:
+            replayer.stop()
+            listener.close()
+
+
+def test_replay_loops(recording) -> None:
+    path, _ = recording
+    rec = read_recording(path)
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    with open_server([endpoint]) as server:
+        listener = Listener(endpoint, "looped")
+        replayer = Replayer(rec, server, "looped", rate=50.0, loop=True, topics=["joints"])
+        ctl = ReplayControl(listener.session, "looped")
+        replayer.start(paused=True)
+        try:
+            ctl.status()  # our subscriptions are declared before this round trip completes
+            ctl.resume()
+            n = len(rec.topic("joints"))
+            got = listener.take(2 * n + 1)
+            ticks = [decode(p, Joints).tick for _, p in got]
+            assert ticks == [*range(n), *range(n), 0]
+            assert ctl.status()["loops"] >= 2
+        finally:
+            replayer.stop()
+            listener.close()
+
+
+def test_control_without_replay_says_what_to_run() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    with open_server([endpoint]) as server:
+        ctl = ReplayControl(server, "nobody", timeout=0.5)
+        started = time.monotonic()
+        with pytest.raises(RobotUnreachableError, match="darwin replay"):
+            ctl.status()
+        assert time.monotonic() - started < 10

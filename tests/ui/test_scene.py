@@ -1,0 +1,179 @@
+"""The app on a fixed scene through Pilot: no robot, messages fed directly."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from textual.widgets import DataTable, OptionList, TabbedContent
+
+from clients.tui.help import HelpScreen
+from clients.tui.messages import ImuUpdate, JointsUpdate, LinkChanged, LinkInfo, LinkState
+from clients.tui.tabs.behaviours import BehavioursTab
+from clients.tui.widgets.figure import StickFigure
+from clients.tui.widgets.header import RobotHeader
+from tests.ui import scene
+
+
+def header_text(app) -> str:
+    return str(app.screen.query_one(RobotHeader).render())
+
+
+async def test_header_shows_lease_loop_battery_and_alarms(scene_app) -> None:
+    app = scene_app()
+    async with app.run_test(size=(120, 30)) as pilot:
+        await pilot.pause(0.2)
+        text = header_text(app)
+        assert "connected" in text and "op1" in text
+        assert "you" in text and "125 Hz" in text and "overruns 2" in text
+        assert "12.1 V" in text and "r_hip_roll overheating" in text
+        app.post_message(JointsUpdate(scene.joints()))  # keeps the scene alive
+        app.model.add_status(scene.status(lease_client="someone-else"))
+        await pilot.pause(0.2)
+        assert "held by tui" in header_text(app)
+
+
+async def test_unreachable_robot_is_explained(scene_app) -> None:
+    app = scene_app()
+    async with app.run_test(size=(100, 30)) as pilot:
+        info = LinkInfo(LinkState.UNREACHABLE, "tcp/10.9.9.9:7447", "op1", "no route")
+        app.post_message(LinkChanged(info))
+        await pilot.pause(0.2)
+        text = header_text(app)
+        assert "unreachable" in text and "darwin up" in text
+
+
+async def test_motor_table_updates_in_place_keeping_the_selection(scene_app) -> None:
+    app = scene_app(tab="motors")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.pause(0.2)
+        table = app.screen.query_one("#joint-table", DataTable)
+        assert app.focused is table
+        await pilot.press("down", "down", "down", "down")
+        assert table.cursor_row == 4
+        joints = scene.joints(tick=999)
+        joints.position_deg[4] = 42.5
+        app.post_message(JointsUpdate(joints))
+        await pilot.pause(0.3)
+        assert table.get_cell("5", "pos").strip() == "42.5"
+        assert table.cursor_row == 4 and app.focused is table
+        assert table.get_cell("17", "online") == "✗"  # the scene's offline servo
+        assert table.get_cell("9", "alarm") == "0x20"
+
+
+async def test_commands_without_a_robot_say_so_in_the_log(scene_app) -> None:
+    app = scene_app(tab="motors")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.pause(0.2)
+        before = app.model.event_count
+        await pilot.press("right_square_bracket")
+        await pilot.pause(0.5)
+        assert app.model.event_count == before + 1
+        assert "not connected" in app.model.events[-1].message
+
+
+async def test_telemetry_messages_replace_older_queued_ones() -> None:
+    a, b = ImuUpdate(scene.imu(1)), ImuUpdate(scene.imu(2))
+    assert b.can_replace(a)
+    assert not b.can_replace(JointsUpdate(scene.joints()))
+
+
+async def test_language_switch_translates_tabs_and_keeps_edits(scene_app) -> None:
+    app = scene_app(tab="behaviours")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.pause(0.2)
+        labels = [str(t.label) for t in app.screen.query("ContentTab")]
+        assert "2 Motors" in labels
+        await pilot.press("f2")
+        await pilot.pause(0.3)
+        labels = [str(t.label) for t in app.screen.query("ContentTab")]
+        assert "2 Motores" in labels and "6 Comportamentos" in labels
+        assert "liberar" in str(app.screen.query_one("KeyBar").render())
+        assert len(app.model.edits.choreography) == 3
+        assert app.screen.query_one(TabbedContent).active == "pane-behaviours"
+        assert app.settings.lang == "pt"
+        await pilot.press("f2")
+        await pilot.pause(0.3)
+        labels = [str(t.label) for t in app.screen.query("ContentTab")]
+        assert "2 Motors" in labels
+
+
+async def test_choreography_add_reorder_remove_save_load(scene_app, tmp_path: Path) -> None:
+    app = scene_app(tab="behaviours")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.pause(0.2)
+        tab = app.screen.query_one(BehavioursTab)
+        library = app.screen.query_one("#library", OptionList)
+        assert library.option_count == len(scene.LIBRARY)
+        library.focus()
+        await pilot.press("down", "down", "enter")  # walk forward
+        items = app.model.edits.choreography
+        assert [i["behaviour"] for i in items] == ["stand", "walk_fwd", "bow", "walk_fwd"]
+        chor = app.screen.query_one("#choreography", OptionList)
+        chor.focus()
+        chor.highlighted = 3
+        await pilot.press("shift+up")
+        assert [i["behaviour"] for i in items] == ["stand", "walk_fwd", "walk_fwd", "bow"]
+        await pilot.press("plus")
+        assert items[2]["duration"] == 3.5
+        await pilot.press("delete")
+        assert [i["behaviour"] for i in app.model.edits.choreography] == [
+            "stand",
+            "walk_fwd",
+            "bow",
+        ]
+        path = tmp_path / "dance.json"
+        app.screen.query_one("#chor-file").value = str(path)
+        tab.action_save()
+        saved = json.loads(path.read_text())
+        assert saved["items"][1] == {"behaviour": "walk_fwd", "duration": 3.0, "x": 0.04}
+        app.model.edits.choreography.clear()
+        tab.action_load()
+        assert len(app.model.edits.choreography) == 3
+        path.write_text("{not json")
+        tab.action_load()
+        assert len(app.model.edits.choreography) == 3  # a bad file changes nothing
+
+
+async def test_pose_manipulate_simulate_reset(scene_app) -> None:
+    app = scene_app(tab="pose")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.pause(0.2)
+        figure = app.screen.query_one(StickFigure)
+        assert figure.border_title == "robot (live)"
+        await pilot.press("m")
+        edits = app.model.edits
+        assert edits.manipulate and len(edits.pose) == 20
+        before = edits.pose[1]
+        await pilot.press("right_square_bracket", "right_square_bracket")
+        assert abs(edits.pose[1] - before - 0.1745) < 1e-3
+        await pilot.press("s")
+        assert figure.border_title == "simulated pose (not sent)"
+        await pilot.press("z")
+        assert edits.pose[1] == before and figure.border_title == "robot (live)"
+
+
+async def test_help_lists_the_keys_of_the_tab_and_of_the_app(scene_app) -> None:
+    app = scene_app(tab="walk")
+    async with app.run_test(size=(100, 40)) as pilot:
+        await pilot.pause(0.1)
+        await pilot.press("f1")
+        await pilot.pause(0.1)
+        assert isinstance(app.screen, HelpScreen)
+        titles = [title for title, _b in app.screen.sections]
+        assert titles == ["This tab: Walk", "Everywhere"]
+        await pilot.press("escape")
+        assert not isinstance(app.screen, HelpScreen)
+
+
+async def test_imu_series_toggle_and_zoom(scene_app) -> None:
+    app = scene_app(tab="imu")
+    async with app.run_test(size=(100, 30)) as pilot:
+        await pilot.pause(0.2)
+        plot = app.screen.query_one("#accel-plot")
+        assert [s.visible for s in plot._series] == [True, True, True]
+        await pilot.press("y")
+        await pilot.pause(0.1)
+        assert [s.visible for s in plot._series] == [True, False, True]
+        await pilot.press("minus")
+        assert plot.window_s == 10.0

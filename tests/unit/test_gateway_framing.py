@@ -1,0 +1,170 @@
+"""The legacy wire format: convention detection, framing both ways, bad input."""
+
+from __future__ import annotations
+
+import json
+import struct
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from gateway.framing import (
+    ByteOrder,
+    Convention,
+    FrameDecoder,
+    FramingError,
+    encode_frame,
+)
+from schemas.errors import ErrorCode
+from tests.legacy_client import APPENDIX_A_CLIENT_EXAMPLES, CONVENTIONS
+
+ORDER = {"big": ByteOrder.BIG, "little": ByteOrder.LITTLE, "ascii": ByteOrder.ASCII}
+
+
+def frame(body: bytes, order: str, counted: bool) -> bytes:
+    """Framing as the spec says, written independently of the gateway."""
+    size = len(body) + (4 if counted else 0)
+    if order == "ascii":
+        return b"%04d" % size + body
+    return struct.pack(">I" if order == "big" else "<I", size) + body
+
+
+@pytest.mark.parametrize(("order", "counted"), CONVENTIONS)
+@pytest.mark.parametrize("example", APPENDIX_A_CLIENT_EXAMPLES)
+def test_every_appendix_example_is_detected_in_every_convention(
+    example: str, order: str, counted: bool
+) -> None:
+    decoder = FrameDecoder()
+    frames = decoder.feed(frame(example.encode(), order, counted))
+    assert [f.value for f in frames] == [json.loads(example)]
+    assert decoder.convention == Convention(ORDER[order], counted)
+
+
+@pytest.mark.parametrize(("order", "counted"), CONVENTIONS)
+def test_byte_by_byte_and_several_frames_in_one_read(order: str, counted: bool) -> None:
+    bodies = [b'{"monitor":{"motors":1}}', b'{"walk":{"a":0,"stop":1,"x":0,"y":0}}'] * 3
+    stream = b"".join(frame(b, order, counted) for b in bodies)
+    one = FrameDecoder()
+    got = []
+    for i in range(len(stream)):
+        got += one.feed(stream[i : i + 1])
+    assert [f.body for f in got] == bodies
+    many = FrameDecoder()
+    assert [f.body for f in many.feed(stream)] == bodies
+
+
+def test_a_size_both_byte_orders_could_mean_is_settled_by_the_json() -> None:
+    # 512 bytes big-endian is 00 00 02 00; read little-endian that is 131072, also under the
+    # maximum: only the big-endian reading gives a complete JSON value.
+    body = json.dumps({"monitor": {"motors": 1, "pad": "x" * 470}}).encode()
+    body = body + b" " * (512 - len(body))
+    assert len(body) == 512
+    decoder = FrameDecoder()
+    assert decoder.feed(frame(body, "big", False))[0].value["monitor"]["motors"] == 1
+    assert decoder.convention == Convention(ByteOrder.BIG, False)
+    little = FrameDecoder()
+    assert little.feed(frame(body, "little", False))[0].value["monitor"]["motors"] == 1
+    assert little.convention == Convention(ByteOrder.LITTLE, False)
+
+
+@pytest.mark.parametrize(("order", "counted"), CONVENTIONS)
+def test_replies_use_the_senders_convention(order: str, counted: bool) -> None:
+    conv = Convention(ORDER[order], counted)
+    data = encode_frame({"orchestrate": {"status": 1}}, conv)
+    body = b'{"orchestrate":{"status":1}}'
+    assert data == frame(body, order, counted)
+
+
+def test_a_header_in_no_convention_is_an_error() -> None:
+    with pytest.raises(FramingError, match="not a message size in any supported convention") as e:
+        FrameDecoder().feed(b"\x7f\x7f\x7f\x7f{}")
+    assert e.value.code == ErrorCode.INVALID
+
+
+def test_size_above_the_maximum_is_refused_before_reading_it() -> None:
+    decoder = FrameDecoder(max_message=1000)
+    with pytest.raises(FramingError, match="not a message size"):
+        decoder.feed(struct.pack(">I", 5000))
+    # Once the convention is known, a too-large header is named as such.
+    decoder = FrameDecoder(max_message=1000)
+    decoder.feed(frame(b"{}", "big", False))
+    with pytest.raises(FramingError, match="above the maximum message size of 1000") as e:
+        decoder.feed(struct.pack(">I", 5000))
+    assert e.value.code == ErrorCode.OUT_OF_RANGE
+
+
+@pytest.mark.parametrize(
+    ("body", "needle"),
+    [(b"\xff\xfe{}", "not valid UTF-8"), (b"{not json}", "not valid JSON"), (b"{}{}", "JSON")],
+)
+def test_bad_bodies_are_named(body: bytes, needle: str) -> None:
+    with pytest.raises(FramingError, match=needle):
+        FrameDecoder().feed(frame(body, "big", False))
+
+
+def test_bad_body_after_detection() -> None:
+    decoder = FrameDecoder()
+    decoder.feed(frame(b"{}", "little", True))
+    with pytest.raises(FramingError, match="not valid JSON"):
+        decoder.feed(frame(b"{oops", "little", True))
+
+
+def test_ascii_header_cannot_say_more_than_9999() -> None:
+    conv = Convention(ByteOrder.ASCII, False)
+    with pytest.raises(FramingError, match="4-digit ASCII header"):
+        encode_frame({"camera": "x" * 10_000}, conv)
+
+
+def test_outgoing_message_above_maximum_is_refused() -> None:
+    with pytest.raises(FramingError, match="above the maximum"):
+        encode_frame({"x": "y" * 100}, Convention(), max_message=50)
+
+
+json_values = st.recursive(
+    st.none() | st.booleans() | st.integers(-(10**6), 10**6) | st.text(max_size=20),
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4)
+    ),
+    max_leaves=12,
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    values=st.lists(
+        st.dictionaries(st.text(max_size=8), json_values, max_size=4), min_size=1, max_size=4
+    ),
+    convention=st.sampled_from(CONVENTIONS),
+    cut=st.integers(1, 64),
+)
+def test_round_trip_any_objects_any_chunking(
+    values: list[dict], convention: tuple[str, bool], cut: int
+) -> None:
+    order, counted = convention
+    stream = b"".join(frame(json.dumps(v).encode(), order, counted) for v in values)
+    decoder = FrameDecoder()
+    got = []
+    for i in range(0, len(stream), cut):
+        got += decoder.feed(stream[i : i + cut])
+    assert [f.value for f in got] == values
+
+
+@settings(max_examples=200, deadline=None)
+@given(data=st.binary(max_size=200))
+def test_random_bytes_give_frames_or_a_framing_error_never_anything_else(data: bytes) -> None:
+    decoder = FrameDecoder(max_message=4096)
+    try:
+        decoder.feed(data)
+    except FramingError as exc:
+        assert exc.message
+    assert decoder.buffered <= len(data)
+
+
+def test_good_frames_before_a_break_are_kept_and_the_break_reported_next() -> None:
+    decoder = FrameDecoder()
+    data = frame(b'{"monitor":{"motors":1}}', "big", False) + b"\x7f\x7f\x7f\x7f"
+    assert [f.value for f in decoder.feed(data)] == [{"monitor": {"motors": 1}}]
+    assert decoder.error is not None and "above the maximum" in decoder.error.message
+    with pytest.raises(FramingError):
+        decoder.feed(b"")

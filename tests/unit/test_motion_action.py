@@ -1,0 +1,170 @@
+"""The action player: key frames on time, bounded speeds, via-points, pauses, chaining, stop,
+brake, ownership."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from config.loader import load_robot
+from robot_daemon.motion.action.binfile import Page, Step
+from robot_daemon.motion.action.library import MotionLibrary, load_library
+from robot_daemon.motion.action.player import ActionModule
+from robot_daemon.motion.direct import DirectModule
+from robot_daemon.motion.interface import JointFrame
+from robot_daemon.motion.manager import MotionManager
+from schemas.units import deg_to_raw
+
+DT = 0.008
+
+
+class Rig:
+    """A manager stepped with perfect servos: every goal is reached by the next tick."""
+
+    def __init__(self, pages: list[Page]) -> None:
+        self.manager = MotionManager(load_robot())
+        self.action = ActionModule(MotionLibrary(pages))
+        self.direct = DirectModule()
+        self.manager.add(self.action)
+        self.manager.add(self.direct)
+        self.pos = np.zeros(21)
+        self.tick = 0
+        self.trace: list[np.ndarray] = []
+
+    def run(self, ticks: int) -> None:
+        for _ in range(ticks):
+            frame = JointFrame(self.tick, self.tick * DT, DT, position=self.pos.copy())
+            frame.online[:] = True
+            out = self.manager.step(frame)
+            for j, g in out.goal.items():
+                self.pos[j] = g
+            self.trace.append(self.pos.copy())
+            self.tick += 1
+
+    def run_until_idle(self, limit: int = 5000) -> int:
+        start = self.tick
+        while self.action.playing and self.tick - start < limit:
+            self.run(1)
+        return self.tick - start
+
+
+def step(time: int, pause: int = 0, **deg: float) -> Step:
+    s = Step(time=time, pause=pause)
+    ids = {j.name: j.id for j in load_robot().joints}
+    for name, d in deg.items():
+        s.words[ids[name]] = deg_to_raw(d)
+    return s
+
+
+def test_each_key_frame_is_reached_at_its_time_and_speeds_are_bounded() -> None:
+    page = Page(
+        5,
+        name="knee",
+        steps=[
+            step(50, r_knee=40, head_pan=10),
+            step(25, r_knee=10, head_pan=10),
+            step(100, pause=25, r_knee=60, head_pan=-20),
+        ],
+    )
+    rig = Rig([page])
+    rig.action.play(5)
+    rig.run(50)
+    assert math.degrees(rig.pos[13]) == pytest.approx(40, abs=0.05)
+    assert math.degrees(rig.pos[19]) == pytest.approx(10, abs=0.05)
+    rig.run(25)
+    assert math.degrees(rig.pos[13]) == pytest.approx(10, abs=0.05)
+    rig.run(100)
+    assert math.degrees(rig.pos[13]) == pytest.approx(60, abs=0.05)
+    assert math.degrees(rig.pos[19]) == pytest.approx(-20, abs=0.05)
+    rig.run(24)
+    assert rig.action.playing  # the pause holds the page
+    assert rig.run_until_idle() <= 2
+    trace = np.array(rig.trace)
+    speed = np.abs(np.diff(trace[:, 13])) / DT
+    # Within a step a joint never moves faster than twice the step's mean speed.
+    bounds = [(0, 50, 40), (50, 75, 30), (75, 175, 50)]
+    for a, b, dist in bounds:
+        assert speed[a : b - 1].max() <= 2 * math.radians(dist) / ((b - a) * DT) + 1e-6
+    # The trapezoid starts and ends at rest: first and last moves are small.
+    assert speed[0] < 0.2 * speed[:50].max()
+
+
+def test_a_joint_keeping_its_direction_passes_a_via_point_without_stopping() -> None:
+    rig = Rig([Page(6, name="via", steps=[step(50, r_knee=30), step(50, r_knee=60)])])
+    rig.action.play(6)
+    rig.run(100)
+    trace = np.degrees(np.array(rig.trace)[:, 13])
+    assert trace[49] == pytest.approx(30, abs=0.05) and trace[99] == pytest.approx(60, abs=0.05)
+    v_at_via = (trace[50] - trace[48]) / (2 * DT)
+    assert v_at_via > 0.5 * 30 / (50 * DT)  # still moving through the key frame
+    # A joint that reverses stops at the key frame instead.
+    rig = Rig([Page(6, name="back", steps=[step(50, r_knee=30), step(50, r_knee=0)])])
+    rig.action.play(6)
+    rig.run(100)
+    trace = np.degrees(np.array(rig.trace)[:, 13])
+    assert abs(trace[50] - trace[48]) / (2 * DT) < 0.1 * 30 / (50 * DT)
+
+
+def test_repeat_next_chaining_stop_plays_the_exit_page() -> None:
+    a = Page(
+        20, name="a", repeat=2, next=21, exit=22, steps=[step(10, r_knee=20), step(10, r_knee=0)]
+    )
+    b = Page(21, name="b", steps=[step(10, r_knee=50)])
+    c = Page(22, name="c", steps=[step(10, r_knee=70)])
+    rig = Rig([a, b, c])
+    rig.action.play("a")
+    ticks = rig.run_until_idle()
+    assert ticks == 2 * 20 + 10
+    assert math.degrees(rig.pos[13]) == pytest.approx(50, abs=0.05)
+    events = [(d["page"], d["state"]) for k, _, d in rig.manager.drain_events() if k == "action"]
+    assert events == [(20, "started"), (20, "finished"), (21, "started"), (21, "finished")]
+    rig.action.play(20)
+    rig.run(5)
+    rig.action.stop()  # finish the current repetition, then the exit page instead of next
+    ticks = rig.run_until_idle()
+    assert math.degrees(rig.pos[13]) == pytest.approx(70, abs=0.05)
+    assert 5 + ticks == 20 + 10
+
+
+def test_brake_ends_the_current_step_at_rest_and_releases() -> None:
+    rig = Rig([Page(8, name="long", steps=[step(50, r_knee=40), step(50, r_knee=80)])])
+    rig.action.play(8)
+    rig.run(20)
+    rig.action.brake()
+    ticks = rig.run_until_idle()
+    assert ticks <= 31
+    assert math.degrees(rig.pos[13]) == pytest.approx(40, abs=0.05)
+    assert rig.manager.owner(13) is None
+
+
+def test_another_module_taking_the_joints_interrupts_the_page() -> None:
+    rig = Rig([Page(8, name="long", steps=[step(100, r_knee=40)])])
+    rig.action.play(8)
+    rig.run(10)
+    rig.direct.set_joint(13, 0.3)
+    rig.run(1)
+    assert not rig.action.playing
+    assert rig.manager.owner(13) == "direct"
+
+
+def test_pages_leaving_the_joint_limits_are_refused() -> None:
+    rig = Rig([Page(9, name="bad", steps=[step(10, r_knee=-30)])])
+    with pytest.raises(ValueError, match=r"r_knee -30\.0° is outside"):
+        rig.action.play(9)
+    assert not rig.action.playing and rig.manager.owner(13) is None
+    with pytest.raises(KeyError, match="no action page named 'nope'"):
+        rig.action.play("nope")
+
+
+def test_sit_down_then_stand_up_from_the_project_library_reach_their_poses() -> None:
+    lib = load_library()
+    rig = Rig(list(lib.pages.values()))
+    for name in ("sit down", "stand up"):
+        rig.action.play(name)
+        rig.run_until_idle()
+        last = lib.page(name).steps[-1]
+        for j in range(1, 21):
+            if last.driven(j):
+                assert rig.pos[j] == pytest.approx((last.words[j] - 2048) * 2 * math.pi / 4096)

@@ -1,0 +1,126 @@
+"""Head, fall detection and recovery, and the sound player, stepped with synthetic frames."""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import pytest
+
+from config.loader import load_all, load_robot
+from robot_daemon.motion.interface import JointFrame
+from robot_daemon.motion.setup import build_manager
+from robot_daemon.motion.sound import SoundPlayer
+
+DT = 0.008
+
+
+class Rig:
+    def __init__(self) -> None:
+        self.settings = load_all()
+        self.manager = build_manager(load_robot(), self.settings)
+        self.pos = np.zeros(21)
+        self.accel_y = 512
+        self.tick = 0
+
+    def run(self, ticks: int) -> None:
+        for _ in range(ticks):
+            f = JointFrame(self.tick, self.tick * DT, DT, position=self.pos.copy())
+            f.online[:] = True
+            f.accel_raw = np.array([self.accel_y, 512, 700])  # robot x = the CM-730's accel Y
+            out = self.manager.step(f)
+            for j, g in out.goal.items():
+                self.pos[j] = g
+            self.tick += 1
+
+    def m(self, name: str):
+        return self.manager.module(name)
+
+
+def test_head_moves_within_limits_at_bounded_speed_and_goes_home() -> None:
+    rig = Rig()
+    head = rig.m("head")
+    head.move(math.radians(60), math.radians(-20))
+    rig.run(1)
+    assert abs(rig.pos[19]) <= head.limits.speed * DT + 1e-9
+    rig.run(200)
+    assert head.reached()
+    assert math.degrees(rig.pos[19]) == pytest.approx(60)
+    assert math.degrees(rig.pos[20]) == pytest.approx(-20)
+    with pytest.raises(ValueError, match=r"pan 80\.0° is outside -70°\.\.70°"):
+        head.move(math.radians(80), 0.0)
+    with pytest.raises(ValueError, match=r"tilt 45\.0°"):
+        head.move(0.0, math.radians(45))
+    head.home()
+    rig.run(200)
+    assert (math.degrees(rig.pos[19]), math.degrees(rig.pos[20])) == pytest.approx((0, 10))
+
+
+def test_head_tracking_turns_toward_the_error_and_stays_in_limits() -> None:
+    rig = Rig()
+    head = rig.m("head")
+    head.home()
+    rig.run(100)
+    first = head.track(math.radians(10), math.radians(-5))
+    assert first[0] > 0 and first[1] < math.radians(10)
+    for _ in range(200):
+        head.track(math.radians(30), math.radians(30))
+        rig.run(1)
+    assert head.target == pytest.approx((math.radians(70), math.radians(40)))
+
+
+def test_a_forward_fall_stops_walking_emits_and_plays_get_up_front() -> None:
+    rig = Rig()
+    rig.m("walking").start(0.05, 0, 0)
+    rig.run(200)
+    assert rig.m("walking").running
+    rig.manager.drain_events()
+    rig.accel_y = 300  # face down: gravity along −y
+    rig.run(40)
+    assert not rig.m("walking").running
+    falls = [d for k, _, d in rig.manager.drain_events() if k == "fall"]
+    assert falls == [{"state": "fallen_forward", "recovering": True, "page": 10}]
+    assert rig.m("action").status()["page"] == 10
+    assert rig.m("fall").falls == 1
+    rig.run(100)
+    assert rig.m("fall").falls == 1  # still lying: one fall, not one per tick
+
+
+def test_a_backward_fall_plays_get_up_back_and_recovery_can_be_disabled() -> None:
+    rig = Rig()
+    rig.accel_y = 700
+    rig.run(31)
+    assert rig.m("action").status()["page"] == 11
+    rig = Rig()
+    rig.m("fall").recover = False
+    rig.accel_y = 700
+    rig.run(31)
+    assert not rig.m("action").playing
+    assert rig.m("fall").state == "fallen_backward"
+    rig.accel_y = 512
+    rig.run(100)
+    assert rig.m("fall").state == "upright"
+
+
+def test_sound_is_an_event_in_the_simulator_and_a_subprocess_on_the_robot() -> None:
+    got: list[tuple[str, str, dict]] = []
+
+    def emit(kind: str, message: str, **data: object) -> None:
+        got.append((kind, message, data))
+
+    player = SoundPlayer({"backend": "event"})
+    assert player.play(emit, say="Olá", lang="pt")["played"] == "event"
+    assert got[-1][0] == "sound" and got[-1][2]["say"] == "Olá"
+    with pytest.raises(ValueError, match="file or a phrase"):
+        player.play(emit)
+    cmd = SoundPlayer(
+        {"backend": "command", "say_command": [sys.executable, "-c", "pass", "{text}"]}
+    )
+    assert cmd.play(emit, say="hello")["played"] == sys.executable
+    missing = SoundPlayer({"backend": "command", "say_command": ["no-such-player-xyz", "{text}"]})
+    with pytest.raises(ValueError, match="not installed"):
+        missing.play(emit, say="hello")
+    with pytest.raises(ValueError, match="does not exist"):
+        cmd.play(emit, file="/nonexistent/a.wav")
+    cmd.close()
