@@ -1,6 +1,6 @@
 """Ball play on the simulator from random start poses: success rate and time to kick.
 
-    .venv/bin/python benchmarks/ballplay_benchmark.py --runs 20 --seed 1
+    .venv/bin/python benchmarks/ballplay_benchmark.py --runs 20 --seed 1 [--stock]
 
 Each run places the robot at the field centre and the ball at a random distance (0.3..1.5 m)
 and bearing (any direction, behind included), starts ball play and steps the simulated robot
@@ -18,8 +18,11 @@ import math
 import statistics
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for tests.shared_data
 
 from config.loader import load_all
 from robot_daemon.sim.world.rig import SimRig
@@ -72,12 +75,22 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=20)
     parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument(
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument(
         "--library",
-        default=str(STOCK_MOTIONS) if STOCK_MOTIONS.exists() else None,
-        help="motion file with the kick pages (default: the stock ROBOTIS file if present)",
+        default=None,
+        help="motion file or folder with the kick pages (default: the project's own library)",
+    )
+    which.add_argument(
+        "--stock",
+        action="store_true",
+        help=f"kick with the stock ROBOTIS pages ({STOCK_MOTIONS})",
     )
     args = parser.parse_args(argv)
+    if args.stock:
+        if not STOCK_MOTIONS.exists():
+            parser.error(f"no stock motion file at {STOCK_MOTIONS} (set DARWIN_SHARED_DATA)")
+        args.library = str(STOCK_MOTIONS)
     rng = np.random.default_rng(args.seed)
     rows = []
     print(

@@ -7,39 +7,17 @@ import math
 import subprocess
 import sys
 import threading
-from collections.abc import Callable
 
 import pytest
 
 from clients.robot import Robot
 from robot_daemon.sim.control import SimControl
 from schemas.errors import CommandError, InvalidCommandError, LeaseBusyError, NoLeaseError
-from schemas.messages import Event, Joints, Status
+from schemas.messages import Joints, Status
 from schemas.session import open_client
-from tests.fixtures.system import RunningSystem
+from tests.fixtures.system import EventLog, RunningSystem
 
 HEAD_PAN = 19
-
-
-class EventLog:
-    """Events as they arrive, with a wait: events and status travel separately, so a test
-    that saw a status change waits for the matching event rather than assume it is there."""
-
-    def __init__(self) -> None:
-        self.items: list[Event] = []
-        self._cond = threading.Condition()
-
-    def __call__(self, event: Event) -> None:
-        with self._cond:
-            self.items.append(event)
-            self._cond.notify_all()
-
-    def wait(self, predicate: Callable[[Event], bool], timeout: float = 15.0) -> Event:
-        with self._cond:
-            assert self._cond.wait_for(lambda: any(map(predicate, self.items)), timeout), [
-                (e.kind, e.message) for e in self.items
-            ]
-            return next(e for e in self.items if predicate(e))
 
 
 def goal_registers(robot: Robot, ids: list[int]) -> dict[int, int]:
