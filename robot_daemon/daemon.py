@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import math
 import threading
 import time
 from collections import deque
@@ -28,7 +29,8 @@ from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.publishers import Publishers
-from schemas.errors import BusError, PortError
+from robot_daemon.realtime import MAX_PRIORITY, current_policy, enter_realtime
+from schemas.errors import BusError, ConfigError, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, Status
 from schemas.session import server_config
@@ -89,6 +91,14 @@ class Daemon:
         self.status_period = 1.0 / float(dcfg.get("status_hz", 10.0))
         self.backoff_min = float(dcfg.get("reopen_backoff_min", 0.1))
         self.backoff_max = float(dcfg.get("reopen_backoff_max", 5.0))
+        priority = dcfg.get("realtime_priority", 0)
+        if not isinstance(priority, int) or not 0 <= priority <= MAX_PRIORITY:
+            raise ConfigError(
+                f"daemon.realtime_priority must be 0 (off) or a whole number 1..{MAX_PRIORITY}, "
+                f"not {priority!r}"
+            )
+        self.realtime_priority = priority
+        self.scheduling = "other"
         self.state = DaemonState.STARTING
         self.stats = LoopStats(self.tick_s)
         self.manager = build_manager(robot, settings)
@@ -200,6 +210,11 @@ class Daemon:
     def run(self) -> None:
         """Run until :meth:`stop`; the caller's thread becomes the motion thread."""
         self._last_status = 0.0
+        warning = enter_realtime(self.realtime_priority)
+        if warning:
+            log.warning("%s", warning)
+            self._emit("fault", warning)
+        self.scheduling = current_policy()
         while not self._stop.is_set():
             if not self.bus.is_open:
                 self._reconnect()
@@ -307,7 +322,7 @@ class Daemon:
             id=ids,
             name=list(self.robot.names),
             position=pos,
-            position_deg=[p * 57.29577951308232 for p in pos],
+            position_deg=[math.degrees(p) for p in pos],
             goal=[self.bus.raw_to_joint(j, int(st.goal[j])) for j in ids],
             velocity=[float(frame.velocity[j]) for j in ids],
             load=[float(frame.load[j]) for j in ids],
@@ -355,7 +370,7 @@ class Daemon:
                 "bus_errors": self.bus_errors,
                 "arbiter": self.arbiter.counts if self.arbiter else {},
             },
-            loop=self.stats.summary(),
+            loop={**self.stats.summary(), "scheduling": self.scheduling},
             voltage=cm["voltage"],
             alarms=alarms,
             **extra,

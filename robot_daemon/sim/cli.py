@@ -106,6 +106,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="servos answer this long after DXL_POWER is set (s)",
     )
     parser.add_argument(
+        "--realtime-priority",
+        type=int,
+        metavar="N",
+        help="SCHED_FIFO priority of the serving thread, 1..99 (0: normal scheduling)",
+    )
+    parser.add_argument(
         "--link", metavar="PATH", help="keep a symlink to the pty at this path (stable port path)"
     )
     parser.add_argument(
@@ -132,6 +138,7 @@ def settings_from_args(args: argparse.Namespace) -> EmulatorSettings:
         "voltage",
         "imu_noise",
         "power_on_delay_s",
+        "realtime_priority",
         "link",
     )
     return EmulatorSettings.load(args.config, **{n: getattr(args, n) for n in names})

@@ -6,9 +6,9 @@
 One thread blocks in ``select`` on the pty (and a wake-up pipe), parses what arrives, lets the
 :class:`~robot_daemon.sim.bus.Bus` answer, and writes the replies when a 1 Mbps wire would have
 delivered them. Time: with ``realtime`` the servos advance to "now" before every packet, and a
-physics thread runs the physics hooks every ``idle_step_s`` (only while there are hooks);
-without it, only :meth:`advance` moves time (a simulated clock can then run faster than real
-time). Every public method is thread-safe.
+physics thread runs the physics hooks every ``idle_step_s`` (only while there are hooks), in
+a quiet moment of the bus when a host is polling it; without it, only :meth:`advance` moves
+time (a simulated clock can then run faster than real time). Every public method is thread-safe.
 
 The seam for the simulated world (``robot_daemon/sim/world``): :meth:`add_physics_hook` gets
 ``fn(dt, emulator)`` after every physics step (at most ``max_step_s`` long), and inside it the
@@ -32,18 +32,22 @@ from typing import Any
 import numpy as np
 
 from robot_daemon.bus.packet import BadChecksum, Frame, PacketParser
+from robot_daemon.realtime import MAX_PRIORITY, enter_realtime
 from robot_daemon.sim.bus import Bus
 from robot_daemon.sim.devices import Environment
 from robot_daemon.sim.faults import Faults
 from robot_daemon.sim.pty_link import PtyLink
 from robot_daemon.sim.settings import EmulatorSettings
 from robot_daemon.sim.state import EmulatorApi
+from schemas.errors import ConfigError
 
 log = logging.getLogger(__name__)
 
 PhysicsHook = Callable[[float, "Emulator"], None]
 _EARLY = 50e-6  # write a reply this close to its due time rather than sleep again
 _MAX_CATCH_UP_S = 0.1
+# A host that sent something this recently is polling: physics waits for a quiet moment.
+_POLLING_S = 0.05
 
 
 class Emulator(EmulatorApi):
@@ -53,6 +57,11 @@ class Emulator(EmulatorApi):
             if not hasattr(s, key):
                 raise TypeError(f"Emulator got an unknown setting {key!r}")
             setattr(s, key, value)
+        if not isinstance(s.realtime_priority, int) or not 0 <= s.realtime_priority <= MAX_PRIORITY:
+            raise ConfigError(
+                f"emulator realtime_priority must be 0 (off) or 1..{MAX_PRIORITY}, "
+                f"not {s.realtime_priority!r}"
+            )
         self.settings = s
         self.seed = s.seed or int(np.random.SeedSequence().entropy % 2**32)
         self.rng = np.random.default_rng(self.seed)
@@ -99,6 +108,7 @@ class Emulator(EmulatorApi):
         self._thread: threading.Thread | None = None
         self._physics_thread: threading.Thread | None = None
         self._physics_wake = threading.Event()
+        self._quiet = threading.Event()  # set when no reply is due and no packet half-read
         self._hook_failures = 0
         self._stopping = threading.Event()
         self._wake_r = self._wake_w = -1  # a pipe that wakes the thread, made by start()
@@ -130,6 +140,7 @@ class Emulator(EmulatorApi):
     def stop(self) -> None:
         self._stopping.set()
         self._physics_wake.set()
+        self._quiet.set()
         self._wake()
         for thread in (self._thread, self._physics_thread):
             if thread is not None:
@@ -225,6 +236,7 @@ class Emulator(EmulatorApi):
                 continue
             if self._stopping.wait(self.settings.idle_step_s):
                 return
+            self._wait_for_quiet_bus()
             now = time.monotonic()
             # After a stall (a debugger, a loaded machine) the world skips time, not replays it.
             dt, last = min(now - last, _MAX_CATCH_UP_S), now
@@ -235,9 +247,27 @@ class Emulator(EmulatorApi):
                 self._run_hooks(h)
                 dt -= h
 
+    def _wait_for_quiet_bus(self) -> None:
+        """A physics round is ~2 ms of Python holding the GIL; run mid-transaction, it would
+        make replies late that the wire model says are due. A polling host leaves the bus
+        quiet once each transaction is answered (after its sync write, or its last reply),
+        so wait for the next such moment, but never longer than one more step."""
+        with self.lock:
+            if time.perf_counter() - self._last_rx >= _POLLING_S:
+                return
+            # Not merely "quiet now": the host may be about to start its next transaction.
+            self._quiet.clear()
+        self._quiet.wait(self.settings.idle_step_s)
+
+    def _bus_quiet(self) -> bool:
+        return not self._out and not self.parser.pending
+
     # ---- the serving thread -----------------------------------------------------------------
 
     def _serve(self) -> None:
+        warning = enter_realtime(self.settings.realtime_priority)
+        if warning:
+            log.info("emulator: %s", warning)
         while not self._stopping.is_set():
             with self.lock:
                 fds = [self._wake_r] + ([self.link.master] if self.link.is_open else [])
@@ -266,25 +296,29 @@ class Emulator(EmulatorApi):
         return max(0.0, min(waits)) if waits else None
 
     def _service(self, readable: list[int]) -> None:
-        if self.settings.realtime:
-            self._sync_servos()
         master = self.link.master
-        if master is not None and master in readable:
-            data = self.link.read()
-            if data:
-                now = time.perf_counter()
-                if self._out:  # the host talks while a reply is pending: they collide
-                    self.stats["collisions"] += len(self._out)
-                    self._out.clear()
-                    self._bus_free = now
-                self.stats["rx_bytes"] += len(data)
-                self._last_rx = now
-                self._process(self.parser.feed(data), now)
+        data = self.link.read() if master is not None and master in readable else b""
+        if self.settings.realtime and (data or self.parser.pending):
+            # Only a packet can need the servos at "now". Most wake-ups just write a reply
+            # that fell due (21 per bulk read), and stepping 20 servos on each of those was
+            # most of the emulator's CPU, holding the GIL when replies were due.
+            self._sync_servos()
+        if data:
+            now = time.perf_counter()
+            if self._out:  # the host talks while a reply is pending: they collide
+                self.stats["collisions"] += len(self._out)
+                self._out.clear()
+                self._bus_free = now
+            self.stats["rx_bytes"] += len(data)
+            self._last_rx = now
+            self._process(self.parser.feed(data), now)
         if self.parser.pending and (
             time.perf_counter() - self._last_rx >= self.settings.packet_timeout_s
         ):
             self._process(self.parser.expire(), time.perf_counter())
         self._flush()
+        if self._bus_quiet():
+            self._quiet.set()
 
     def _process(self, frames: list[Frame], t_rx: float) -> None:
         t = max(t_rx, self._bus_free)

@@ -31,6 +31,9 @@ class EmulatorSettings:
     ambient_c: float = 35.0
     heat_gain_c: float = 70.0
     thermal_tau_s: float = 60.0
+    # SCHED_FIFO priority of the serving thread, so replies leave when the wire model says;
+    # 0 = normal scheduling (the default for an emulator inside another program, e.g. tests).
+    realtime_priority: int = 0
     # Not in the config file: how the emulator is reached and clocked.
     link: str | None = None
     realtime: bool = True  # False: time moves only through Emulator.advance(dt)

@@ -1,0 +1,58 @@
+"""Real-time scheduling of the motion thread: asked for, refused with the fix, never inherited."""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+
+from robot_daemon.realtime import current_policy, enter_realtime
+
+pytestmark = pytest.mark.skipif(
+    not hasattr(os, "sched_setscheduler"), reason="no POSIX real-time scheduling here"
+)
+
+
+def in_thread(fn: Callable[[], Any]) -> Any:
+    """Run ``fn`` in a thread of its own: scheduling is per thread, and the test runner's
+    own thread must never become real-time."""
+    out: list[Any] = []
+    t = threading.Thread(target=lambda: out.append(fn()))
+    t.start()
+    t.join(timeout=10)
+    return out[0]
+
+
+def test_zero_leaves_the_thread_as_it_is() -> None:
+    assert in_thread(lambda: (enter_realtime(0), current_policy())) == (None, "other")
+
+
+@pytest.mark.parametrize("priority", [-1, 100, 1000])
+def test_a_priority_out_of_range_is_refused_naming_the_setting(priority: int) -> None:
+    with pytest.raises(ValueError, match="realtime_priority"):
+        enter_realtime(priority)
+
+
+def test_real_time_when_allowed_else_a_warning_with_the_fix() -> None:
+    warning, policy = in_thread(lambda: (enter_realtime(10), current_policy()))
+    if warning is None:
+        assert policy == "fifo"
+    else:
+        assert policy == "other"
+        assert "rtprio" in warning and "realtime_priority = 0" in warning
+
+
+def test_threads_started_by_the_real_time_thread_run_normally() -> None:
+    def start_child() -> tuple[str | None, str, str]:
+        warning = enter_realtime(10)
+        mine = current_policy()
+        child = in_thread(current_policy)
+        return warning, mine, child
+
+    warning, mine, child = in_thread(start_child)
+    if warning is not None:
+        pytest.skip(f"real-time scheduling not permitted here: {warning}")
+    assert (mine, child) == ("fifo", "other")
