@@ -107,6 +107,7 @@ class Daemon:
         self.tick = 0
         self.bus_errors = 0
         self.frame: JointFrame | None = None
+        self._sampled_at = time.time()
         self._stop = threading.Event()
         self._safe_stop = threading.Event()
         self._status_dirty = True
@@ -263,6 +264,9 @@ class Daemon:
         bus_t0 = time.monotonic()
         self.bus.read_sensors()
         bus_read = time.monotonic() - bus_t0
+        # Stamp the data when it was sampled, not when the tick got round to publishing it, so
+        # stamp differences are the sampling interval whatever the tick's work took.
+        self._sampled_at = time.time()
         self.tick += 1
         frame = self.bus.frame(self.tick, start, self.tick_s)
         self.frame = frame
@@ -331,6 +335,7 @@ class Daemon:
             torque_enabled=[bool(st.torque[j]) for j in ids],
             online=[bool(st.online[j]) for j in ids],
             alarm=[int(st.alarm[j]) for j in ids],
+            stamp=self._sampled_at,
             tick=self.tick,
         )
 
@@ -346,6 +351,7 @@ class Daemon:
             gyro_raw=[int(v) for v in frame.gyro_raw],
             accel_raw=[int(v) for v in frame.accel_raw],
             fall=fall,
+            stamp=self._sampled_at,
             tick=self.tick,
         )
 

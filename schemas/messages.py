@@ -88,7 +88,7 @@ class Joints(Message):
     torque_enabled: list[bool]
     online: list[bool]
     alarm: list[int]  # Dynamixel error bits of the last status packet
-    stamp: float = field(default_factory=time.time)
+    stamp: float = field(default_factory=time.time)  # s since the epoch, when read from the bus
     tick: int = 0
 
     COLUMNS: ClassVar[tuple[str, ...]] = (
@@ -115,7 +115,7 @@ class Imu(Message):
     gyro_raw: list[int]
     accel_raw: list[int]
     fall: str = "none"  # "none" | "forward" | "backward"
-    stamp: float = field(default_factory=time.time)
+    stamp: float = field(default_factory=time.time)  # s since the epoch, when read from the bus
     tick: int = 0
 
 

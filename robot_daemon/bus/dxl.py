@@ -9,14 +9,17 @@ only its own data: every packet that does arrive is kept, matched by ID.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 from dynamixel_sdk import COMM_RX_CORRUPT, COMM_SUCCESS, Protocol1PacketHandler
 
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.tables import BROADCAST_ID, ErrorBit
-from schemas.errors import BusError, NoReplyError, PacketError
+from schemas.errors import BusError, NoReplyError, PacketError, PortError
+
+T = TypeVar("T")
 
 # Packet overhead: FF FF ID LEN INST/ERR … CHK.
 _OVERHEAD = 6
@@ -69,8 +72,12 @@ class DxlBus:
         _, result, _ = self.ph.txRxPacket(self.port, [0, 0, dxl_id, 2, 1, 0])
         return result == COMM_SUCCESS
 
-    def read(self, dxl_id: int, address: int, length: int) -> tuple[bytes, int]:
-        """Read ``length`` bytes; returns (data, error bits) or raises ``BusError``."""
+    def read(self, dxl_id: int, address: int, length: int, tries: int = 1) -> tuple[bytes, int]:
+        """Read ``length`` bytes; returns (data, error bits) or raises ``BusError``. A missing or
+        corrupt reply is asked for again, ``tries`` times in all; a lost port is not."""
+        return _retry(tries, lambda: self._read_once(dxl_id, address, length))
+
+    def _read_once(self, dxl_id: int, address: int, length: int) -> tuple[bytes, int]:
         result = self.ph.readTx(self.port, dxl_id, address, length)
         self._check(result, f"READ {address}+{length}", dxl_id)
         # The SDK takes any packet from that ID; a late reply to an earlier transaction (a bulk
@@ -81,8 +88,12 @@ class DxlBus:
             if rx[2] == dxl_id and rx[3] == length + 2:
                 return bytes(rx[5 : 5 + length]), rx[4]
 
-    def write(self, dxl_id: int, address: int, data: bytes) -> int:
-        """WRITE and wait for the status packet; returns its error bits."""
+    def write(self, dxl_id: int, address: int, data: bytes, tries: int = 1) -> int:
+        """WRITE and wait for the status packet; returns its error bits. Retried like
+        :meth:`read` (writing the same value again is harmless)."""
+        return _retry(tries, lambda: self._write_once(dxl_id, address, data))
+
+    def _write_once(self, dxl_id: int, address: int, data: bytes) -> int:
         result, error = self.ph.writeTxRx(self.port, dxl_id, address, len(data), list(data))
         self._check(result, f"WRITE {address}+{len(data)}", dxl_id)
         return error
@@ -177,3 +188,15 @@ class DxlBus:
 def broadcast_ping_ids(bus: DxlBus, ids: Iterable[int]) -> list[int]:
     """IDs among ``ids`` that answer a PING (one at a time: Protocol 1.0 has no broadcast ping)."""
     return [i for i in ids if i != BROADCAST_ID and bus.ping(i)]
+
+
+def _retry(tries: int, once: Callable[[], T]) -> T:
+    for attempt in range(max(1, tries)):
+        try:
+            return once()
+        except PortError:
+            raise
+        except BusError:
+            if attempt >= tries - 1:
+                raise
+    raise AssertionError("unreachable")

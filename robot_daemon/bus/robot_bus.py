@@ -191,27 +191,16 @@ class RobotBus:
         return found
 
     def _write_retry(self, dxl_id: int, address: int, data: bytes) -> None:
-        bus = self._bus()
-        for attempt in range(SCAN_TRIES):
-            try:
-                bus.write(dxl_id, address, data)
-                return
-            except PortError:
-                raise
-            except BusError:
-                if attempt == SCAN_TRIES - 1:
-                    raise
+        self._bus().write(dxl_id, address, data, tries=SCAN_TRIES)
 
     @staticmethod
     def _read_retry(bus: DxlBus, dxl_id: int, address: int, length: int) -> bytes | None:
-        for _ in range(SCAN_TRIES):
-            try:
-                return bus.read(dxl_id, address, length)[0]
-            except PortError:
-                raise
-            except BusError:
-                continue
-        return None
+        try:
+            return bus.read(dxl_id, address, length, tries=SCAN_TRIES)[0]
+        except PortError:
+            raise
+        except BusError:
+            return None
 
     def _warn(self, text: str) -> None:
         log.warning(text)

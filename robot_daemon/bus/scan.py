@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from typing import Any
 
@@ -23,6 +24,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--baud", type=int, default=None, help="baud rate (config daemon.baud)")
     parser.add_argument(
         "--ids", default="1-20,200", help="IDs to ask, e.g. 1-20,200 (default) or 0-253"
+    )
+    parser.add_argument(
+        "--tries",
+        type=int,
+        default=3,
+        help="times each ID is asked before it counts as absent (default 3)",
     )
     parser.add_argument("--no-power", action="store_true", help="do not power the servo bus")
     parser.add_argument("--json", action="store_true", help="one JSON object per device")
@@ -49,9 +56,11 @@ def parse_ids(text: str) -> list[int]:
     return ids
 
 
-def describe(bus: DxlBus, dxl_id: int) -> dict[str, Any] | None:
+def describe(bus: DxlBus, dxl_id: int, tries: int = 3) -> dict[str, Any] | None:
+    """What ``dxl_id`` says of itself, or None if it never answers: one lost or garbled reply
+    must not make a device look absent, so each read is tried ``tries`` times."""
     try:
-        head, error = bus.read(dxl_id, 0, 6)
+        head, error = bus.read(dxl_id, 0, 6, tries=tries)
     except BusError:
         return None
     model = head[0] | head[1] << 8
@@ -65,14 +74,14 @@ def describe(bus: DxlBus, dxl_id: int) -> dict[str, Any] | None:
     }
     try:
         if model == CM730_MODEL:
-            data, _ = bus.read(dxl_id, 24, 27)
+            data, _ = bus.read(dxl_id, 24, 27, tries=tries)
             info.update(
                 power=bool(data[0]),
                 voltage=units.voltage_raw_to_v(data[CM730.VOLTAGE.reg.address - 24]),
                 buttons=data[CM730.BUTTON.reg.address - 24],
             )
         else:
-            data, _ = bus.read(dxl_id, 24, 20)
+            data, _ = bus.read(dxl_id, 24, 20, tries=tries)
 
             def word(reg: MX28) -> int:
                 o = reg.reg.address - 24
@@ -93,6 +102,8 @@ def describe(bus: DxlBus, dxl_id: int) -> dict[str, Any] | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.tries < 1:
+        raise PortError(f"--tries must be at least 1, not {args.tries}")
     settings = load_all(args.config)
     dcfg = settings.get("daemon", {})
     port = args.port or dcfg.get("port", "/dev/ttyUSB0")
@@ -103,20 +114,24 @@ def run(args: argparse.Namespace) -> int:
         bus = DxlBus(handler)
         if not args.no_power:
             try:
-                bus.write(CM730_ID, CM730.DXL_POWER.reg.address, b"\x01")
+                bus.write(CM730_ID, CM730.DXL_POWER.reg.address, b"\x01", tries=args.tries)
                 time.sleep(float(settings.get("bus", {}).get("power_on_delay_ms", 300)) / 1000)
             except BusError as exc:
-                print(f"warning: could not power the servo bus through the CM-730: {exc}")
+                # stderr: with --json, stdout carries only the devices, one JSON object a line.
+                print(
+                    f"warning: could not power the servo bus through the CM-730: {exc}",
+                    file=sys.stderr,
+                )
         found = 0
         if not args.json:
             print(f"scanning {port} …")
         for dxl_id in parse_ids(args.ids):
-            info = describe(bus, dxl_id)
+            info = describe(bus, dxl_id, args.tries)
             if info is None:
                 continue
             found += 1
             if args.fix_return_delay and info["return_delay_us"]:
-                bus.write(dxl_id, MX28.RETURN_DELAY_TIME.reg.address, b"\x00")
+                bus.write(dxl_id, MX28.RETURN_DELAY_TIME.reg.address, b"\x00", tries=args.tries)
                 info["return_delay_us"] = 0
                 info["fixed"] = "return delay set to 0"
             print(json.dumps(info) if args.json else format_line(info), flush=True)
@@ -124,7 +139,10 @@ def run(args: argparse.Namespace) -> int:
         if not args.json:
             print(f"{found} device(s) answered on {port}")
             if timer is not None and timer > 1:
-                print(f"warning: USB latency timer is {timer} ms; set it to 1 (see README)")
+                print(
+                    f"warning: USB latency timer is {timer} ms; set it to 1 (see README)",
+                    file=sys.stderr,
+                )
         return 0 if found else 1
     finally:
         handler.close()

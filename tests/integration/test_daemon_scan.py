@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from collections.abc import Callable
 
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.sim import Emulator
@@ -29,6 +30,16 @@ def test_scan_lists_every_device(emulator: Emulator) -> None:
     assert servo["model"] == "MX-28" and servo["return_delay_us"] == 0
     assert {"firmware", "position", "goal", "voltage", "temperature", "pid"} <= set(servo)
     assert devices[-1]["model"] == "CM-730" and devices[-1]["power"] is True
+
+
+def test_lost_replies_are_asked_again_so_no_device_goes_missing(
+    emulator_factory: Callable[..., Emulator],
+) -> None:
+    emulator = emulator_factory(drop=0.3)
+    out = scan("--port", emulator.port, "--json", "--tries", "10")
+    assert out.returncode == 0, out.stderr
+    assert [json.loads(line)["id"] for line in out.stdout.splitlines()] == [*range(1, 21), 200]
+    assert emulator.stats["dropped"] > 0  # the scan really met lost replies
 
 
 def test_scan_of_a_held_port_names_the_holder(emulator: Emulator) -> None:
