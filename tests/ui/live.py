@@ -8,7 +8,7 @@ from pathlib import Path
 
 from textual.pilot import Pilot
 
-from clients.tui.app import DarwinApp, create_app
+from clients.tui.app import TABS, DarwinApp, create_app
 from clients.tui.messages import LinkState
 from tests.fixtures.system import RunningSystem
 
@@ -42,6 +42,26 @@ async def connected(pilot: Pilot) -> None:
         ),
         "the link to the daemon and the first joints and status",
     )
+
+
+async def show_tab(pilot: Pilot, number: int) -> None:
+    """Switch tabs with the number key and wait until the tab holds the focus: a tab's keys
+    are bound to the tab, so a key sent before the focus moves in would go nowhere."""
+    app = pilot.app
+    assert isinstance(app, DarwinApp)
+    tab_id = TABS[number - 1][0]
+    await pilot.press(str(number))
+
+    def focused_inside() -> bool:
+        tab, focused = app.current_tab(), app.focused
+        return (
+            tab is not None
+            and tab_id == tab.TAB_ID
+            and focused is not None
+            and tab in focused.ancestors_with_self
+        )
+
+    await until(pilot, focused_inside, f"tab {number} ({tab_id}) to take the focus")
 
 
 def holder(app: DarwinApp) -> str | None:

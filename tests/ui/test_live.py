@@ -8,7 +8,7 @@ import math
 from textual.widgets import DataTable
 
 from clients.tui.tabs.behaviours import choreography_state
-from tests.ui.live import connected, holder, live_app, until
+from tests.ui.live import connected, holder, live_app, show_tab, until
 
 
 async def test_connects_remembers_and_shows_live_joints(robot_system, settings_file) -> None:
@@ -16,7 +16,7 @@ async def test_connects_remembers_and_shows_live_joints(robot_system, settings_f
     async with app.run_test(size=(120, 40)) as pilot:
         await connected(pilot)
         assert settings_file.exists() and robot_system.endpoint in settings_file.read_text()
-        await pilot.press("2")
+        await show_tab(pilot, 2)
         table = app.screen.query_one("#joint-table", DataTable)
         first = app.model.joints.tick
         await until(pilot, lambda: app.model.joints.tick > first + 10, "newer joints")
@@ -41,14 +41,15 @@ async def test_lease_pose_and_a_second_tui_watching(robot_system, settings_file,
             "the watcher's header naming the holder",
         )
         # The watcher cannot move the robot: its command is refused and logged.
-        await pw.press("2")
+        await show_tab(pw, 2)
         before = watcher.model.event_count
         await pw.press("right_square_bracket")
         await until(pw, lambda: watcher.model.event_count > before, "the refusal")
         assert "busy" in watcher.model.events[-1].message
 
         # The driver edits a pose (+10° on joint 1) and applies it as a timed pose.
-        await pd.press("3", "m")
+        await show_tab(pd, 3)
+        await pd.press("m")
         start = driver.model.edits.pose[1]
         await pd.press("right_square_bracket", "right_square_bracket", "s", "p")
         target = start + math.radians(10)
@@ -75,7 +76,8 @@ async def test_walk_with_keys_and_stop(robot_system, settings_file) -> None:
         await connected(pilot)
         await pilot.press("l")
         await until(pilot, lambda: holder(app) == app.link.client_id, "the lease")
-        await pilot.press("5", "w")
+        await show_tab(pilot, 5)
+        await pilot.press("w")
 
         def walking() -> bool:
             state = app.model.status.motion.get("walking", {})
@@ -96,7 +98,7 @@ async def test_build_and_play_a_choreography_in_portuguese(robot_system, setting
         await until(pilot, lambda: app.model.edits.behaviours, "the behaviour library")
         await pilot.press("l")
         await until(pilot, lambda: holder(app) == app.link.client_id, "the lease")
-        await pilot.press("6")
+        await show_tab(pilot, 6)
         kinds = [e.get("kind") for e in app.model.edits.behaviours]
         library = app.screen.query_one("#library")
         for kind in ("pause", "walk"):
