@@ -214,7 +214,7 @@ class Daemon:
         warning = enter_realtime(self.realtime_priority)
         if warning:
             log.warning("%s", warning)
-            self._emit("fault", warning)
+            self._emit("warning", warning)
         self.scheduling = current_policy()
         while not self._stop.is_set():
             if not self.bus.is_open:

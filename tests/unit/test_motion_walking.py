@@ -3,6 +3,7 @@ period, feet inside the joint limits, latching, acceleration limits, stopping at
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -18,6 +19,7 @@ from robot_daemon.motion.walking.gait import (
     si_from_amplitudes,
 )
 from robot_daemon.motion.walking.params import WalkParams
+from schemas.gait import GAIT_PARAM_UNITS, gait_label
 from schemas.kinematics import leg_fk
 
 DT = 0.008
@@ -165,3 +167,23 @@ def test_parameters_are_checked_and_applied_atomically() -> None:
         "period_time": 700.0,
         "balance_enable": False,
     }
+
+
+def test_every_gait_parameter_has_a_unit_unless_it_is_a_ratio_or_gain() -> None:
+    names = {f.name for f in dataclasses.fields(WalkParams)}
+    unitless = {
+        "dsp_ratio",
+        "step_forward_back_ratio",
+        "balance_enable",
+        "balance_knee_gain",
+        "balance_ankle_pitch_gain",
+        "balance_hip_roll_gain",
+        "balance_ankle_roll_gain",
+        "p_gain",
+        "i_gain",
+        "d_gain",
+    }
+    assert set(GAIT_PARAM_UNITS) <= names, "a unit for a parameter that no longer exists"
+    assert names - set(GAIT_PARAM_UNITS) == unitless
+    assert gait_label("foot_height") == "foot_height (mm)"
+    assert gait_label("dsp_ratio") == "dsp_ratio"

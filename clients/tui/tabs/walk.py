@@ -14,6 +14,7 @@ from textual.widgets import Button, Input, Label, Static
 from clients.tui.i18n import N_, _
 from clients.tui.model import Model
 from clients.tui.tabs.base import TabView
+from schemas.gait import gait_label
 
 STEP_X = 0.02  # m/s per key press
 STEP_Y = 0.02  # m/s
@@ -113,7 +114,7 @@ class WalkTab(TabView):
                 continue
             rows.append(
                 Horizontal(
-                    Label(name),
+                    Label(gait_label(name)),
                     Input(f"{value:g}", id=f"param-{name}", type="number", compact=True),
                     classes="param",
                 )
