@@ -29,8 +29,8 @@ from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.publishers import Publishers
-from robot_daemon.realtime import MAX_PRIORITY, current_policy, enter_realtime
-from schemas.errors import BusError, ConfigError, PortError
+from robot_daemon.realtime import check_priority, current_policy, enter_realtime
+from schemas.errors import BusError, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, Status
 from schemas.session import server_config
@@ -91,13 +91,9 @@ class Daemon:
         self.status_period = 1.0 / float(dcfg.get("status_hz", 10.0))
         self.backoff_min = float(dcfg.get("reopen_backoff_min", 0.1))
         self.backoff_max = float(dcfg.get("reopen_backoff_max", 5.0))
-        priority = dcfg.get("realtime_priority", 0)
-        if not isinstance(priority, int) or not 0 <= priority <= MAX_PRIORITY:
-            raise ConfigError(
-                f"daemon.realtime_priority must be 0 (off) or a whole number 1..{MAX_PRIORITY}, "
-                f"not {priority!r}"
-            )
-        self.realtime_priority = priority
+        self.realtime_priority = check_priority(
+            dcfg.get("realtime_priority", 0), "daemon.realtime_priority"
+        )
         self.scheduling = "other"
         self.state = DaemonState.STARTING
         self.stats = LoopStats(self.tick_s)

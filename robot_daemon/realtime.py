@@ -11,7 +11,18 @@ from __future__ import annotations
 
 import os
 
+from schemas.errors import ConfigError
+
 MAX_PRIORITY = 99
+
+
+def check_priority(value: object, setting: str) -> int:
+    """``value`` as a priority (0 = off, 1..99), or ``ConfigError`` naming ``setting``."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_PRIORITY:
+        raise ConfigError(
+            f"{setting} must be 0 (off) or a whole number 1..{MAX_PRIORITY}, not {value!r}"
+        )
+    return value
 
 
 def enter_realtime(priority: int) -> str | None:
@@ -19,12 +30,8 @@ def enter_realtime(priority: int) -> str | None:
 
     Returns None on success, else a warning that says why and how to allow it: running
     without real-time priority is slower to wake, not unsafe, so the daemon goes on."""
-    if priority == 0:
+    if check_priority(priority, "realtime_priority") == 0:
         return None
-    if not 1 <= priority <= MAX_PRIORITY:
-        raise ValueError(
-            f"daemon.realtime_priority must be 0 (off) or 1..{MAX_PRIORITY}, not {priority!r}"
-        )
     if not hasattr(os, "sched_setscheduler"):
         return "real-time scheduling is not available on this platform; the loop runs normally"
     policy = os.SCHED_FIFO | getattr(os, "SCHED_RESET_ON_FORK", 0)

@@ -32,14 +32,13 @@ from typing import Any
 import numpy as np
 
 from robot_daemon.bus.packet import BadChecksum, Frame, PacketParser
-from robot_daemon.realtime import MAX_PRIORITY, enter_realtime
+from robot_daemon.realtime import check_priority, enter_realtime
 from robot_daemon.sim.bus import Bus
 from robot_daemon.sim.devices import Environment
 from robot_daemon.sim.faults import Faults
 from robot_daemon.sim.pty_link import PtyLink
 from robot_daemon.sim.settings import EmulatorSettings
 from robot_daemon.sim.state import EmulatorApi
-from schemas.errors import ConfigError
 
 log = logging.getLogger(__name__)
 
@@ -57,11 +56,7 @@ class Emulator(EmulatorApi):
             if not hasattr(s, key):
                 raise TypeError(f"Emulator got an unknown setting {key!r}")
             setattr(s, key, value)
-        if not isinstance(s.realtime_priority, int) or not 0 <= s.realtime_priority <= MAX_PRIORITY:
-            raise ConfigError(
-                f"emulator realtime_priority must be 0 (off) or 1..{MAX_PRIORITY}, "
-                f"not {s.realtime_priority!r}"
-            )
+        check_priority(s.realtime_priority, "emulator realtime_priority")
         self.settings = s
         self.seed = s.seed or int(np.random.SeedSequence().entropy % 2**32)
         self.rng = np.random.default_rng(self.seed)

@@ -22,8 +22,9 @@ from clients.robot import Robot
 from config.loader import load_robot
 from schemas.errors import CommandTimeoutError
 from schemas.messages import CameraFrame, encode
+from tests.fixtures.emulator import wait_until
 from tests.fixtures.system import RunningSystem, start_system
-from tests.integration.test_recording_mcap import ROBOT, Source, imu_msg, joints_msg, wait_until
+from tests.integration.test_recording_mcap import ROBOT, Source, imu_msg, joints_msg
 
 
 class Publishing:

@@ -22,6 +22,7 @@ from config.loader import load_robot
 from schemas.keys import Keys
 from schemas.messages import CameraFrame, Event, Imu, Joints, Status, encode
 from schemas.session import open_client, open_server
+from tests.fixtures.emulator import wait_until
 
 ROBOT = "rec1"
 
@@ -98,14 +99,6 @@ def source() -> Iterator[Source]:
     src = Source()
     yield src
     src.close()
-
-
-def wait_until(cond, timeout: float = 10.0, what: str = "condition") -> None:
-    deadline = time.monotonic() + timeout
-    while not cond():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.02)
 
 
 def subscribed(

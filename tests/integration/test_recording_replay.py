@@ -18,7 +18,8 @@ from schemas.errors import InvalidCommandError, RobotUnreachableError
 from schemas.keys import Keys
 from schemas.messages import Joints, decode
 from schemas.session import free_tcp_port, open_client, open_server
-from tests.integration.test_recording_mcap import ROBOT, Source, subscribed, wait_until
+from tests.fixtures.emulator import wait_until
+from tests.integration.test_recording_mcap import ROBOT, Source, subscribed
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,8 @@ from typing import Any
 
 import pytest
 
-from robot_daemon.realtime import current_policy, enter_realtime
+from robot_daemon.realtime import check_priority, current_policy, enter_realtime
+from schemas.errors import ConfigError
 
 pytestmark = pytest.mark.skipif(
     not hasattr(os, "sched_setscheduler"), reason="no POSIX real-time scheduling here"
@@ -32,8 +33,10 @@ def test_zero_leaves_the_thread_as_it_is() -> None:
 
 @pytest.mark.parametrize("priority", [-1, 100, 1000])
 def test_a_priority_out_of_range_is_refused_naming_the_setting(priority: int) -> None:
-    with pytest.raises(ValueError, match="realtime_priority"):
+    with pytest.raises(ConfigError, match="realtime_priority"):
         enter_realtime(priority)
+    with pytest.raises(ConfigError, match=r"daemon\.realtime_priority"):
+        check_priority(priority, "daemon.realtime_priority")
 
 
 def test_real_time_when_allowed_else_a_warning_with_the_fix() -> None:
