@@ -231,6 +231,8 @@ class DarwinApp(App[None]):
         return True
 
     def redraw(self, force: bool = False) -> None:
+        if not self.screen_stack:
+            return  # starting or shutting down: nothing to draw on
         screen = self.screen
         if not isinstance(screen, MainScreen):
             screen = next((s for s in self.screen_stack if isinstance(s, MainScreen)), None)

@@ -182,7 +182,10 @@ def run(args: argparse.Namespace) -> int:
                 closers.append(closer)
         print(f"port: {emulator.port}", flush=True)
         print(f"seed {emulator.seed} on {emulator.port}", file=sys.stderr, flush=True)
-        stop.wait()
+        # With a timeout: a signal the kernel hands to another thread (one arriving while an
+        # earlier one is pending) must not leave the main thread blocked for ever.
+        while not stop.wait(0.5):
+            pass
         for closer in reversed(closers):
             closer()
     return 0
