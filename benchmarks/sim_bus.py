@@ -34,7 +34,13 @@ from tests.integration.test_sim_sdk import sensor_bulk_read
 def round_trips(wire_timing: bool, rounds: int) -> list[float]:
     settings = EmulatorSettings(seed=1, wire_timing=wire_timing, power_on_delay_s=0.0)
     with Emulator(settings) as emu:
-        port, ph = open_sdk(emu.port)
+        return timed_bulk_reads(emu.port, rounds)
+
+
+def timed_bulk_reads(port_name: str, rounds: int) -> list[float]:
+    """Round trips (s) of the daemon's per-tick bulk read, through the SDK on ``port_name``."""
+    port, ph = open_sdk(port_name)
+    try:
         reader = sensor_bulk_read(port, ph)
         times = []
         for _ in range(rounds):
@@ -42,8 +48,9 @@ def round_trips(wire_timing: bool, rounds: int) -> list[float]:
             if reader.txRxPacket() != COMM_SUCCESS:
                 raise RuntimeError("bulk read failed")
             times.append(time.perf_counter() - start)
+        return times
+    finally:
         port.closePort()
-    return times
 
 
 def process_round_trips(wire_timing: bool, rounds: int) -> list[float]:
@@ -58,16 +65,7 @@ def process_round_trips(wire_timing: bool, rounds: int) -> list[float]:
         tempfile.TemporaryDirectory() as tmp,
         start_emulator_process(*args, link_dir=Path(tmp), control=False) as sim,
     ):
-        port, ph = open_sdk(sim.port)
-        reader = sensor_bulk_read(port, ph)
-        times = []
-        for _ in range(rounds):
-            start = time.perf_counter()
-            if reader.txRxPacket() != COMM_SUCCESS:
-                raise RuntimeError("bulk read failed")
-            times.append(time.perf_counter() - start)
-        port.closePort()
-    return times
+        return timed_bulk_reads(sim.port, rounds)
 
 
 def cpu_share(seconds: float, tick: float | None) -> float:
