@@ -24,44 +24,27 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for tests.integration
+
 from clients.recording import Recorder, Replayer, read_recording
 from schemas.keys import Keys
-from schemas.messages import CameraFrame, Imu, Joints, Status, decode, encode
+from schemas.messages import CameraFrame, Joints, Status, decode, encode
 from schemas.session import free_tcp_port, open_client, open_server
+from tests.integration.test_recording_mcap import imu_msg, joints_msg
 
 TICK = 0.008
 
 
 def joints(tick: int) -> bytes:
-    n = 20
-    pos = [0.001 * tick + 0.05 * i for i in range(n)]
-    return encode(
-        Joints(
-            id=list(range(1, n + 1)),
-            name=[f"j{i}" for i in range(1, n + 1)],
-            position=pos,
-            position_deg=[p * 57.2958 for p in pos],
-            goal=pos,
-            velocity=[0.0] * n,
-            load=[0.01] * n,
-            temperature=[40.0] * n,
-            voltage=[12.0] * n,
-            torque_enabled=[True] * n,
-            online=[True] * n,
-            alarm=[0] * n,
-            tick=tick,
-        )
-    )
+    return encode(joints_msg(tick))
 
 
 def imu(tick: int) -> bytes:
-    g = [0.01 * tick, 0.0, 0.0]
-    return encode(
-        Imu(gyro=g, accel=[0, 0, 9.81], gyro_raw=[512] * 3, accel_raw=[512] * 3, tick=tick)
-    )
+    return encode(imu_msg(tick))
 
 
 def camera(seq: int, rng: np.random.Generator) -> bytes:

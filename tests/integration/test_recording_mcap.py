@@ -5,6 +5,7 @@ MCAP, and the `mcap` library reads it back."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -27,15 +28,18 @@ from tests.fixtures.emulator import wait_until
 ROBOT = "rec1"
 
 
+ROBOT_CONFIG = load_robot()
+
+
 def joints_msg(tick: int) -> Joints:
-    cfg = load_robot()
+    cfg = ROBOT_CONFIG
     n = len(cfg.ids)
     pos = [0.01 * tick + 0.1 * i for i in range(n)]
     return Joints(
         id=list(cfg.ids),
         name=list(cfg.names),
         position=pos,
-        position_deg=[p * 57.29577951308232 for p in pos],
+        position_deg=[math.degrees(p) for p in pos],
         goal=pos,
         velocity=[0.0] * n,
         load=[0.0] * n,
