@@ -126,9 +126,10 @@ def baseline(seconds: float) -> dict[str, float]:
             sim.stdout.close()
 
 
-def daemon(seconds: float) -> dict[str, float]:
+def daemon(seconds: float, sim_args: tuple[str, ...] = ()) -> dict[str, float]:
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    proc = darwin("daemon", "--sim", "--listen", endpoint, "--robot", "bench")
+    extra = [f"--sim-arg={a}" for a in sim_args]
+    proc = darwin("daemon", "--sim", "--listen", endpoint, "--robot", "bench", *extra)
     try:
         wait_prefix(proc, "zenoh:")
         with Robot(endpoint, "bench") as robot:
@@ -149,6 +150,7 @@ def daemon(seconds: float) -> dict[str, float]:
                 time.sleep(seconds)
             cpu = (cpu_seconds(proc.pid) - cpu0) / (time.monotonic() - wall0)
             last = robot.wait_for("status")
+            elapsed = time.monotonic() - wall0
         loop = last.loop
         return {
             "p50_ms": loop["period_p50_ms"],
@@ -159,6 +161,8 @@ def daemon(seconds: float) -> dict[str, float]:
             "cpu_pct": cpu * 100,
             "stamp_p99_ms": float(np.percentile(np.array(periods) * 1000, 99)) if periods else 0,
             "missing_replies": last.bus["missing_replies"] - first.bus["missing_replies"],
+            "corrupt_replies": last.bus["corrupt_replies"] - first.bus["corrupt_replies"],
+            "ticks_per_s": (loop["ticks"] - first.loop["ticks"]) / elapsed,
         }
     finally:
         proc.terminate()
@@ -167,10 +171,35 @@ def daemon(seconds: float) -> dict[str, float]:
             proc.stdout.close()
 
 
+FAULTS = ("--drop=0.05", "--corrupt=0.01")
+
+
+def faults(seconds: float) -> int:
+    """The daemon on a clean emulator (the baseline) against one dropping 5 % and corrupting
+    1 % of the replies, one after the other in this run."""
+    print(f"running the daemon for {seconds:.0f} s clean, then {seconds:.0f} s with faults …")
+    clean = daemon(seconds)
+    bad = daemon(seconds, FAULTS)
+    keys = ["ticks_per_s", "p50_ms", "p99_ms", "max_ms", "overruns", "bus_ms", "cpu_pct"]
+    keys += ["missing_replies", "corrupt_replies"]
+    print(f"{'':16}{'clean':>12}{' '.join(FAULTS):>28}{'ratio':>10}")
+    for k in keys:
+        ratio = bad[k] / clean[k] if clean[k] else float("nan")
+        print(f"{k:16}{clean[k]:>12.2f}{bad[k]:>28.2f}{ratio:>10.2f}")
+    return 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument(
+        "--faults",
+        action="store_true",
+        help=f"instead: the daemon clean against the daemon with {' '.join(FAULTS)}",
+    )
     args = parser.parse_args()
+    if args.faults:
+        return faults(args.seconds)
     print(f"running each loop for {args.seconds:.0f} s on the wire-timed emulator …", flush=True)
     base = baseline(args.seconds)
     mine = daemon(args.seconds)

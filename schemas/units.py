@@ -53,9 +53,12 @@ def deg_to_raw(deg: float) -> int:
     return int(round(deg / DEG_PER_UNIT)) + POSITION_CENTER
 
 
-def signed_11bit(raw: int) -> int:
-    """Decode the MX-28's sign-magnitude speed/load words (bit 10 = direction)."""
+def signed_11bit(raw: int | np.ndarray) -> int | np.ndarray:
+    """Decode the MX-28's sign-magnitude speed/load words (bit 10 = direction); scalar or
+    array."""
     magnitude = raw & 0x3FF
+    if isinstance(raw, np.ndarray):
+        return np.where(raw & 0x400, -magnitude, magnitude)
     return -magnitude if raw & 0x400 else magnitude
 
 
@@ -64,8 +67,8 @@ def encode_signed_11bit(value: int) -> int:
     return magnitude | (0x400 if value < 0 else 0)
 
 
-def speed_raw_to_rad_s(raw: int) -> float:
-    """Present speed register to rad/s (signed, CCW positive)."""
+def speed_raw_to_rad_s(raw: int | np.ndarray) -> float | np.ndarray:
+    """Present speed register to rad/s (signed, CCW positive); scalar or array."""
     return signed_11bit(raw) * RAD_S_PER_SPEED_UNIT
 
 
@@ -76,8 +79,8 @@ def rad_s_to_moving_speed(rad_s: float) -> int:
     return max(1, min(1023, int(round(rad_s / RAD_S_PER_SPEED_UNIT))))
 
 
-def load_raw_to_fraction(raw: int) -> float:
-    """Present load register to a signed fraction of max torque (-1..1)."""
+def load_raw_to_fraction(raw: int | np.ndarray) -> float | np.ndarray:
+    """Present load register to a signed fraction of max torque (-1..1); scalar or array."""
     return signed_11bit(raw) * LOAD_PERCENT_PER_UNIT / 100.0
 
 
@@ -108,6 +111,19 @@ def rgb_to_color_word(r: int, g: int, b: int) -> int:
 
 def color_word_to_rgb(word: int) -> tuple[int, int, int]:
     return ((word & 0x1F) << 3, ((word >> 5) & 0x1F) << 3, ((word >> 10) & 0x1F) << 3)
+
+
+# Return delay time (register 5): 2 µs per unit.
+RETURN_DELAY_S_PER_UNIT = 2e-6
+
+
+def return_delay_s(raw: int) -> float:
+    return raw * RETURN_DELAY_S_PER_UNIT
+
+
+def baud_register_to_bps(raw: int) -> int:
+    """Baud rate register (4) to bits per second (Protocol 1.0: 2 Mbps / (raw + 1))."""
+    return 2_000_000 // (raw + 1)
 
 
 def wire_time_s(n_bytes: int, baud: int = 1_000_000) -> float:

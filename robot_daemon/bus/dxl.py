@@ -4,25 +4,51 @@ The bulk read sends its packet through the SDK's ``bulkReadTx`` (``GroupBulkRead
 4.1.0 cannot on Protocol 1.0: it passes an argument ``bulkReadTx`` does not take) and receives
 with the SDK's ``rxPacket`` one status packet at a time, so one silent or corrupt device costs
 only its own data: every packet that does arrive is kept, matched by ID.
+
+Every wait for a reply is bounded by what that reply needs (:class:`ReplyBudget`): the wire
+time of the bytes still to cross (10 µs a byte at 1 Mbps), the device's return delay and a
+small margin from the config (``bus.reply_margin_ms``). A reply that never comes costs about
+its own wire time, not a fixed timeout, so a lossy bus does not cost the loop its period.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TypeVar
 
 from dynamixel_sdk import COMM_RX_CORRUPT, COMM_SUCCESS, Protocol1PacketHandler
 
-from robot_daemon.bus.port import BlockingPortHandler
-from robot_daemon.bus.tables import BROADCAST_ID, ErrorBit
+from robot_daemon.bus.packet import PACKET_OVERHEAD
+from robot_daemon.bus.tables import BROADCAST_ID, MX28, ErrorBit, Instruction
+from robot_daemon.bus.transport import Transport
+from schemas import units
 from schemas.errors import BusError, NoReplyError, PacketError, PortError
 
 T = TypeVar("T")
 
-# Packet overhead: FF FF ID LEN INST/ERR … CHK.
-_OVERHEAD = 6
+# Until the scan has read a device's return delay, assume the longest it can be set to.
+UNKNOWN_RETURN_DELAY_MS = units.return_delay_s(MX28.RETURN_DELAY_TIME.reg.high) * 1000.0
+
+
+@dataclass
+class ReplyBudget:
+    """How long a reply may take: its bytes on the wire, the device's return delay, a margin.
+
+    ``margin_ms`` covers what the wire model does not: the USB adapter's latency timer (1 ms
+    when set as the README says), the host's scheduling, a Python emulator's."""
+
+    margin_ms: float = 1.0
+    delays_ms: dict[int, float] = field(default_factory=dict)  # by ID, learnt from the scan
+
+    def set_return_delay(self, dxl_id: int, raw: int) -> None:
+        self.delays_ms[dxl_id] = units.return_delay_s(raw) * 1000.0
+
+    def reply_ms(self, byte_ms: float, dxl_id: int, reply_bytes: int, sent_bytes: int = 0) -> float:
+        """The wait for one reply of ``reply_bytes`` from ``dxl_id``, counted from the moment
+        the host has handed over its last ``sent_bytes`` (0 once replies flow)."""
+        delay = self.delays_ms.get(dxl_id, UNKNOWN_RETURN_DELAY_MS)
+        return byte_ms * (sent_bytes + reply_bytes) + delay + self.margin_ms
 
 
 def error_names(bits: int) -> list[str]:
@@ -42,15 +68,13 @@ class BulkResult:
 
 
 class DxlBus:
-    """Transactions on one open port. Not thread-safe: one thread (the motion loop) owns it."""
+    """Transactions on one open transport. Not thread-safe: one thread (the motion loop) owns
+    it."""
 
-    def __init__(self, port: BlockingPortHandler, gap_ms: float = 2.0) -> None:
+    def __init__(self, port: Transport, budget: ReplyBudget | None = None) -> None:
         self.port = port
         self.ph = Protocol1PacketHandler()
-        # Once replies flow, the next one is due within its own wire time: a device that has
-        # not answered ``gap_ms`` after that is taken as silent, so a dropped reply costs a
-        # couple of ms instead of the whole reply margin.
-        self.gap_ms = gap_ms
+        self.budget = budget if budget is not None else ReplyBudget()
 
     @property
     def name(self) -> str:
@@ -67,56 +91,76 @@ class DxlBus:
             "power and the ID (`darwin scan`)"
         )
 
+    def _send(self, dxl_id: int, instruction: int, params: Iterable[int]) -> int:
+        """Send one instruction packet (the SDK adds header and checksum); returns its size."""
+        params = list(params)
+        packet = [0, 0, dxl_id, len(params) + 2, instruction, *params, 0]
+        result = self.ph.txPacket(self.port, packet)
+        if result != COMM_SUCCESS:
+            name = Instruction(instruction).name
+            raise BusError(f"{name} to {dxl_id} on {self.name}: {self.ph.getTxRxResult(result)}")
+        return len(packet)
+
+    def _transact(
+        self, dxl_id: int, instruction: int, params: Iterable[int], length: int, what: str
+    ) -> tuple[bytes, int]:
+        """One instruction and its status packet (``length`` data bytes): (data, error bits)."""
+        sent = self._send(dxl_id, instruction, params)
+        port = self.port
+        port.setPacketTimeoutMillis(
+            self.budget.reply_ms(port.tx_time_per_byte, dxl_id, length + PACKET_OVERHEAD, sent)
+        )
+        port.is_using = True
+        # The SDK takes any packet from that ID; a late reply to an earlier transaction (a bulk
+        # read that timed out) would pass for this one. Only a reply of the right length counts.
+        while True:
+            rx, result = self.ph.rxPacket(port)
+            self._check(result, what, dxl_id)
+            if rx[2] == dxl_id and rx[3] == length + 2:
+                return bytes(rx[5 : 5 + length]), rx[4]
+            port.is_using = True
+
     # -- single-device transactions -----------------------------------------------------------
     def ping(self, dxl_id: int) -> bool:
-        _, result, _ = self.ph.txRxPacket(self.port, [0, 0, dxl_id, 2, 1, 0])
-        return result == COMM_SUCCESS
+        try:
+            self._transact(dxl_id, Instruction.PING, (), 0, "PING")
+        except PortError:
+            raise
+        except BusError:
+            return False
+        return True
 
     def read(self, dxl_id: int, address: int, length: int, tries: int = 1) -> tuple[bytes, int]:
         """Read ``length`` bytes; returns (data, error bits) or raises ``BusError``. A missing or
         corrupt reply is asked for again, ``tries`` times in all; a lost port is not."""
-        return _retry(tries, lambda: self._read_once(dxl_id, address, length))
-
-    def _read_once(self, dxl_id: int, address: int, length: int) -> tuple[bytes, int]:
-        result = self.ph.readTx(self.port, dxl_id, address, length)
-        self._check(result, f"READ {address}+{length}", dxl_id)
-        # The SDK takes any packet from that ID; a late reply to an earlier transaction (a bulk
-        # read that timed out) would pass for this one. Only a reply of the right length counts.
-        while True:
-            rx, result = self.ph.rxPacket(self.port)
-            self._check(result, f"READ {address}+{length}", dxl_id)
-            if rx[2] == dxl_id and rx[3] == length + 2:
-                return bytes(rx[5 : 5 + length]), rx[4]
+        what = f"READ {address}+{length}"
+        return _retry(
+            tries, lambda: self._transact(dxl_id, Instruction.READ, (address, length), length, what)
+        )
 
     def write(self, dxl_id: int, address: int, data: bytes, tries: int = 1) -> int:
         """WRITE and wait for the status packet; returns its error bits. Retried like
         :meth:`read` (writing the same value again is harmless)."""
-        return _retry(tries, lambda: self._write_once(dxl_id, address, data))
-
-    def _write_once(self, dxl_id: int, address: int, data: bytes) -> int:
-        result, error = self.ph.writeTxRx(self.port, dxl_id, address, len(data), list(data))
-        self._check(result, f"WRITE {address}+{len(data)}", dxl_id)
-        return error
-
-    def write_no_reply(self, dxl_id: int, address: int, data: bytes) -> None:
-        self.ph.writeTxOnly(self.port, dxl_id, address, len(data), list(data))
-        self.port.is_using = False
+        what = f"WRITE {address}+{len(data)}"
+        params = (address, *data)
+        return _retry(
+            tries, lambda: self._transact(dxl_id, Instruction.WRITE, params, 0, what)[1]
+        )
 
     # -- group transactions -------------------------------------------------------------------
     def sync_write(self, start: int, length: int, rows: dict[int, bytes]) -> int:
         """SYNC_WRITE ``length`` bytes from ``start`` to each id in ``rows``; returns bytes sent."""
         if not rows:
             return 0
-        param: list[int] = []
+        param: list[int] = [start, length]
         for dxl_id, data in rows.items():
             if len(data) != length:
                 raise ValueError(f"sync write row for {dxl_id} has {len(data)} bytes, not {length}")
             param.append(dxl_id)
             param.extend(data)
-        result = self.ph.syncWriteTxOnly(self.port, start, length, param, len(param))
-        if result != COMM_SUCCESS:
-            raise BusError(f"SYNC_WRITE on {self.name} failed: {self.ph.getTxRxResult(result)}")
-        return len(param) + 8
+        sent = self._send(BROADCAST_ID, Instruction.SYNC_WRITE, param)
+        self.port.is_using = False
+        return sent
 
     def bulk_read(self, blocks: Iterable[tuple[int, int, int]]) -> BulkResult:
         """BULK_READ ``(id, start, length)`` blocks; every reply that arrives is kept."""
@@ -141,31 +185,30 @@ class DxlBus:
         return out
 
     def _bulk_once(self, blocks: list[tuple[int, int, int]], out: BulkResult) -> list[int]:
-        param: list[int] = []
+        param: list[int] = [0x00]  # the protocol's leading 0
         for dxl_id, start, length in blocks:
             param += [length, dxl_id, start]
-        result = self.ph.bulkReadTx(self.port, param, len(param))
-        if result != COMM_SUCCESS:
-            raise BusError(f"BULK_READ on {self.name} failed: {self.ph.getTxRxResult(result)}")
+        sent = self._send(BROADCAST_ID, Instruction.BULK_READ, param)
+        port, budget = self.port, self.budget
+        byte_ms = port.tx_time_per_byte
         want = {dxl_id: length for dxl_id, _, length in blocks}
-        per_byte = self.port.tx_time_per_byte
-        reply_bytes = sum(length + _OVERHEAD for length in want.values())
-        tx_bytes = len(param) + 7
-        now = time.monotonic() * 1000.0
-        # The whole transaction: the instruction and every reply on the wire, plus the margin.
-        final = now + per_byte * (tx_bytes + reply_bytes) + self.port.reply_margin_ms
-        # The first reply may take the full latency margin; later ones follow within a gap.
-        deadline = now + per_byte * (tx_bytes + max(want.values()) + _OVERHEAD)
-        deadline += self.port.reply_margin_ms
-        longest = max(want.values()) + _OVERHEAD
-        pending = set(want)
+        order = [dxl_id for dxl_id, _, _ in blocks]
+        waits = {i: budget.reply_ms(byte_ms, i, want[i] + PACKET_OVERHEAD) for i in order}
+        now = port.getCurrentTime()
+        # Each wait is for the next reply due in bus order: the first one after the instruction
+        # has crossed the wire, each later one after the reply before it. The whole transaction
+        # never takes longer than every reply's own wait, however the replies trickle in.
+        final = now + byte_ms * sent + sum(waits.values())
+        deadline = now + byte_ms * sent + waits[order[0]]
+        pending = set(order)
         while pending:
-            remaining = min(deadline, final) - time.monotonic() * 1000.0
+            now = port.getCurrentTime()
+            remaining = min(deadline, final) - now
             if remaining <= 0:
                 break
-            self.port.setPacketTimeoutMillis(remaining)
-            self.port.is_using = True
-            rx, result = self.ph.rxPacket(self.port)
+            port.setPacketTimeoutMillis(remaining)
+            port.is_using = True
+            rx, result = self.ph.rxPacket(port)
             if result == COMM_SUCCESS:
                 dxl_id = rx[2]
                 length = want.get(dxl_id)
@@ -179,15 +222,15 @@ class DxlBus:
             elif result == COMM_RX_CORRUPT:
                 out.corrupt += 1
             else:
-                break  # timeout: nothing more is coming
-            deadline = time.monotonic() * 1000.0 + per_byte * longest + self.gap_ms
-        self.port.is_using = False
+                break  # timeout: the reply due is not coming
+            if pending:
+                after = order.index(rx[2]) + 1 if len(rx) > 2 and rx[2] in want else 0
+                due = next((i for i in order[after:] if i in pending), None)
+                if due is None:
+                    due = next(i for i in order if i in pending)
+                deadline = port.getCurrentTime() + waits[due]
+        port.is_using = False
         return [b[0] for b in blocks if b[0] in pending]
-
-
-def broadcast_ping_ids(bus: DxlBus, ids: Iterable[int]) -> list[int]:
-    """IDs among ``ids`` that answer a PING (one at a time: Protocol 1.0 has no broadcast ping)."""
-    return [i for i in ids if i != BROADCAST_ID and bus.ping(i)]
 
 
 def _retry(tries: int, once: Callable[[], T]) -> T:

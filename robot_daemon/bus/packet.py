@@ -21,6 +21,8 @@ MIN_LENGTH = 2  # instruction/error + checksum
 # The SDK's TXPACKET_MAX_LEN/RXPACKET_MAX_LEN: the longest whole packet is 250 bytes.
 MAX_PACKET_BYTES = 250
 MAX_LENGTH = MAX_PACKET_BYTES - 4
+# Bytes of a packet beside its parameters (or data): FF FF ID LEN INST/ERR … CHK.
+PACKET_OVERHEAD = 6
 
 
 def checksum(body: Iterable[int]) -> int:

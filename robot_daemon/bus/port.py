@@ -16,12 +16,11 @@ import logging
 import os
 import select
 import termios
-import time
 from pathlib import Path
 
 import serial
-from dynamixel_sdk import PortHandler
 
+from robot_daemon.bus.transport import Transport
 from schemas.errors import PortError, PortInUseError
 
 log = logging.getLogger(__name__)
@@ -76,20 +75,17 @@ class PortLock:
             self._fd = None
 
 
-class BlockingPortHandler(PortHandler):
-    """A dynamixel-sdk ``PortHandler`` that never spins and owns its port exclusively.
-
-    ``reply_margin_ms`` replaces the SDK's fixed 2 × 16 ms latency allowance: on the emulator or
-    a USB adapter whose latency timer is 1 ms a few ms are plenty, and a silent servo then costs
-    a few ms of the tick instead of 34.
+class BlockingPortHandler(Transport):
+    """The serial transport: a dynamixel-sdk ``PortHandler`` that never spins and owns its port
+    exclusively. How long a reply is waited for is the bus layer's to say (``dxl.ReplyBudget``);
+    ``reply_margin_ms`` only serves the SDK's own calls (``setPacketTimeout``), replacing its
+    fixed 2 × 16 ms latency allowance.
     """
 
     def __init__(self, port_name: str, reply_margin_ms: float = 4.0) -> None:
         super().__init__(port_name)
         self.reply_margin_ms = reply_margin_ms
         self._lock = PortLock(port_name)
-        self.bytes_written = 0
-        self.bytes_read = 0
 
     # -- open / close ----------------------------------------------------------------------
     def open(self, baudrate: int) -> None:
@@ -130,7 +126,7 @@ class BlockingPortHandler(PortHandler):
             fcntl.ioctl(self.ser.fileno(), termios.TIOCEXCL)
         self.is_open = True
         self.ser.reset_input_buffer()
-        self.tx_time_per_byte = (1000.0 / self.baudrate) * 10.0
+        self.set_baud(self.baudrate)
         return True
 
     def close(self) -> None:
@@ -146,10 +142,6 @@ class BlockingPortHandler(PortHandler):
     def setPacketTimeout(self, packet_length: int) -> None:
         self.packet_start_time = self.getCurrentTime()
         self.packet_timeout = self.tx_time_per_byte * packet_length + self.reply_margin_ms
-
-    def getCurrentTime(self) -> float:
-        # Monotonic, in ms: the SDK's wall clock would jump with NTP.
-        return time.monotonic() * 1000.0
 
     def readPort(self, length: int) -> bytes:
         try:
@@ -185,6 +177,10 @@ class BlockingPortHandler(PortHandler):
             self.ser.reset_input_buffer()
         except _PORT_FAILURES as exc:
             raise PortError(f"serial port {self.port_name} failed: {exc}") from exc
+
+
+    def latency_timer_ms(self) -> int | None:
+        return latency_timer_ms(self.port_name)
 
 
 def latency_timer_ms(port_name: str) -> int | None:

@@ -9,16 +9,19 @@ read so it cannot stall the others) and is probed in the round-robin until it an
 from __future__ import annotations
 
 import logging
-import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from config.loader import RobotConfig
-from robot_daemon.bus.dxl import DxlBus, error_names
-from robot_daemon.bus.port import BlockingPortHandler, latency_timer_ms
+from robot_daemon.bus.calibration import Calibration
+from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
+from robot_daemon.bus.port import BlockingPortHandler
+from robot_daemon.bus.scan import identify
 from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, word
+from robot_daemon.bus.transport import Transport
 from robot_daemon.bus.tables import (
     CM730,
     CM730_BULK_LENGTH,
@@ -34,7 +37,7 @@ from robot_daemon.bus.tables import (
     SYNC_WRITE_START,
     ErrorBit,
 )
-from robot_daemon.motion.interface import N_SLOTS, JointFrame, Targets
+from robot_daemon.motion.interface import JointFrame, Targets
 from schemas import units
 from schemas.errors import BusError, NoReplyError, PortError
 
@@ -51,17 +54,20 @@ SCAN_TRIES = 3
 CM730_WAIT_S = 5.0
 
 
-def _signed_11bit(raw: np.ndarray) -> np.ndarray:
-    """:func:`schemas.units.signed_11bit` on a whole array."""
-    magnitude = raw & 0x3FF
-    return np.where(raw & 0x400, -magnitude, magnitude)
-
-
 class RobotBus:
-    """Owns the port; every method runs in the motion thread."""
+    """Owns the transport; every method runs in the motion thread.
+
+    ``transport`` makes the transport at each :meth:`open`: by default the serial port
+    ``port_name`` (:class:`BlockingPortHandler`); the simulated rig passes an in-process link to
+    the emulator (:class:`robot_daemon.sim.link.EmulatorLink`)."""
 
     def __init__(
-        self, port_name: str, robot: RobotConfig, settings: dict[str, Any], emit: Any
+        self,
+        port_name: str,
+        robot: RobotConfig,
+        settings: dict[str, Any],
+        emit: Any,
+        transport: Callable[[], Transport] | None = None,
     ) -> None:
         daemon = settings.get("daemon", {})
         bus_cfg = settings.get("bus", {})
@@ -72,8 +78,7 @@ class RobotBus:
         self.slow_per_tick = int(daemon.get("slow_reads_per_tick", 1))
         # An offline servo is probed once every this many ticks (a silent probe costs a wait).
         self.probe_every = max(1, int(bus_cfg.get("probe_offline_every", 25)))
-        self.reply_margin_ms = float(bus_cfg.get("reply_margin_ms", 4.0))
-        self.gap_ms = float(bus_cfg.get("reply_gap_ms", 2.0))
+        self.reply_margin_ms = float(bus_cfg.get("reply_margin_ms", 1.0))
         self.power_on_delay = float(bus_cfg.get("power_on_delay_ms", 300.0)) / 1000.0
         self.torque_on_start = bool(daemon.get("torque_on_start", True))
         imu = settings.get("imu", {})
@@ -86,25 +91,20 @@ class RobotBus:
         self.cm730_online = False
         self.counters = BusCounters()
         self.warnings: list[str] = []
-        self.handler: BlockingPortHandler | None = None
+        self.make_transport = transport or (
+            lambda: BlockingPortHandler(self.port_name, self.reply_margin_ms)
+        )
+        self.handler: Transport | None = None
         self.dxl: DxlBus | None = None
         self._rr = 0
-        self._sign = np.ones(N_SLOTS)
-        self._offset = np.zeros(N_SLOTS)
-        self._min = np.full(N_SLOTS, -math.pi)
-        self._max = np.full(N_SLOTS, math.pi)
-        for j in robot.joints:
-            self._sign[j.id] = j.direction
-            self._offset[j.id] = math.radians(j.offset_deg)
-            self._min[j.id], self._max[j.id] = j.min_rad, j.max_rad
+        self.calibration = Calibration(robot)
 
     # -- calibration ---------------------------------------------------------------------------
     def raw_to_joint(self, jid: int, raw: int | float) -> float:
-        return float(self._sign[jid] * (units.raw_to_rad(raw) - self._offset[jid]))
+        return self.calibration.to_joint(jid, raw)
 
     def joint_to_raw(self, jid: int, rad: float) -> int:
-        raw = units.rad_to_raw(self._sign[jid] * rad + self._offset[jid])
-        return max(0, min(units.POSITION_MAX, raw))
+        return self.calibration.to_raw(jid, rad)
 
     # -- port lifecycle ------------------------------------------------------------------------
     @property
@@ -112,9 +112,10 @@ class RobotBus:
         return self.dxl is not None
 
     def open(self) -> None:
-        handler = BlockingPortHandler(self.port_name, self.reply_margin_ms)
+        handler = self.make_transport()
         handler.open(self.baud)
-        self.handler, self.dxl = handler, DxlBus(handler, self.gap_ms)
+        self.handler = handler
+        self.dxl = DxlBus(handler, ReplyBudget(self.reply_margin_ms))
 
     def close(self) -> None:
         if self.handler is not None:
@@ -151,7 +152,8 @@ class RobotBus:
         except BusError as exc:
             log.info("could not paint the head LED: %s", exc)
         # A little past the nominal delay: a servo asked too early looks absent.
-        time.sleep(self.power_on_delay * 1.2)
+        assert self.handler is not None
+        self.handler.pause(self.power_on_delay * 1.2)
 
     def scan(self) -> dict[int, int]:
         """Ping the CM-730 and every joint; check firmware, return delay and the USB latency
@@ -160,24 +162,27 @@ class RobotBus:
         found: dict[int, int] = {}
         self.warnings = []
         for dxl_id in (self.cm730_id, *self.ids):
-            data = self._read_retry(bus, dxl_id, 0, 6)
-            if data is None:
+            ident = identify(bus, dxl_id, SCAN_TRIES)
+            if ident is None:
                 continue
-            model, firmware, delay = word(data, 0), data[2], data[5]
-            found[dxl_id] = model
-            self.state.firmware[dxl_id] = firmware
+            found[dxl_id] = ident.model
+            self.state.firmware[dxl_id] = ident.firmware
+            bus.budget.set_return_delay(dxl_id, ident.return_delay)
             expected = CM730_MODEL if dxl_id == self.cm730_id else MX28_MODEL
-            if model != expected:
-                self._warn(f"device {dxl_id} reports model {model:#x}, expected {expected:#x}")
-            if delay != 0:
+            if ident.model != expected:
+                self._warn(f"device {dxl_id} reports model {ident.model:#x}, expected {expected:#x}")
+            if ident.return_delay != 0:
+                delay_us = units.return_delay_s(ident.return_delay) * 1e6
                 self._warn(
-                    f"device {dxl_id} has return delay {delay} ({delay * 2} µs per reply); set "
-                    f"it to 0 (`darwin scan --port {self.port_name} --fix-return-delay`)"
+                    f"device {dxl_id} has return delay {ident.return_delay} ({delay_us:.0f} µs "
+                    f"per reply); set it to 0 (`darwin scan --port {self.port_name} "
+                    "--fix-return-delay`)"
                 )
         missing = [i for i in self.ids if i not in found]
         if missing:
             self._warn(f"servos {missing} do not answer on {self.port_name}; they stay offline")
-        timer = latency_timer_ms(self.port_name)
+        assert self.handler is not None
+        timer = self.handler.latency_timer_ms()
         if timer is not None and timer > 1:
             self._warn(
                 f"the USB latency timer of {self.port_name} is {timer} ms: every reply waits that "
@@ -241,11 +246,11 @@ class RobotBus:
             if not (st.online[jid] and st.torque[jid]):
                 self.counters.skipped_goals += 1
                 continue
-            if not self._min[jid] - 1e-9 <= rad <= self._max[jid] + 1e-9:
+            if not self.calibration.in_limits(jid, rad):
                 # The arbiter rejects out-of-range commands; this guards module bugs.
                 self.counters.limit_clamps += 1
-                rad = min(max(rad, self._min[jid]), self._max[jid])
-            raw = self.joint_to_raw(jid, rad)
+                rad = self.calibration.clamp(jid, rad)
+            raw = self.calibration.to_raw(jid, rad)
             rows[jid] = self._sync_row(jid, raw, targets.gains.get(jid))
             st.goal[jid] = raw
         if rows:
@@ -316,10 +321,6 @@ class RobotBus:
                     id=jid,
                 )
 
-    def _slow_read(self, jid: int) -> None:
-        data, error = self._bus().read(jid, SLOW_START, SLOW_LENGTH)
-        self._apply_slow(jid, data, error)
-
     def _apply_slow(self, jid: int, data: bytes, error: int) -> None:
         st = self.state
 
@@ -362,9 +363,10 @@ class RobotBus:
         st = self.state
         f = JointFrame(tick=tick, time=now, dt=dt)
         # Whole arrays at once (slot 0 is unused and stays meaningless): this runs every tick.
-        f.position[:] = self._sign * (units.raw_to_rad(st.position) - self._offset)
-        f.velocity[:] = self._sign * _signed_11bit(st.speed) * units.RAD_S_PER_SPEED_UNIT
-        f.load[:] = self._sign * _signed_11bit(st.load) * (units.LOAD_PERCENT_PER_UNIT / 100.0)
+        cal = self.calibration
+        f.position[:] = cal.positions(st.position)
+        f.velocity[:] = cal.sign * units.speed_raw_to_rad_s(st.speed)
+        f.load[:] = cal.sign * units.load_raw_to_fraction(st.load)
         f.online[:] = st.online
         f.torque_enabled[:] = st.torque
         gyro_raw, accel_raw = self.imu_raw()

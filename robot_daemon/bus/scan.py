@@ -6,13 +6,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
+from dataclasses import dataclass
 from typing import Any
 
 from config.loader import load_all
-from robot_daemon.bus.dxl import DxlBus, error_names
-from robot_daemon.bus.port import BlockingPortHandler, latency_timer_ms
-from robot_daemon.bus.tables import CM730, CM730_ID, CM730_MODEL, MX28, MX28_MODEL
+from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
+from robot_daemon.bus.port import BlockingPortHandler
+from robot_daemon.bus.state import field_value
+from robot_daemon.bus.tables import CM730, CM730_ID, CM730_MODEL, MX28, MX28_MODEL, Register
 from schemas import units
 from schemas.errors import BusError, PortError
 
@@ -56,45 +57,90 @@ def parse_ids(text: str) -> list[int]:
     return ids
 
 
-def describe(bus: DxlBus, dxl_id: int, tries: int = 3) -> dict[str, Any] | None:
-    """What ``dxl_id`` says of itself, or None if it never answers: one lost or garbled reply
-    must not make a device look absent, so each read is tried ``tries`` times."""
+@dataclass(frozen=True)
+class Identity:
+    """What every device says of itself in its first registers."""
+
+    model: int
+    firmware: int
+    baud: int  # the baud rate register (raw)
+    return_delay: int  # the return delay register (raw, 2 µs units)
+    error: int  # error bits of the reply
+
+
+# Model number … return delay time: the same addresses on the MX-28 and the CM-730.
+_IDENTITY_START = MX28.MODEL_NUMBER.reg.address
+_IDENTITY_LENGTH = MX28.RETURN_DELAY_TIME.reg.end - _IDENTITY_START
+
+
+def identify(bus: DxlBus, dxl_id: int, tries: int = 3) -> Identity | None:
+    """The identity of ``dxl_id``, or None if it never answers: one lost or garbled reply must
+    not make a device look absent, so the read is tried ``tries`` times. A lost port raises."""
     try:
-        head, error = bus.read(dxl_id, 0, 6, tries=tries)
+        head, error = bus.read(dxl_id, _IDENTITY_START, _IDENTITY_LENGTH, tries=tries)
+    except PortError:
+        raise
     except BusError:
         return None
-    model = head[0] | head[1] << 8
+
+    def at(reg: MX28) -> int:
+        return field_value(head, _IDENTITY_START, reg.reg)
+
+    return Identity(
+        model=at(MX28.MODEL_NUMBER),
+        firmware=at(MX28.FIRMWARE_VERSION),
+        baud=at(MX28.BAUD_RATE),
+        return_delay=at(MX28.RETURN_DELAY_TIME),
+        error=error,
+    )
+
+
+def _block(bus: DxlBus, dxl_id: int, first: Register, last: Register, tries: int) -> bytes:
+    return bus.read(dxl_id, first.address, last.end - first.address, tries=tries)[0]
+
+
+def describe(bus: DxlBus, dxl_id: int, tries: int = 3) -> dict[str, Any] | None:
+    """What ``dxl_id`` says of itself (identity and key registers), or None if it never
+    answers."""
+    ident = identify(bus, dxl_id, tries)
+    if ident is None:
+        return None
     info: dict[str, Any] = {
         "id": dxl_id,
-        "model": MODELS.get(model, f"{model:#06x}"),
-        "firmware": head[2],
-        "baud": 2_000_000 // (head[4] + 1),
-        "return_delay_us": head[5] * 2,
-        "alarms": error_names(error),
+        "model": MODELS.get(ident.model, f"{ident.model:#06x}"),
+        "firmware": ident.firmware,
+        "baud": units.baud_register_to_bps(ident.baud),
+        "return_delay_us": round(units.return_delay_s(ident.return_delay) * 1e6),
+        "alarms": error_names(ident.error),
     }
     try:
-        if model == CM730_MODEL:
-            data, _ = bus.read(dxl_id, 24, 27, tries=tries)
+        if ident.model == CM730_MODEL:
+            start = CM730.DXL_POWER.reg
+            data = _block(bus, dxl_id, start, CM730.VOLTAGE.reg, tries)
+
+            def cm(reg: CM730) -> int:
+                return field_value(data, start.address, reg.reg)
+
             info.update(
-                power=bool(data[0]),
-                voltage=units.voltage_raw_to_v(data[CM730.VOLTAGE.reg.address - 24]),
-                buttons=data[CM730.BUTTON.reg.address - 24],
+                power=bool(cm(CM730.DXL_POWER)),
+                voltage=units.voltage_raw_to_v(cm(CM730.VOLTAGE)),
+                buttons=cm(CM730.BUTTON),
             )
         else:
-            data, _ = bus.read(dxl_id, 24, 20, tries=tries)
+            start = MX28.TORQUE_ENABLE.reg
+            data = _block(bus, dxl_id, start, MX28.PRESENT_TEMPERATURE.reg, tries)
 
-            def word(reg: MX28) -> int:
-                o = reg.reg.address - 24
-                return data[o] | data[o + 1] << 8
+            def mx(reg: MX28) -> int:
+                return field_value(data, start.address, reg.reg)
 
             info.update(
-                torque=bool(data[0]),
-                pid=[data[4], data[3], data[2]],
-                position=word(MX28.PRESENT_POSITION),
-                position_deg=round(units.raw_to_deg(word(MX28.PRESENT_POSITION)), 1),
-                goal=word(MX28.GOAL_POSITION),
-                voltage=units.voltage_raw_to_v(data[MX28.PRESENT_VOLTAGE.reg.address - 24]),
-                temperature=data[MX28.PRESENT_TEMPERATURE.reg.address - 24],
+                torque=bool(mx(MX28.TORQUE_ENABLE)),
+                pid=[mx(MX28.P_GAIN), mx(MX28.I_GAIN), mx(MX28.D_GAIN)],
+                position=mx(MX28.PRESENT_POSITION),
+                position_deg=round(units.raw_to_deg(mx(MX28.PRESENT_POSITION)), 1),
+                goal=mx(MX28.GOAL_POSITION),
+                voltage=units.voltage_raw_to_v(mx(MX28.PRESENT_VOLTAGE)),
+                temperature=mx(MX28.PRESENT_TEMPERATURE),
             )
     except BusError as exc:
         info["error"] = str(exc)
@@ -107,15 +153,16 @@ def run(args: argparse.Namespace) -> int:
     settings = load_all(args.config)
     dcfg = settings.get("daemon", {})
     port = args.port or dcfg.get("port", "/dev/ttyUSB0")
-    margin = float(settings.get("bus", {}).get("reply_margin_ms", 4.0))
+    bus_cfg = settings.get("bus", {})
+    margin = float(bus_cfg.get("reply_margin_ms", 1.0))
     handler = BlockingPortHandler(port, margin)
     handler.open(int(args.baud or dcfg.get("baud", 1_000_000)))
     try:
-        bus = DxlBus(handler)
+        bus = DxlBus(handler, ReplyBudget(margin))
         if not args.no_power:
             try:
                 bus.write(CM730_ID, CM730.DXL_POWER.reg.address, b"\x01", tries=args.tries)
-                time.sleep(float(settings.get("bus", {}).get("power_on_delay_ms", 300)) / 1000)
+                handler.pause(float(bus_cfg.get("power_on_delay_ms", 300)) / 1000)
             except BusError as exc:
                 # stderr: with --json, stdout carries only the devices, one JSON object a line.
                 print(
@@ -135,7 +182,7 @@ def run(args: argparse.Namespace) -> int:
                 info["return_delay_us"] = 0
                 info["fixed"] = "return delay set to 0"
             print(json.dumps(info) if args.json else format_line(info), flush=True)
-        timer = latency_timer_ms(port)
+        timer = handler.latency_timer_ms()
         if not args.json:
             print(f"{found} device(s) answered on {port}")
             if timer is not None and timer > 1:

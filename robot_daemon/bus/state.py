@@ -8,13 +8,25 @@ from typing import Any
 
 import numpy as np
 
-from robot_daemon.bus.tables import CM730, CM730_BULK_START, IMU_ACCEL_AXES, IMU_GYRO_AXES
+from robot_daemon.bus.tables import (
+    CM730,
+    CM730_BULK_START,
+    IMU_ACCEL_AXES,
+    IMU_GYRO_AXES,
+    Register,
+)
 from robot_daemon.motion.interface import N_SLOTS
 from schemas import units
 
 
 def word(data: bytes, offset: int) -> int:
     return data[offset] | (data[offset + 1] << 8)
+
+
+def field_value(block: bytes, start: int, reg: Register) -> int:
+    """A register's value out of a block read from address ``start``."""
+    off = reg.address - start
+    return word(block, off) if reg.size == 2 else block[off]
 
 
 @dataclass
@@ -39,7 +51,7 @@ class BusCounters:
 class ServoState:
     """Last known raw state of every joint, by id (slot 0 unused)."""
 
-    position: np.ndarray = field(default_factory=lambda: np.full(N_SLOTS, 2048, dtype=int))
+    position: np.ndarray = field(default_factory=lambda: np.full(N_SLOTS, units.POSITION_CENTER, dtype=int))
     speed: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
     load: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
     temperature: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS))
@@ -48,14 +60,13 @@ class ServoState:
     online: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=bool))
     misses: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
     alarm: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
-    goal: np.ndarray = field(default_factory=lambda: np.full(N_SLOTS, 2048, dtype=int))
+    goal: np.ndarray = field(default_factory=lambda: np.full(N_SLOTS, units.POSITION_CENTER, dtype=int))
     firmware: dict[int, int] = field(default_factory=dict)
 
 
 def cm730_field(block: bytes, reg: CM730) -> int:
     """A register out of the CM-730's bulk-read block (30 bytes from ``CM730_BULK_START``)."""
-    off = reg.reg.address - CM730_BULK_START
-    return word(block, off) if reg.reg.size == 2 else block[off]
+    return field_value(block, CM730_BULK_START, reg.reg)
 
 
 def imu_raw(block: bytes) -> tuple[list[int], list[int]]:

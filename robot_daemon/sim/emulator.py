@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from robot_daemon.bus.packet import BadChecksum, Frame, PacketParser
+from robot_daemon.bus.packet import PACKET_OVERHEAD, BadChecksum, Frame, PacketParser
 from robot_daemon.realtime import check_priority, enter_realtime
 from robot_daemon.sim.bus import Bus
 from robot_daemon.sim.devices import Environment
@@ -316,7 +316,18 @@ class Emulator(EmulatorApi):
             self._quiet.set()
 
     def _process(self, frames: list[Frame], t_rx: float) -> None:
-        t = max(t_rx, self._bus_free)
+        replies, self._bus_free = self._answer(
+            frames, max(t_rx, self._bus_free), self.wire_timing
+        )
+        self._out.extend(replies)
+
+    def _answer(
+        self, frames: list[Frame], t: float, wire_timing: bool
+    ) -> tuple[list[tuple[float, bytes]], float]:
+        """What the devices send back for ``frames`` whose first byte arrived at ``t``: each
+        reply with the time its last byte is on the line (faults applied), and the time the bus
+        is free again. Call with the lock held."""
+        out: list[tuple[float, bytes]] = []
         for frame in frames:
             self.received.append(frame)
             self.stats["frames"] += 1
@@ -324,8 +335,8 @@ class Emulator(EmulatorApi):
                 self.stats["bad_checksums"] += 1
                 size = len(frame.raw)
             else:
-                size = len(frame.params) + 6
-            if self.wire_timing:
+                size = len(frame.params) + PACKET_OVERHEAD
+            if wire_timing:
                 t += size * self.byte_time_s
             for reply in self.bus.handle(frame):
                 packet, extra, fault = self.faults.apply(self.rng, reply.packet)
@@ -333,11 +344,19 @@ class Emulator(EmulatorApi):
                     self.stats[fault] += 1
                 if packet is None:
                     continue
-                if self.wire_timing:
+                if wire_timing:
                     t += reply.return_delay_s + len(packet) * self.byte_time_s
                 t += extra
-                self._out.append((t, packet))
-        self._bus_free = t
+                out.append((t, packet))
+        return out, t
+
+    def exchange(self, parser: PacketParser, data: bytes, t: float) -> list[tuple[float, bytes]]:
+        """The in-process link's way in (:class:`robot_daemon.sim.link.EmulatorLink`): bytes a
+        host sends at ``t`` (the link's clock, s), framed by the link's own ``parser``; returns
+        the replies, each with the time a 1 Mbps wire would have delivered it."""
+        with self.lock:
+            self.stats["rx_bytes"] += len(data)
+            return self._answer(parser.feed(data), t, wire_timing=True)[0]
 
     def _flush(self) -> None:
         if not self._out or self.link.master is None:

@@ -42,7 +42,12 @@ class EmulatorSettings:
     @classmethod
     def load(cls, path: str | None = None, **overrides: Any) -> EmulatorSettings:
         """Shipped ``[emulator]`` values, the user file on top, then ``overrides`` (not None)."""
-        data = load_all(path)
+        return cls.from_settings(load_all(path), **overrides)
+
+    @classmethod
+    def from_settings(cls, data: dict[str, Any], **overrides: Any) -> EmulatorSettings:
+        """From merged config ``data`` (its ``[emulator]``, and ``[imu]``'s gyro scale, which
+        the daemon reads the emulated IMU with), then ``overrides`` (not None)."""
         section = dict(data.get("emulator", {}))
         gyro = data.get("imu", {}).get("gyro_full_scale_dps")
         if gyro is not None:

@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 
 from config.loader import load_all, robot_from_dict
-from robot_daemon.bus.dxl import DxlBus
+from robot_daemon.bus.dxl import DxlBus, ReplyBudget
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.robot_bus import RobotBus
 from robot_daemon.motion.interface import Targets
@@ -55,10 +55,10 @@ def test_a_missing_port_says_what_to_check(tmp_path: Any) -> None:
 
 
 def test_waiting_for_a_silent_device_does_not_spin(emulator: Emulator) -> None:
-    handler = BlockingPortHandler(emulator.port, reply_margin_ms=300.0)
+    handler = BlockingPortHandler(emulator.port)
     handler.open(1_000_000)
     try:
-        bus = DxlBus(handler)
+        bus = DxlBus(handler, ReplyBudget(margin_ms=300.0))
         wall0, cpu0 = time.monotonic(), time.process_time()
         with pytest.raises(NoReplyError, match="device 99"):
             bus.read(99, 0, 2)
@@ -73,10 +73,10 @@ def test_waiting_for_a_silent_device_does_not_spin(emulator: Emulator) -> None:
 def test_bulk_read_keeps_every_reply_around_a_silent_device(emulator: Emulator) -> None:
     emulator.silence(5)
     # Generous margins: the emulator shares this process (and CI's two cores).
-    handler = BlockingPortHandler(emulator.port, reply_margin_ms=30.0)
+    handler = BlockingPortHandler(emulator.port)
     handler.open(1_000_000)
     try:
-        bus = DxlBus(handler, gap_ms=20.0)
+        bus = DxlBus(handler, ReplyBudget(margin_ms=30.0))
         bus.write(200, 24, b"\x01")
         blocks = [(i, 36, 6) for i in range(1, 21)] + [(200, 24, 30)]
         res = bus.bulk_read(blocks)

@@ -1,0 +1,72 @@
+"""Joint calibration, defined once: ``servo = direction · joint + offset``.
+
+Raw positions are converted to servo angles by :mod:`schemas.units`; the direction and offset
+come from the robot config. The functions work on one joint (scalars) or on every joint at once
+(arrays indexed by joint id), with the same arithmetic.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import overload
+
+import numpy as np
+
+from config.loader import JointConfig, RobotConfig
+from robot_daemon.motion.interface import N_SLOTS
+from schemas import units
+
+
+@overload
+def servo_to_joint(raw: int | float, direction: float, offset_rad: float) -> float: ...
+@overload
+def servo_to_joint(raw: np.ndarray, direction: np.ndarray, offset_rad: np.ndarray) -> np.ndarray: ...
+def servo_to_joint(raw, direction, offset_rad):  # type: ignore[no-untyped-def]
+    """Joint angle (rad) for a raw servo position."""
+    return direction * (units.raw_to_rad(raw) - offset_rad)
+
+
+def joint_to_servo(rad: float, direction: float, offset_rad: float) -> int:
+    """Raw servo position for a joint angle, kept inside the servo's 0..4095."""
+    raw = units.rad_to_raw(direction * rad + offset_rad)
+    return max(0, min(units.POSITION_MAX, raw))
+
+
+def joint_angle(joint: JointConfig, raw: int | float) -> float:
+    """:func:`servo_to_joint` for one configured joint."""
+    return float(servo_to_joint(raw, joint.direction, math.radians(joint.offset_deg)))
+
+
+def joint_raw(joint: JointConfig, rad: float) -> int:
+    """:func:`joint_to_servo` for one configured joint."""
+    return joint_to_servo(rad, joint.direction, math.radians(joint.offset_deg))
+
+
+class Calibration:
+    """Direction, offset and limits of every joint, as arrays indexed by joint id."""
+
+    def __init__(self, robot: RobotConfig) -> None:
+        self.sign = np.ones(N_SLOTS)
+        self.offset = np.zeros(N_SLOTS)
+        self.min = np.full(N_SLOTS, -math.pi)
+        self.max = np.full(N_SLOTS, math.pi)
+        for j in robot.joints:
+            self.sign[j.id] = j.direction
+            self.offset[j.id] = math.radians(j.offset_deg)
+            self.min[j.id], self.max[j.id] = j.min_rad, j.max_rad
+
+    def to_joint(self, jid: int, raw: int | float) -> float:
+        return float(servo_to_joint(raw, self.sign[jid], self.offset[jid]))
+
+    def to_raw(self, jid: int, rad: float) -> int:
+        return joint_to_servo(rad, float(self.sign[jid]), float(self.offset[jid]))
+
+    def positions(self, raw: np.ndarray) -> np.ndarray:
+        """Joint angles of every slot at once (slot 0 is unused and stays meaningless)."""
+        return servo_to_joint(raw, self.sign, self.offset)
+
+    def in_limits(self, jid: int, rad: float) -> bool:
+        return bool(self.min[jid] - 1e-9 <= rad <= self.max[jid] + 1e-9)
+
+    def clamp(self, jid: int, rad: float) -> float:
+        return float(min(max(rad, self.min[jid]), self.max[jid]))
