@@ -8,7 +8,7 @@ come from the robot config. The functions work on one joint (scalars) or on ever
 from __future__ import annotations
 
 import math
-from typing import overload
+from typing import TypeVar
 
 import numpy as np
 
@@ -16,13 +16,11 @@ from config.loader import JointConfig, RobotConfig
 from robot_daemon.motion.interface import N_SLOTS
 from schemas import units
 
+Angles = TypeVar("Angles", float, np.ndarray)
 
-@overload
-def servo_to_joint(raw: int | float, direction: float, offset_rad: float) -> float: ...
-@overload
-def servo_to_joint(raw: np.ndarray, direction: np.ndarray, offset_rad: np.ndarray) -> np.ndarray: ...
-def servo_to_joint(raw, direction, offset_rad):  # type: ignore[no-untyped-def]
-    """Joint angle (rad) for a raw servo position."""
+
+def servo_to_joint(raw: int | float | np.ndarray, direction: Angles, offset_rad: Angles) -> Angles:
+    """Joint angle (rad) for a raw servo position (one joint, or arrays of every joint)."""
     return direction * (units.raw_to_rad(raw) - offset_rad)
 
 

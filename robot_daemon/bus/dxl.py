@@ -44,11 +44,11 @@ class ReplyBudget:
     def set_return_delay(self, dxl_id: int, raw: int) -> None:
         self.delays_ms[dxl_id] = units.return_delay_s(raw) * 1000.0
 
-    def reply_ms(self, byte_ms: float, dxl_id: int, reply_bytes: int, sent_bytes: int = 0) -> float:
+    def reply_ms(self, byte_ms: float, dxl_id: int, reply_bytes: int) -> float:
         """The wait for one reply of ``reply_bytes`` from ``dxl_id``, counted from the moment
-        the host has handed over its last ``sent_bytes`` (0 once replies flow)."""
+        the line is free for it (the instruction sent, or the reply before it received)."""
         delay = self.delays_ms.get(dxl_id, UNKNOWN_RETURN_DELAY_MS)
-        return byte_ms * (sent_bytes + reply_bytes) + delay + self.margin_ms
+        return byte_ms * reply_bytes + delay + self.margin_ms
 
 
 def error_names(bits: int) -> list[str]:
@@ -75,6 +75,9 @@ class DxlBus:
         self.port = port
         self.ph = Protocol1PacketHandler()
         self.budget = budget if budget is not None else ReplyBudget()
+        # When the last byte the host has handed over is out on the wire (the transport's clock,
+        # ms): a write returns before its bytes have crossed, and a reply cannot start before.
+        self._wire_free = 0.0
 
     @property
     def name(self) -> str:
@@ -91,15 +94,18 @@ class DxlBus:
             "power and the ID (`darwin scan`)"
         )
 
-    def _send(self, dxl_id: int, instruction: int, params: Iterable[int]) -> int:
-        """Send one instruction packet (the SDK adds header and checksum); returns its size."""
+    def _send(self, dxl_id: int, instruction: int, params: Iterable[int]) -> float:
+        """Send one instruction packet (the SDK adds header and checksum); returns when its
+        last byte will be on the wire, behind whatever was sent before it."""
         params = list(params)
         packet = [0, 0, dxl_id, len(params) + 2, instruction, *params, 0]
+        start = max(self.port.getCurrentTime(), self._wire_free)
         result = self.ph.txPacket(self.port, packet)
         if result != COMM_SUCCESS:
             name = Instruction(instruction).name
             raise BusError(f"{name} to {dxl_id} on {self.name}: {self.ph.getTxRxResult(result)}")
-        return len(packet)
+        self._wire_free = start + self.port.tx_time_per_byte * len(packet)
+        return self._wire_free
 
     def _transact(
         self, dxl_id: int, instruction: int, params: Iterable[int], length: int, what: str
@@ -107,9 +113,8 @@ class DxlBus:
         """One instruction and its status packet (``length`` data bytes): (data, error bits)."""
         sent = self._send(dxl_id, instruction, params)
         port = self.port
-        port.setPacketTimeoutMillis(
-            self.budget.reply_ms(port.tx_time_per_byte, dxl_id, length + PACKET_OVERHEAD, sent)
-        )
+        wait = self.budget.reply_ms(port.tx_time_per_byte, dxl_id, length + PACKET_OVERHEAD)
+        port.setPacketTimeoutMillis(sent - port.getCurrentTime() + wait)
         port.is_using = True
         # The SDK takes any packet from that ID; a late reply to an earlier transaction (a bulk
         # read that timed out) would pass for this one. Only a reply of the right length counts.
@@ -158,9 +163,9 @@ class DxlBus:
                 raise ValueError(f"sync write row for {dxl_id} has {len(data)} bytes, not {length}")
             param.append(dxl_id)
             param.extend(data)
-        sent = self._send(BROADCAST_ID, Instruction.SYNC_WRITE, param)
+        self._send(BROADCAST_ID, Instruction.SYNC_WRITE, param)
         self.port.is_using = False
-        return sent
+        return len(param) + PACKET_OVERHEAD
 
     def bulk_read(self, blocks: Iterable[tuple[int, int, int]]) -> BulkResult:
         """BULK_READ ``(id, start, length)`` blocks; every reply that arrives is kept."""
@@ -194,12 +199,11 @@ class DxlBus:
         want = {dxl_id: length for dxl_id, _, length in blocks}
         order = [dxl_id for dxl_id, _, _ in blocks]
         waits = {i: budget.reply_ms(byte_ms, i, want[i] + PACKET_OVERHEAD) for i in order}
-        now = port.getCurrentTime()
         # Each wait is for the next reply due in bus order: the first one after the instruction
         # has crossed the wire, each later one after the reply before it. The whole transaction
         # never takes longer than every reply's own wait, however the replies trickle in.
-        final = now + byte_ms * sent + sum(waits.values())
-        deadline = now + byte_ms * sent + waits[order[0]]
+        final = sent + sum(waits.values())
+        deadline = sent + waits[order[0]]
         pending = set(order)
         while pending:
             now = port.getCurrentTime()

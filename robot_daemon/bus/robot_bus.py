@@ -21,7 +21,6 @@ from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.scan import identify
 from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, word
-from robot_daemon.bus.transport import Transport
 from robot_daemon.bus.tables import (
     CM730,
     CM730_BULK_LENGTH,
@@ -37,6 +36,7 @@ from robot_daemon.bus.tables import (
     SYNC_WRITE_START,
     ErrorBit,
 )
+from robot_daemon.bus.transport import Transport
 from robot_daemon.motion.interface import JointFrame, Targets
 from schemas import units
 from schemas.errors import BusError, NoReplyError, PortError
@@ -170,7 +170,9 @@ class RobotBus:
             bus.budget.set_return_delay(dxl_id, ident.return_delay)
             expected = CM730_MODEL if dxl_id == self.cm730_id else MX28_MODEL
             if ident.model != expected:
-                self._warn(f"device {dxl_id} reports model {ident.model:#x}, expected {expected:#x}")
+                self._warn(
+                    f"device {dxl_id} reports model {ident.model:#x}, expected {expected:#x}"
+                )
             if ident.return_delay != 0:
                 delay_us = units.return_delay_s(ident.return_delay) * 1e6
                 self._warn(

@@ -19,6 +19,10 @@ from robot_daemon.motion.interface import N_SLOTS
 from schemas import units
 
 
+def _centred() -> np.ndarray:
+    return np.full(N_SLOTS, units.POSITION_CENTER, dtype=int)
+
+
 def word(data: bytes, offset: int) -> int:
     return data[offset] | (data[offset + 1] << 8)
 
@@ -51,7 +55,7 @@ class BusCounters:
 class ServoState:
     """Last known raw state of every joint, by id (slot 0 unused)."""
 
-    position: np.ndarray = field(default_factory=lambda: np.full(N_SLOTS, units.POSITION_CENTER, dtype=int))
+    position: np.ndarray = field(default_factory=_centred)
     speed: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
     load: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
     temperature: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS))
@@ -60,7 +64,7 @@ class ServoState:
     online: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=bool))
     misses: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
     alarm: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
-    goal: np.ndarray = field(default_factory=lambda: np.full(N_SLOTS, units.POSITION_CENTER, dtype=int))
+    goal: np.ndarray = field(default_factory=_centred)
     firmware: dict[int, int] = field(default_factory=dict)
 
 

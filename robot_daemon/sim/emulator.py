@@ -350,13 +350,16 @@ class Emulator(EmulatorApi):
                 out.append((t, packet))
         return out, t
 
-    def exchange(self, parser: PacketParser, data: bytes, t: float) -> list[tuple[float, bytes]]:
+    def exchange(
+        self, parser: PacketParser, data: bytes, t: float
+    ) -> tuple[list[tuple[float, bytes]], float]:
         """The in-process link's way in (:class:`robot_daemon.sim.link.EmulatorLink`): bytes a
-        host sends at ``t`` (the link's clock, s), framed by the link's own ``parser``; returns
-        the replies, each with the time a 1 Mbps wire would have delivered it."""
+        host puts on the wire at ``t`` (the link's clock, s), framed by the link's own
+        ``parser``; returns the replies, each with the time a 1 Mbps wire would have delivered
+        it, and the time the wire is free again."""
         with self.lock:
             self.stats["rx_bytes"] += len(data)
-            return self._answer(parser.feed(data), t, wire_timing=True)[0]
+            return self._answer(parser.feed(data), t, wire_timing=True)
 
     def _flush(self) -> None:
         if not self._out or self.link.master is None:

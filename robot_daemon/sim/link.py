@@ -5,10 +5,11 @@ protocol code (dynamixel-sdk's packet handler, :mod:`robot_daemon.bus.dxl`,
 :class:`~robot_daemon.bus.robot_bus.RobotBus`) runs above it unchanged, and below it the bytes go
 straight to the emulator's packet handling (:meth:`Emulator.exchange`: parser, devices, faults).
 
-Time on the link is its own clock (ms), moved by the wire: the host's bytes take 10 µs each at
-1 Mbps, a reply arrives when the emulator's wire model says, and a wait for a reply that never
-comes ends at the wait's deadline. So a simulated tick costs no wall-clock waiting, and how long
-the bus layer waits is exact and repeatable (a test can count it). :meth:`pause` moves the
+Time on the link is its own clock (ms), moved only by waiting: the host's bytes take 10 µs each
+at 1 Mbps behind what is still on the wire, a reply arrives when the emulator's wire model
+says, and a wait for a reply that never comes ends at the wait's deadline. So a simulated tick
+costs no wall-clock waiting, and how long the bus layer waits is exact and repeatable (a test
+can count it). :meth:`pause` moves the
 emulator's clock (a power-on wait); the physics is otherwise advanced by whoever owns the
 emulator (:meth:`Emulator.advance`).
 """
@@ -33,6 +34,7 @@ class EmulatorLink(Transport):
         self._parser = PacketParser()
         self._in_flight: deque[tuple[float, bytes]] = deque()  # (arrival ms, packet)
         self._rx = bytearray()  # arrived, not read yet
+        self._wire_free = 0.0  # when the last byte written (or replied) has crossed
 
     def open(self, baudrate: int) -> None:
         self.set_baud(baudrate)
@@ -53,6 +55,10 @@ class EmulatorLink(Transport):
         self.clock_ms += seconds * 1000.0
         self.emulator.advance(seconds)
 
+    def idle_until(self, clock_ms: float) -> None:
+        """The host does nothing on the bus until ``clock_ms`` (the rest of its tick)."""
+        self.clock_ms = max(self.clock_ms, clock_ms)
+
     def _arrive(self) -> None:
         while self._in_flight and self._in_flight[0][0] <= self.clock_ms:
             self._rx += self._in_flight.popleft()[1]
@@ -67,10 +73,12 @@ class EmulatorLink(Transport):
             with self.emulator.lock:
                 self.emulator.stats["collisions"] += len(self._in_flight)
             self._in_flight.clear()
-        start = self.clock_ms
-        replies = self.emulator.exchange(self._parser, data, start / 1000.0)
+        # As on a serial port, the write returns at once; the bytes cross the wire behind
+        # whatever is still crossing it.
+        start = max(self.clock_ms, self._wire_free)
+        replies, end = self.emulator.exchange(self._parser, data, start / 1000.0)
         self._in_flight.extend((t * 1000.0, reply) for t, reply in replies)
-        self.clock_ms = start + self.tx_time_per_byte * len(data)
+        self._wire_free = end * 1000.0
         self.bytes_written += len(data)
         return len(data)
 

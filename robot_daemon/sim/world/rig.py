@@ -95,19 +95,17 @@ class SimRig:
 
     # -- the loop --------------------------------------------------------------------------------
     def frame(self) -> JointFrame:
-        """The daemon's frame of the sensors read last (:meth:`read`)."""
-        return self.bus.frame(self.tick, self.time, TICK_S)
-
-    def read(self) -> JointFrame:
-        """One bulk read of the sensors, as the daemon starts its tick, and the frame."""
+        """One bulk read of the sensors and the frame the daemon makes of it, as a tick starts."""
         self.bus.read_sensors()
-        return self.frame()
+        return self.bus.frame(self.tick, self.time, TICK_S)
 
     def step(self) -> None:
         """One motion tick, then the physics up to the next one, then vision if it is due."""
-        targets = self.manager.step(self.read())
+        start = self.link.clock_ms
+        targets = self.manager.step(self.frame())
         self.bus.write_targets(targets)
         self.emulator.advance(TICK_S)
+        self.link.idle_until(start + TICK_S * 1000.0)
         self.time += TICK_S
         self.tick += 1
         if self.time + 1e-9 >= self._next_vision:
