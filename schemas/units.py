@@ -29,8 +29,9 @@ LOAD_PERCENT_PER_UNIT = 0.1
 
 # CM-730 IMU: 0..1023 centred on 512.
 IMU_CENTER = 512
+IMU_MAX = 1023
 GRAVITY = 9.80665
-ACCEL_G_PER_COUNT = 8.0 / 1023.0  # ±4 g full scale
+ACCEL_G_PER_COUNT = 8.0 / IMU_MAX  # ±4 g full scale
 # Gyro: ROBOTIS says ±500 °/s full scale; other sources ±1600 °/s. The config can override it.
 GYRO_DPS_FULL_SCALE = 500.0
 
@@ -97,11 +98,11 @@ def ms2_to_accel_raw(ms2: float) -> int:
 
 
 def gyro_raw_to_rad_s(raw: int | float, full_scale_dps: float = GYRO_DPS_FULL_SCALE) -> float:
-    return (raw - IMU_CENTER) * (2 * full_scale_dps / 1023.0) * math.pi / 180.0
+    return (raw - IMU_CENTER) * (2 * full_scale_dps / IMU_MAX) * math.pi / 180.0
 
 
 def rad_s_to_gyro_raw(rad_s: float, full_scale_dps: float = GYRO_DPS_FULL_SCALE) -> int:
-    return int(round(rad_s * 180.0 / math.pi / (2 * full_scale_dps / 1023.0))) + IMU_CENTER
+    return int(round(rad_s * 180.0 / math.pi / (2 * full_scale_dps / IMU_MAX))) + IMU_CENTER
 
 
 def rgb_to_color_word(r: int, g: int, b: int) -> int:

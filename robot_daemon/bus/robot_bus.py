@@ -78,7 +78,10 @@ class RobotBus:
         self.slow_per_tick = int(daemon.get("slow_reads_per_tick", 1))
         # An offline servo is probed once every this many ticks (a silent probe costs a wait).
         self.probe_every = max(1, int(bus_cfg.get("probe_offline_every", 25)))
-        self.reply_margin_ms = float(bus_cfg.get("reply_margin_ms", 1.0))
+        self.reply_margin_ms = float(bus_cfg.get("reply_margin_ms", 1.5))
+        # Power-on, scan and the first read are not timed by the loop: a busy machine must not
+        # make a servo look absent there.
+        self.start_margin_ms = float(bus_cfg.get("start_reply_margin_ms", 20.0))
         self.power_on_delay = float(bus_cfg.get("power_on_delay_ms", 300.0)) / 1000.0
         self.torque_on_start = bool(daemon.get("torque_on_start", True))
         imu = settings.get("imu", {})
@@ -115,7 +118,7 @@ class RobotBus:
         handler = self.make_transport()
         handler.open(self.baud)
         self.handler = handler
-        self.dxl = DxlBus(handler, ReplyBudget(self.reply_margin_ms))
+        self.dxl = DxlBus(handler, ReplyBudget(self.start_margin_ms))
 
     def close(self) -> None:
         if self.handler is not None:
@@ -233,6 +236,7 @@ class RobotBus:
         if self.torque_on_start:
             online = [j for j in self.ids if self.state.online[j]]
             self.set_torque(online, True)
+        self._bus().budget.margin_ms = self.reply_margin_ms  # from now on the loop is timed
 
     # -- per tick ----------------------------------------------------------------------------
     def _sync_row(self, jid: int, goal_raw: int, pid: tuple[int, int, int] | None) -> bytes:

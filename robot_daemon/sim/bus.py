@@ -25,8 +25,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from robot_daemon.bus.packet import BadChecksum, Frame, Packet, status_packet
-from robot_daemon.bus.tables import BROADCAST_ID, CM730_ID, SERVO_IDS, ErrorBit, Instruction
+from robot_daemon.bus.tables import (
+    BROADCAST_ID,
+    CM730,
+    CM730_ID,
+    MX28,
+    SERVO_IDS,
+    ErrorBit,
+    Instruction,
+)
 from robot_daemon.sim.devices import CM730Device, Device, Environment, Servo
+from schemas import units
 
 _MAX_READ = 250 - 6  # a status packet must fit the SDK's 250-byte receive buffer
 _READ_ONLY = frozenset((Instruction.PING, Instruction.READ, Instruction.BULK_READ))
@@ -54,7 +63,7 @@ class Bus:
         env: Environment | None = None,
         servo_ids: Iterable[int] = SERVO_IDS,
         imu_noise: float = 1.0,
-        gyro_full_scale_dps: float = 500.0,
+        gyro_full_scale_dps: float = units.GYRO_DPS_FULL_SCALE,
         power_on_delay_s: float = 0.3,
         initial_positions: dict[int, int] | None = None,
     ) -> None:
@@ -62,7 +71,8 @@ class Bus:
         self.cm730 = CM730Device(self.env, rng, imu_noise, gyro_full_scale_dps)
         self.cm730.on_power = self._on_power
         positions = initial_positions or {}
-        self.servos = {i: Servo(i, self.env, positions.get(i, 2048)) for i in servo_ids}
+        centre = units.POSITION_CENTER
+        self.servos = {i: Servo(i, self.env, positions.get(i, centre)) for i in servo_ids}
         self.power_on_delay_s = power_on_delay_s
         self.silent: set[int] = set()
         self.time = 0.0
@@ -107,13 +117,13 @@ class Bus:
         powered = self.servo_power if power is None else power
         self._registered.clear()
         self.cm730.factory_reset()
-        self.cm730.table["ID"] = CM730_ID
+        self.cm730.table[CM730.ID] = CM730_ID
         for dxl_id, servo in self.servos.items():
             servo.factory_reset()
-            servo.table["ID"] = dxl_id
+            servo.table[MX28.ID] = dxl_id
             servo.power(False)
         if powered:
-            self.cm730.table["DXL_POWER"] = 1
+            self.cm730.table[CM730.DXL_POWER] = 1
             for servo in self.servos.values():
                 servo.power(True)
         self._index = None
@@ -203,15 +213,15 @@ class Bus:
 
     def _register(self, dev: Device, address: int, data: bytes) -> None:
         self._registered[id(dev)] = (address, bytes(data))
-        if "REGISTERED" in dev.table.registers:
-            dev.table["REGISTERED"] = 1
+        if MX28.REGISTERED in dev.table.registers:
+            dev.table[MX28.REGISTERED] = 1
 
     def _action(self, dev: Device) -> int:
         pending = self._registered.pop(id(dev), None)
         if pending is None:
             return ErrorBit.INSTRUCTION
-        if "REGISTERED" in dev.table.registers:
-            dev.table["REGISTERED"] = 0
+        if MX28.REGISTERED in dev.table.registers:
+            dev.table[MX28.REGISTERED] = 0
         return dev.write(*pending)
 
     def _reset(self, dev: Device) -> None:

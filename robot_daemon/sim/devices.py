@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
@@ -52,21 +53,25 @@ class Environment:
 
 
 class Device:
+    # The EEPROM lock register, on devices that have one.
+    lock_reg: Enum | None = None
+
     def __init__(self, table: ControlTable, env: Environment) -> None:
         self.table = table
+        self.regs = table.kind  # MX28 or CM730, which both have ID and the reply settings
         self.env = env
 
     @property
     def id(self) -> int:
-        return self.table["ID"]
+        return self.table[self.regs.ID]
 
     @property
     def status_return_level(self) -> int:
-        return self.table["STATUS_RETURN_LEVEL"]
+        return self.table[self.regs.STATUS_RETURN_LEVEL]
 
     @property
     def return_delay_s(self) -> float:
-        return self.table["RETURN_DELAY_TIME"] * 2e-6
+        return units.return_delay_s(self.table[self.regs.RETURN_DELAY_TIME])
 
     def alarm_bits(self) -> int:
         """Standing error bits every status packet of this device carries."""
@@ -81,7 +86,7 @@ class Device:
         return data, err | self.alarm_bits()
 
     def write(self, address: int, data: bytes) -> int:
-        locked = bool(self.table.registers.get("LOCK") and self.table["LOCK"])
+        locked = self.lock_reg is not None and bool(self.table[self.lock_reg])
         changes, err = self.table.check_write(address, data, locked)
         err |= self.check_values(changes)
         if not err:
@@ -100,13 +105,17 @@ class Device:
         """RESET: every default back, except the ID, so the simulated bus stays addressable."""
         keep = self.id
         self.table.reset()
-        self.table["ID"] = keep
+        self.table[self.regs.ID] = keep
 
 
 class Servo(Device):
-    def __init__(self, dxl_id: int, env: Environment, position: int = 2048) -> None:
+    lock_reg = MX28.LOCK
+
+    def __init__(
+        self, dxl_id: int, env: Environment, position: int = units.POSITION_CENTER
+    ) -> None:
         super().__init__(ControlTable(MX28, MX28_TABLE_SIZE), env)
-        self.table["ID"] = dxl_id
+        self.table[MX28.ID] = dxl_id
         self.position = float(position)  # raw units, kept fractional between steps
         self.velocity = 0.0  # raw units per second
         self.temperature = env.ambient_c
@@ -122,26 +131,27 @@ class Servo(Device):
         t = self.table
         bits = 0
         v10 = self.env.voltage * 10
-        if not t["MIN_VOLTAGE_LIMIT"] <= v10 <= t["MAX_VOLTAGE_LIMIT"]:
+        if not t[MX28.MIN_VOLTAGE_LIMIT] <= v10 <= t[MX28.MAX_VOLTAGE_LIMIT]:
             bits |= ErrorBit.INPUT_VOLTAGE
-        limit = t["TEMPERATURE_LIMIT"]
+        limit = t[MX28.TEMPERATURE_LIMIT]
         if self.temperature > limit:
             self.overheated = True
         elif self.temperature < limit - OVERHEAT_HYSTERESIS_C:
             self.overheated = False
         if self.overheated:
             bits |= ErrorBit.OVERHEATING
-        if abs(self.load_fraction()) * 1023 > t["TORQUE_LIMIT"] and t["TORQUE_ENABLE"]:
+        load = abs(self.load_fraction()) * MX28.TORQUE_LIMIT.reg.high
+        if load > t[MX28.TORQUE_LIMIT] and t[MX28.TORQUE_ENABLE]:
             bits |= ErrorBit.OVERLOAD
         return bits
 
     def _shutdown_active(self) -> bool:
-        return bool(self.alarm_bits() & self.table["ALARM_SHUTDOWN"])
+        return bool(self.alarm_bits() & self.table[MX28.ALARM_SHUTDOWN])
 
     # ---- writes -----------------------------------------------------------------------------
 
     def check_values(self, changes: list) -> int:
-        cw, ccw = self.table["CW_ANGLE_LIMIT"], self.table["CCW_ANGLE_LIMIT"]
+        cw, ccw = self.table[MX28.CW_ANGLE_LIMIT], self.table[MX28.CCW_ANGLE_LIMIT]
         for reg, value in changes:
             if reg == MX28.GOAL_POSITION.reg and (cw or ccw) and not cw <= value <= ccw:
                 return ErrorBit.ANGLE_LIMIT
@@ -149,14 +159,14 @@ class Servo(Device):
 
     def after_write(self, changed: list) -> None:
         if MX28.TORQUE_ENABLE.reg in changed and self._shutdown_active():
-            self.table["TORQUE_ENABLE"] = 0
+            self.table[MX28.TORQUE_ENABLE] = 0
 
     # ---- power and dynamics -----------------------------------------------------------------
 
     def power(self, on: bool) -> None:
         if on and not self.powered:
             self.table.reset(eeprom=False)
-            self.table["GOAL_POSITION"] = round(self.position)
+            self.table[MX28.GOAL_POSITION] = round(self.position)
         self.powered = on
         if not on:
             self.velocity = 0.0
@@ -165,12 +175,12 @@ class Servo(Device):
     def max_speed(self) -> float:
         """Speed limit in raw units per second for the current moving speed register."""
         top = units.MX28_MAX_RPM * max(self.env.voltage, 0.0) / 12.0
-        rpm = self.table["MOVING_SPEED"] * units.RPM_PER_SPEED_UNIT
+        rpm = self.table[MX28.MOVING_SPEED] * units.RPM_PER_SPEED_UNIT
         rpm = top if rpm == 0 else min(rpm, top)
         return rpm * units.UNITS_PER_REV / 60.0
 
     def load_fraction(self) -> float:
-        if not (self.powered and self.table["TORQUE_ENABLE"]):
+        if not (self.powered and self.table[MX28.TORQUE_ENABLE]):
             return 0.0
         top = units.MX28_MAX_RPM * units.UNITS_PER_REV / 60.0
         return max(-1.0, min(1.0, self.external_load + 0.15 * self.velocity / top))
@@ -179,8 +189,8 @@ class Servo(Device):
         if dt <= 0:
             return
         t = self.table
-        if self.powered and t["TORQUE_ENABLE"]:
-            goal = float(t["GOAL_POSITION"])
+        if self.powered and t[MX28.TORQUE_ENABLE]:
+            goal = float(t[MX28.GOAL_POSITION])
             limit = self.max_speed() * dt
             move = max(-limit, min(limit, goal - self.position))
             self.position = min(float(units.POSITION_MAX), max(0.0, self.position + move))
@@ -189,7 +199,7 @@ class Servo(Device):
             self.velocity = 0.0
         self._heat(dt)
         if self._shutdown_active():
-            t["TORQUE_ENABLE"] = 0
+            t[MX28.TORQUE_ENABLE] = 0
         self._sync_registers()
 
     def _heat(self, dt: float) -> None:
@@ -207,15 +217,15 @@ class Servo(Device):
 
     def _sync_registers(self) -> None:
         t = self.table
-        t["PRESENT_POSITION"] = round(self.position)
+        t[MX28.PRESENT_POSITION] = round(self.position)
         speed_units = self.velocity * 60.0 / units.UNITS_PER_REV / units.RPM_PER_SPEED_UNIT
-        t["PRESENT_SPEED"] = units.encode_signed_11bit(round(speed_units))
+        t[MX28.PRESENT_SPEED] = units.encode_signed_11bit(round(speed_units))
         load_units = self.load_fraction() * 100.0 / units.LOAD_PERCENT_PER_UNIT
-        t["PRESENT_LOAD"] = units.encode_signed_11bit(round(load_units))
-        t["PRESENT_VOLTAGE"] = max(0, min(255, round(self.env.voltage * 10)))
-        t["PRESENT_TEMPERATURE"] = max(0, min(255, round(self.temperature)))
-        moving = t["TORQUE_ENABLE"] and abs(t["GOAL_POSITION"] - self.position) >= 1.0
-        t["MOVING"] = 1 if (self.powered and moving) else 0
+        t[MX28.PRESENT_LOAD] = units.encode_signed_11bit(round(load_units))
+        t[MX28.PRESENT_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
+        t[MX28.PRESENT_TEMPERATURE] = max(0, min(255, round(self.temperature)))
+        moving = t[MX28.TORQUE_ENABLE] and abs(t[MX28.GOAL_POSITION] - self.position) >= 1.0
+        t[MX28.MOVING] = 1 if (self.powered and moving) else 0
 
 
 class CM730Device(Device):
@@ -238,11 +248,11 @@ class CM730Device(Device):
 
     def after_write(self, changed: list) -> None:
         if CM730.DXL_POWER.reg in changed:
-            self.on_power(bool(self.table["DXL_POWER"]))
+            self.on_power(bool(self.table[CM730.DXL_POWER]))
 
     def refresh(self) -> None:
         t = self.table
-        t["VOLTAGE"] = max(0, min(255, round(self.env.voltage * 10)))
+        t[CM730.VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
         for (member, sign), value in zip(IMU_GYRO_AXES, self.gyro, strict=True):
             raw = units.rad_s_to_gyro_raw(sign * value, self.gyro_full_scale_dps)
             t.put(member.value, self._noisy(raw))
@@ -252,7 +262,7 @@ class CM730Device(Device):
     def _noisy(self, raw: float) -> int:
         if self.imu_noise > 0:
             raw += self.rng.normal(0.0, self.imu_noise)
-        return max(0, min(1023, round(raw)))
+        return max(0, min(units.IMU_MAX, round(raw)))
 
     def set_buttons(self, mask: int) -> None:
-        self.table["BUTTON"] = mask & 0x03
+        self.table[CM730.BUTTON] = mask & 0x03

@@ -11,6 +11,7 @@ import threading
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
+from robot_daemon.bus.tables import CM730, MX28
 from schemas import units
 
 if TYPE_CHECKING:
@@ -46,21 +47,24 @@ class EmulatorApi:
     def goal_positions(self) -> dict[int, float]:
         with self.lock:
             return {
-                i: float(units.raw_to_rad(s.table["GOAL_POSITION"]))
+                i: float(units.raw_to_rad(s.table[MX28.GOAL_POSITION]))
                 for i, s in self.bus.servos.items()
             }
 
     def torque_enabled(self) -> dict[int, bool]:
         with self.lock:
             return {
-                i: bool(s.powered and s.table["TORQUE_ENABLE"]) for i, s in self.bus.servos.items()
+                i: bool(s.powered and s.table[MX28.TORQUE_ENABLE])
+                for i, s in self.bus.servos.items()
             }
 
     def set_present_position(self, dxl_id: int, rad: float) -> None:
         """Move a servo's horn from outside (a limp joint pushed, the robot placed)."""
         raw = units.rad_to_raw(rad)
         if not 0 <= raw <= units.POSITION_MAX:
-            raise ValueError(f"{rad} rad is outside the servo's range (raw {raw}, 0..4095)")
+            raise ValueError(
+                f"{rad} rad is outside the servo's range (raw {raw}, 0..{units.POSITION_MAX})"
+            )
         with self.lock:
             self.bus.servo(dxl_id).set_position(raw)
 
@@ -137,7 +141,7 @@ class EmulatorApi:
         with self.lock:
             servo = self.bus.servo(dxl_id)
             if on:
-                servo.forced_temperature = servo.table["TEMPERATURE_LIMIT"] + 5.0
+                servo.forced_temperature = servo.table[MX28.TEMPERATURE_LIMIT] + 5.0
                 servo.temperature = servo.forced_temperature
             else:
                 servo.forced_temperature = None
@@ -154,7 +158,7 @@ class EmulatorApi:
         if name not in BUTTONS:
             raise ValueError(f"unknown button {name!r}; buttons: {', '.join(BUTTONS)}")
         with self.lock:
-            mask = self.bus.cm730.table["BUTTON"]
+            mask = self.bus.cm730.table[CM730.BUTTON]
             mask = mask | BUTTONS[name] if pressed else mask & ~BUTTONS[name]
             self.bus.cm730.set_buttons(mask)
 
@@ -164,8 +168,14 @@ class EmulatorApi:
         """A register's value by name, straight from the table (tests and debugging)."""
         with self.lock:
             dev = self.bus.cm730 if dxl_id == self.bus.cm730.id else self.bus.servo(dxl_id)
+            kind = dev.table.kind
+            if name not in kind.__members__:
+                raise KeyError(
+                    f"no register {name!r} on device {dxl_id} ({kind.__name__}); "
+                    f"registers: {', '.join(kind.__members__)}"
+                )
             dev.refresh()
-            return dev.table[name]
+            return dev.table[kind[name]]
 
     def state(self) -> dict[str, Any]:
         """A plain snapshot (msgpack-able) for the control API and debugging."""
@@ -176,8 +186,8 @@ class EmulatorApi:
                 t = s.table
                 servos[str(i)] = {
                     "position": float(units.raw_to_rad(s.position)),
-                    "goal": float(units.raw_to_rad(t["GOAL_POSITION"])),
-                    "torque": bool(t["TORQUE_ENABLE"]),
+                    "goal": float(units.raw_to_rad(t[MX28.GOAL_POSITION])),
+                    "torque": bool(t[MX28.TORQUE_ENABLE]),
                     "temperature": round(s.temperature, 2),
                     "alarm": s.alarm_bits() if s.powered else 0,
                     "powered": s.powered,
@@ -185,14 +195,14 @@ class EmulatorApi:
             return {
                 "seed": self.seed,
                 "sim_time": self.bus.time,
-                "dxl_power": bool(cm.table["DXL_POWER"]),
+                "dxl_power": bool(cm.table[CM730.DXL_POWER]),
                 "servo_power": self.bus.servo_power,
                 "leds": {
-                    "panel": cm.table["LED_PANEL"],
-                    "head": cm.table["LED_HEAD"],
-                    "eye": cm.table["LED_EYE"],
+                    "panel": cm.table[CM730.LED_PANEL],
+                    "head": cm.table[CM730.LED_HEAD],
+                    "eye": cm.table[CM730.LED_EYE],
                 },
-                "buttons": cm.table["BUTTON"],
+                "buttons": cm.table[CM730.BUTTON],
                 "imu": {"gyro": list(cm.gyro), "accel": list(cm.accel)},
                 "faults": self.fault_state(),
                 "stats": dict(self.stats),

@@ -13,20 +13,22 @@ emulator decides them (the Protocol 1.0 e-manual names the bits but not every ca
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from enum import Enum
 
 from robot_daemon.bus.tables import Access, ErrorBit, Register
 
 
 class ControlTable:
-    def __init__(self, registers: Iterable[Enum], size: int) -> None:
+    """Indexed by the members of the register enum it was made from (``table[MX28.ID]``)."""
+
+    def __init__(self, registers: type[Enum], size: int) -> None:
         self.size = size
-        self.registers: dict[str, Register] = {m.name: m.value for m in registers}
-        self._by_address: dict[int, tuple[str, Register]] = {}
-        for name, reg in self.registers.items():
+        self.kind = registers
+        self.registers: dict[Enum, Register] = {m: m.value for m in registers}
+        self._by_address: dict[int, tuple[Enum, Register]] = {}
+        for member, reg in self.registers.items():
             for a in range(reg.address, reg.end):
-                self._by_address[a] = (name, reg)
+                self._by_address[a] = (member, reg)
         self.data = bytearray(size)
         self.reset()
 
@@ -50,11 +52,11 @@ class ControlTable:
         if reg.size == 2:
             self.data[a + 1] = (v >> 8) & 0xFF
 
-    def __getitem__(self, name: str) -> int:
-        return self.get(self.registers[name])
+    def __getitem__(self, member: Enum) -> int:
+        return self.get(self.registers[member])
 
-    def __setitem__(self, name: str, value: int) -> None:
-        self.put(self.registers[name], value)
+    def __setitem__(self, member: Enum, value: int) -> None:
+        self.put(self.registers[member], value)
 
     # ---- bus access --------------------------------------------------------------------------
 
@@ -78,7 +80,7 @@ class ControlTable:
         image = bytearray(self.data)
         image[address : address + len(data)] = data
         changes: list[tuple[Register, int]] = []
-        seen: set[str] = set()
+        seen: set[Enum] = set()
         for a in range(address, address + len(data)):
             entry = self._by_address.get(a)
             if entry is None or entry[0] in seen:

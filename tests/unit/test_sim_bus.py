@@ -38,9 +38,9 @@ def test_sync_write_applies_complete_blocks_only() -> None:
     bus = make_bus()
     params = [MX28.GOAL_POSITION.reg.address, 2, 1, 0x00, 0x08, 2, 0x10, 0x08, 3, 0x20]
     assert ask(bus, 254, Instruction.SYNC_WRITE, params) == []
-    assert bus.servo(1).table["GOAL_POSITION"] == 0x800
-    assert bus.servo(2).table["GOAL_POSITION"] == 0x810
-    assert bus.servo(3).table["GOAL_POSITION"] == 2048  # its block was cut short
+    assert bus.servo(1).table[MX28.GOAL_POSITION] == 0x800
+    assert bus.servo(2).table[MX28.GOAL_POSITION] == 0x810
+    assert bus.servo(3).table[MX28.GOAL_POSITION] == 2048  # its block was cut short
 
 
 def test_action_without_reg_write_is_an_instruction_error() -> None:
@@ -53,16 +53,16 @@ def test_action_without_reg_write_is_an_instruction_error() -> None:
 def test_broadcast_reg_write_and_action() -> None:
     bus = make_bus()
     assert ask(bus, 254, Instruction.REG_WRITE, [MX28.LED.reg.address, 1]) == []
-    assert bus.servo(4).table["LED"] == 0 and bus.servo(4).table["REGISTERED"] == 1
+    assert bus.servo(4).table[MX28.LED] == 0 and bus.servo(4).table[MX28.REGISTERED] == 1
     assert ask(bus, 254, Instruction.ACTION) == []
-    assert all(s.table["LED"] == 1 for s in bus.servos.values())
+    assert all(s.table[MX28.LED] == 1 for s in bus.servos.values())
 
 
 def test_reset_restores_defaults_but_keeps_the_id() -> None:
     bus = make_bus()
     ask(bus, 6, Instruction.WRITE, [MX28.P_GAIN.reg.address, 80])
     assert ask(bus, 6, Instruction.RESET)[0].code == 0
-    assert bus.servo(6).table["P_GAIN"] == 32 and bus.servo(6).id == 6
+    assert bus.servo(6).table[MX28.P_GAIN] == 32 and bus.servo(6).id == 6
 
 
 def test_an_id_write_readdresses_the_servo() -> None:
@@ -80,7 +80,7 @@ def test_reads_past_the_table_end_and_locked_eeprom() -> None:
     ask(bus, 1, Instruction.WRITE, [MX28.LOCK.reg.address, 1])
     reply = ask(bus, 1, Instruction.WRITE, [MX28.MAX_TORQUE.reg.address, 0, 2])[0]
     assert reply.code == ErrorBit.RANGE
-    assert bus.servo(1).table["MAX_TORQUE"] == 1023
+    assert bus.servo(1).table[MX28.MAX_TORQUE] == 1023
 
 
 def test_power_cut_silences_servos_and_power_up_restores_their_ram() -> None:
@@ -91,7 +91,8 @@ def test_power_cut_silences_servos_and_power_up_restores_their_ram() -> None:
     assert ask(bus, 1, Instruction.PING) == []
     ask(bus, CM730_ID, Instruction.WRITE, [24, 1])
     t = bus.servo(1).table
-    assert (t["TORQUE_ENABLE"], t["GOAL_POSITION"], t["PRESENT_POSITION"]) == (0, 3000, 3000)
+    state = (t[MX28.TORQUE_ENABLE], t[MX28.GOAL_POSITION], t[MX28.PRESENT_POSITION])
+    assert state == (0, 3000, 3000)
 
 
 def test_physics_hooks_see_each_step_and_feed_the_imu() -> None:

@@ -6,12 +6,12 @@ has touched nothing. Bus failures become ``unavailable`` errors that say what to
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from robot_daemon.arbiter import fields as F
 from robot_daemon.arbiter.lease import Lease
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, verb
+from robot_daemon.bus.calibration import joint_angle
 from robot_daemon.bus.tables import CM730, CM730_TABLE_SIZE, MX28, MX28_TABLE_SIZE
 from robot_daemon.motion.direct import DirectModule
 from schemas import units
@@ -265,5 +265,4 @@ def _check_goal_write(ctx: MotionContext, dxl_id: int, address: int, data: bytes
         )
     raw = data[goal - address] | (data[goal - address + 1] << 8)
     j = ctx.robot.by_id[dxl_id]
-    rad = j.direction * (units.raw_to_rad(raw) - math.radians(j.offset_deg))
-    F.joint_position(j, rad, "data")
+    F.joint_position(j, joint_angle(j, raw), "data")
