@@ -4,9 +4,10 @@
 
 Each run places the robot at the field centre and the ball at a random distance (0.3..1.5 m)
 and bearing (any direction, behind included), starts ball play and steps the simulated robot
-(``SimRig``: servo dynamics, world, the daemon's motion modules, the ball finder on rendered
-frames) until play ends or 90 simulated seconds pass. A run succeeds when play ends "done", the
-robot has not fallen and the ball ends farther from the robot than it started. Figures: success
+(``SimRig``: servo dynamics, world, the daemon's bus code over the in-process link, its motion
+modules, the ball finder on rendered frames) until play ends or 90 simulated seconds pass. A run
+succeeds when play ends "done", the robot has not fallen and the ball ends farther from the
+robot than it started. Figures: success
 rate, median and worst simulated time to the kick, and the simulation's speed against real time
 (the baseline measured in the same run: 1.0 = real time).
 """

@@ -3,11 +3,12 @@
     .venv/bin/python benchmarks/sim_bus.py [--rounds 300]
 
 Prints, for the daemon's per-tick bulk read (20 servos × 6 bytes + the CM-730's 30 bytes, one
-transaction through dynamixel-sdk over the pty): median / p99 round trip without wire timing (the
-emulator's own cost) and with it, for an in-process Emulator (which shares the GIL with the
-client) and for ``darwin sim`` in its own process, against the wire floor the bytes need at
-1 Mbps. Then the CPU the emulator uses while the bus is idle, and while a client
-bulk-reads every 8 ms.
+transaction through the daemon's bus code, ``DxlBus.bulk_read`` on dynamixel-sdk): median / p99
+round trip over the pty without wire timing (the emulator's own cost) and with it, for an
+in-process Emulator (which shares the GIL with the client) and for ``darwin sim`` in its own
+process, and over the in-process link the simulated rig uses (no pty, a simulated wire: the
+protocol code's own cost), against the wire floor the bytes need at 1 Mbps. Then the CPU the
+emulator uses while the bus is idle, and while a client bulk-reads every 8 ms.
 """
 
 from __future__ import annotations
@@ -22,35 +23,61 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from dynamixel_sdk import COMM_SUCCESS
-
-from robot_daemon.bus.tables import CM730_ID, SERVO_IDS
+from robot_daemon.bus.dxl import DxlBus, ReplyBudget
+from robot_daemon.bus.port import BlockingPortHandler
+from robot_daemon.bus.tables import (
+    CM730,
+    CM730_BULK_LENGTH,
+    CM730_BULK_START,
+    CM730_ID,
+    SERVO_BULK_LENGTH,
+    SERVO_BULK_START,
+    SERVO_IDS,
+)
+from robot_daemon.bus.transport import Transport
 from robot_daemon.sim import Emulator, EmulatorSettings
+from robot_daemon.sim.link import EmulatorLink
 from schemas import units
-from tests.fixtures.emulator import darwin_command, open_sdk, start_emulator_process
-from tests.integration.test_sim_sdk import sensor_bulk_read
+from tests.fixtures.emulator import darwin_command, start_emulator_process
 
 
 def round_trips(wire_timing: bool, rounds: int) -> list[float]:
     settings = EmulatorSettings(seed=1, wire_timing=wire_timing, power_on_delay_s=0.0)
     with Emulator(settings) as emu:
-        return timed_bulk_reads(emu.port, rounds)
+        return timed_bulk_reads(BlockingPortHandler(emu.port), rounds)
 
 
-def timed_bulk_reads(port_name: str, rounds: int) -> list[float]:
-    """Round trips (s) of the daemon's per-tick bulk read, through the SDK on ``port_name``."""
-    port, ph = open_sdk(port_name)
+def link_round_trips(rounds: int) -> list[float]:
+    """Over the in-process link (what ``SimRig`` runs): the protocol code and the emulator's
+    packet handling, no pty and no waiting."""
+    emu = Emulator(EmulatorSettings(seed=1, realtime=False, power_on_delay_s=0.0))
+    return timed_bulk_reads(EmulatorLink(emu), rounds)
+
+
+def sensor_blocks() -> list[tuple[int, int, int]]:
+    blocks = [(i, SERVO_BULK_START, SERVO_BULK_LENGTH) for i in SERVO_IDS]
+    return [*blocks, (CM730_ID, CM730_BULK_START, CM730_BULK_LENGTH)]
+
+
+def timed_bulk_reads(transport: Transport, rounds: int) -> list[float]:
+    """Round trips (s) of the daemon's per-tick bulk read through its own bus code."""
+    transport.open(1_000_000)
     try:
-        reader = sensor_bulk_read(port, ph)
+        # A generous margin: a late reply should be timed, not given up on.
+        bus = DxlBus(transport, ReplyBudget(margin_ms=30.0))
+        bus.write(CM730_ID, CM730.DXL_POWER.reg.address, b"\x01", tries=3)
+        blocks = sensor_blocks()
         times = []
+        incomplete = 0
         for _ in range(rounds):
             start = time.perf_counter()
-            if reader.txRxPacket() != COMM_SUCCESS:
-                raise RuntimeError("bulk read failed")
+            incomplete += bool(bus.bulk_read(blocks).missing)
             times.append(time.perf_counter() - start)
+        if incomplete:
+            print(f"  ({incomplete} of {rounds} bulk reads missed a reply: a busy machine)")
         return times
     finally:
-        port.closePort()
+        transport.close()
 
 
 def process_round_trips(wire_timing: bool, rounds: int) -> list[float]:
@@ -65,25 +92,28 @@ def process_round_trips(wire_timing: bool, rounds: int) -> list[float]:
         tempfile.TemporaryDirectory() as tmp,
         start_emulator_process(*args, link_dir=Path(tmp), control=False) as sim,
     ):
-        return timed_bulk_reads(sim.port, rounds)
+        return timed_bulk_reads(BlockingPortHandler(sim.port), rounds)
 
 
 def cpu_share(seconds: float, tick: float | None) -> float:
     """Process CPU per wall second with an emulator running (and a client every ``tick``)."""
     with Emulator(EmulatorSettings(seed=1, power_on_delay_s=0.0)) as emu:
-        port, ph = open_sdk(emu.port)
-        reader = sensor_bulk_read(port, ph)
+        port = BlockingPortHandler(emu.port)
+        port.open(1_000_000)
+        bus = DxlBus(port, ReplyBudget(margin_ms=30.0))
+        bus.write(CM730_ID, CM730.DXL_POWER.reg.address, b"\x01", tries=3)
+        blocks = sensor_blocks()
         cpu0, wall0 = time.process_time(), time.monotonic()
         next_tick = wall0
         while time.monotonic() - wall0 < seconds:
             if tick is None:
                 time.sleep(seconds)
                 break
-            reader.txRxPacket()
+            bus.bulk_read(blocks)
             next_tick += tick
             time.sleep(max(0.0, next_tick - time.monotonic()))
         share = (time.process_time() - cpu0) / (time.monotonic() - wall0)
-        port.closePort()
+        port.close()
     return share
 
 
@@ -108,6 +138,7 @@ def main() -> None:
     describe("in-process, wire", round_trips(True, args.rounds), floor)
     describe("process, no wire", process_round_trips(False, args.rounds), floor)
     describe("process, wire", process_round_trips(True, args.rounds), floor)
+    describe("in-process link", link_round_trips(args.rounds), floor)
     idle = cpu_share(2.0, None)
     busy = cpu_share(2.0, 0.008)
     print(f"CPU, idle emulator      {idle * 100:5.1f} % of a core")
