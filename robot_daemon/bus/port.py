@@ -77,14 +77,11 @@ class PortLock:
 
 class BlockingPortHandler(Transport):
     """The serial transport: a dynamixel-sdk ``PortHandler`` that never spins and owns its port
-    exclusively. How long a reply is waited for is the bus layer's to say (``dxl.ReplyBudget``);
-    ``reply_margin_ms`` only serves the SDK's own calls (``setPacketTimeout``), replacing its
-    fixed 2 × 16 ms latency allowance.
-    """
+    exclusively. How long a reply is waited for is the bus layer's to say (``dxl.ReplyBudget``
+    sets the packet timeout for every wait)."""
 
-    def __init__(self, port_name: str, reply_margin_ms: float = 4.0) -> None:
+    def __init__(self, port_name: str) -> None:
         super().__init__(port_name)
-        self.reply_margin_ms = reply_margin_ms
         self._lock = PortLock(port_name)
 
     # -- open / close ----------------------------------------------------------------------
@@ -139,10 +136,6 @@ class BlockingPortHandler(Transport):
         self._lock.release()
 
     # -- the SDK's I/O hooks ---------------------------------------------------------------
-    def setPacketTimeout(self, packet_length: int) -> None:
-        self.packet_start_time = self.getCurrentTime()
-        self.packet_timeout = self.tx_time_per_byte * packet_length + self.reply_margin_ms
-
     def readPort(self, length: int) -> bytes:
         try:
             data = self.ser.read(length)

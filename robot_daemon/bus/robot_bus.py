@@ -94,9 +94,7 @@ class RobotBus:
         self.cm730_online = False
         self.counters = BusCounters()
         self.warnings: list[str] = []
-        self.make_transport = transport or (
-            lambda: BlockingPortHandler(self.port_name, self.reply_margin_ms)
-        )
+        self.make_transport = transport or (lambda: BlockingPortHandler(self.port_name))
         self.handler: Transport | None = None
         self.dxl: DxlBus | None = None
         self._rr = 0

@@ -154,8 +154,9 @@ def run(args: argparse.Namespace) -> int:
     dcfg = settings.get("daemon", {})
     port = args.port or dcfg.get("port", "/dev/ttyUSB0")
     bus_cfg = settings.get("bus", {})
-    margin = float(bus_cfg.get("reply_margin_ms", 1.0))
-    handler = BlockingPortHandler(port, margin)
+    # A scan is not timed by any loop: the generous margin of the bus's start.
+    margin = float(bus_cfg.get("start_reply_margin_ms", 20.0))
+    handler = BlockingPortHandler(port)
     handler.open(int(args.baud or dcfg.get("baud", 1_000_000)))
     try:
         bus = DxlBus(handler, ReplyBudget(margin))
