@@ -31,41 +31,24 @@ T = TypeVar("T")
 UNKNOWN_RETURN_DELAY_MS = units.return_delay_s(MX28.RETURN_DELAY_TIME.reg.high) * 1000.0
 
 
-# Per reply received, how much of the lateness seen so far is kept (~0.9 per 21-reply tick).
-LATE_DECAY = 0.995
-
-
 @dataclass
 class ReplyBudget:
     """How long a reply may take: its bytes on the wire, the device's return delay, a margin.
 
     ``margin_ms`` covers what the wire model does not: the USB adapter's latency timer (1 ms
-    when set as the README says), the host's scheduling, a Python emulator's. When replies have
-    been arriving later than that (a busy machine), the waits stretch by the lateness seen
-    lately (``late_ms``, at most ``max_late_ms``), which fades as replies come on time again: a
-    late reply is then waited for instead of counted missing, and a missing one still costs
-    no more than the line is actually taking."""
+    when set as the README says), the host's scheduling, a Python emulator's."""
 
     margin_ms: float = 1.0
-    max_late_ms: float = 0.0
     delays_ms: dict[int, float] = field(default_factory=dict)  # by ID, learnt from the scan
-    late_ms: float = 0.0
 
     def set_return_delay(self, dxl_id: int, raw: int) -> None:
         self.delays_ms[dxl_id] = units.return_delay_s(raw) * 1000.0
 
-    def nominal_ms(self, byte_ms: float, dxl_id: int, reply_bytes: int) -> float:
-        """When the wire model expects the reply, counted from the moment the line is free for
-        it (the instruction sent, or the reply before it received)."""
-        return byte_ms * reply_bytes + self.delays_ms.get(dxl_id, UNKNOWN_RETURN_DELAY_MS)
-
     def reply_ms(self, byte_ms: float, dxl_id: int, reply_bytes: int) -> float:
-        """The wait for one reply, counted from the same moment."""
-        return self.nominal_ms(byte_ms, dxl_id, reply_bytes) + self.margin_ms + self.late_ms
-
-    def observe(self, late_ms: float) -> None:
-        """A reply came ``late_ms`` after the wire model expected it (negative: early)."""
-        self.late_ms = min(self.max_late_ms, max(late_ms, self.late_ms * LATE_DECAY))
+        """The wait for one reply of ``reply_bytes`` from ``dxl_id``, counted from the moment
+        the line is free for it (the instruction sent, or the reply before it received)."""
+        delay = self.delays_ms.get(dxl_id, UNKNOWN_RETURN_DELAY_MS)
+        return byte_ms * reply_bytes + delay + self.margin_ms
 
 
 def error_names(bits: int) -> list[str]:
@@ -130,8 +113,7 @@ class DxlBus:
         """One instruction and its status packet (``length`` data bytes): (data, error bits)."""
         sent = self._send(dxl_id, instruction, params)
         port = self.port
-        budget, byte_ms = self.budget, port.tx_time_per_byte
-        wait = budget.reply_ms(byte_ms, dxl_id, length + PACKET_OVERHEAD)
+        wait = self.budget.reply_ms(port.tx_time_per_byte, dxl_id, length + PACKET_OVERHEAD)
         port.setPacketTimeoutMillis(sent - port.getCurrentTime() + wait)
         port.is_using = True
         # The SDK takes any packet from that ID; a late reply to an earlier transaction (a bulk
@@ -140,8 +122,6 @@ class DxlBus:
             rx, result = self.ph.rxPacket(port)
             self._check(result, what, dxl_id)
             if rx[2] == dxl_id and rx[3] == length + 2:
-                expected = sent + budget.nominal_ms(byte_ms, dxl_id, length + PACKET_OVERHEAD)
-                budget.observe(port.getCurrentTime() - expected)
                 return bytes(rx[5 : 5 + length]), rx[4]
             port.is_using = True
 
@@ -224,7 +204,6 @@ class DxlBus:
         # never takes longer than every reply's own wait, however the replies trickle in.
         final = sent + sum(waits.values())
         deadline = sent + waits[order[0]]
-        line_free = sent  # when the line was free for the reply due next
         pending = set(order)
         while pending:
             now = port.getCurrentTime()
@@ -238,8 +217,6 @@ class DxlBus:
                 dxl_id = rx[2]
                 length = want.get(dxl_id)
                 if dxl_id in pending and length is not None and rx[3] == length + 2:
-                    nominal = budget.nominal_ms(byte_ms, dxl_id, length + PACKET_OVERHEAD)
-                    budget.observe(port.getCurrentTime() - line_free - nominal)
                     out.data[dxl_id] = bytes(rx[5 : 5 + length])
                     if rx[4]:
                         out.errors[dxl_id] = rx[4]
@@ -255,8 +232,7 @@ class DxlBus:
                 due = next((i for i in order[after:] if i in pending), None)
                 if due is None:
                     due = next(i for i in order if i in pending)
-                line_free = port.getCurrentTime()
-                deadline = line_free + budget.reply_ms(byte_ms, due, want[due] + PACKET_OVERHEAD)
+                deadline = port.getCurrentTime() + waits[due]
         port.is_using = False
         return [b[0] for b in blocks if b[0] in pending]
 

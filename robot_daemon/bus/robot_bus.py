@@ -82,7 +82,6 @@ class RobotBus:
         # Power-on, scan and the first read are not timed by the loop: a busy machine must not
         # make a servo look absent there.
         self.start_margin_ms = float(bus_cfg.get("start_reply_margin_ms", 20.0))
-        self.max_late_ms = float(bus_cfg.get("reply_late_max_ms", 4.0))
         self.power_on_delay = float(bus_cfg.get("power_on_delay_ms", 300.0)) / 1000.0
         self.torque_on_start = bool(daemon.get("torque_on_start", True))
         imu = settings.get("imu", {})
@@ -117,7 +116,7 @@ class RobotBus:
         handler = self.make_transport()
         handler.open(self.baud)
         self.handler = handler
-        self.dxl = DxlBus(handler, ReplyBudget(self.start_margin_ms, self.max_late_ms))
+        self.dxl = DxlBus(handler, ReplyBudget(self.start_margin_ms))
 
     def close(self) -> None:
         if self.handler is not None:
