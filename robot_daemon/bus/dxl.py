@@ -173,23 +173,30 @@ class DxlBus:
         out = BulkResult()
         if not blocks:
             return out
-        missing = self._bulk_once(blocks, out)
-        if not out.data and not out.corrupt:
+        missing, heard = self._bulk_once(blocks, out)
+        if not heard:
             # Not one byte came back: the bus (or the adapter) stalled, not a device. Every
             # reading is stale this tick; nobody is blamed.
             out.stalled = True
-        elif missing:
+        else:
             # On the real bus a device waits for the one before it, so a silent device silences
-            # the rest: ask again for the missing ones, the first silent one last so that, if
-            # it is still silent, it delays nobody.
-            again = [b for b in blocks if b[0] in missing[1:]]
-            again += [b for b in blocks if b[0] == missing[0]]
-            out.retried = True
-            missing = self._bulk_once(again, out)
+            # the rest: when several in a row at the end were not heard, ask again for them, the
+            # first silent one last so that, if it is still silent, it delays nobody. A device
+            # heard after a missing one shows the chain held: that one is simply missing.
+            last = max(k for k, b in enumerate(blocks) if b[0] in heard)
+            tail = [b for b in blocks[last + 1 :] if b[0] in missing]
+            if len(tail) > 1:
+                out.retried = True
+                again, _ = self._bulk_once([*tail[1:], tail[0]], out)
+                missing = [i for i in missing if i not in {b[0] for b in tail}] + again
         out.missing = missing
         return out
 
-    def _bulk_once(self, blocks: list[tuple[int, int, int]], out: BulkResult) -> list[int]:
+    def _bulk_once(
+        self, blocks: list[tuple[int, int, int]], out: BulkResult
+    ) -> tuple[list[int], set[int]]:
+        """One BULK_READ; returns the IDs whose data did not come, and the IDs heard at all
+        (a garbled reply was still on the wire)."""
         param: list[int] = [0x00]  # the protocol's leading 0
         for dxl_id, start, length in blocks:
             param += [length, dxl_id, start]
@@ -199,15 +206,18 @@ class DxlBus:
         want = {dxl_id: length for dxl_id, _, length in blocks}
         order = [dxl_id for dxl_id, _, _ in blocks]
         waits = {i: budget.reply_ms(byte_ms, i, want[i] + PACKET_OVERHEAD) for i in order}
-        # Each wait is for the next reply due in bus order: the first one after the instruction
-        # has crossed the wire, each later one after the reply before it. The whole transaction
-        # never takes longer than every reply's own wait, however the replies trickle in.
+        # Replies come in bus order, so each wait is for the next device due after the last one
+        # heard: the first one after the instruction has crossed the wire, each later one after
+        # the reply before it. Once a device is heard, the ones before it that were not never
+        # will be: nobody waits for them. The whole transaction never takes longer than every
+        # reply's own wait, however the replies trickle in.
         final = sent + sum(waits.values())
+        due: int | None = order[0]
         deadline = sent + waits[order[0]]
         pending = set(order)
-        while pending:
-            now = port.getCurrentTime()
-            remaining = min(deadline, final) - now
+        heard: set[int] = set()
+        while due is not None:
+            remaining = min(deadline, final) - port.getCurrentTime()
             if remaining <= 0:
                 break
             port.setPacketTimeoutMillis(remaining)
@@ -227,14 +237,14 @@ class DxlBus:
                 out.corrupt += 1
             else:
                 break  # timeout: the reply due is not coming
-            if pending:
-                after = order.index(rx[2]) + 1 if len(rx) > 2 and rx[2] in want else 0
+            if len(rx) > 2 and rx[2] in want:
+                heard.add(rx[2])
+                after = order.index(rx[2]) + 1
                 due = next((i for i in order[after:] if i in pending), None)
-                if due is None:
-                    due = next(i for i in order if i in pending)
+            if due is not None:
                 deadline = port.getCurrentTime() + waits[due]
         port.is_using = False
-        return [b[0] for b in blocks if b[0] in pending]
+        return [b[0] for b in blocks if b[0] in pending], heard
 
 
 def _retry(tries: int, once: Callable[[], T]) -> T:

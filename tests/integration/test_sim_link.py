@@ -130,16 +130,26 @@ def test_a_missing_reply_costs_its_own_wait_not_a_tick() -> None:
         + PACKET_OVERHEAD
     )
     assert clean == pytest.approx(floor)
+    reply = byte_ms * (SERVO_BULK_LENGTH + PACKET_OVERHEAD)
+    cm730_reply = byte_ms * (CM730_BULK_LENGTH + PACKET_OVERHEAD)
+    # A reply missing in the middle costs nothing: once the servos after it are heard, it is
+    # known never to come, and nobody waits for it.
     rig.emulator.silence(7)
-    lossy = bus_ms(rig)
-    assert bus.counters.missing_replies == 1 and bus.counters.retries == 1
-    # Servo 7's reply is waited for twice (the bulk read and its retry), each wait bounded by
+    assert bus_ms(rig) == pytest.approx(clean - reply)
+    assert bus.counters.missing_replies == 1 and bus.counters.retries == 0
+    # The last ones missing: waited for once each pass (the bulk read, and its retry of the
+    # tail, which a silent device would have silenced on the real bus), each wait bounded by
     # the reply's wire time + return delay + margin; the retry's instruction adds its bytes.
-    wait = bus.dxl.budget.reply_ms(byte_ms, 7, SERVO_BULK_LENGTH + PACKET_OVERHEAD)
-    assert wait == pytest.approx(byte_ms * 12 + bus.reply_margin_ms)
-    retry_tx = byte_ms * (PACKET_OVERHEAD + 1 + 3)
-    reply_7 = byte_ms * (SERVO_BULK_LENGTH + PACKET_OVERHEAD)
-    assert lossy == pytest.approx(clean - reply_7 + retry_tx + 2 * wait)
+    rig.emulator.silence(7, False)
+    rig.emulator.silence(20)
+    rig.emulator.silence(200)
+    wait = bus.dxl.budget.reply_ms(byte_ms, 20, SERVO_BULK_LENGTH + PACKET_OVERHEAD)
+    assert wait == pytest.approx(reply + bus.reply_margin_ms)
+    wait_cm730 = bus.dxl.budget.reply_ms(byte_ms, 200, CM730_BULK_LENGTH + PACKET_OVERHEAD)
+    retry_tx = byte_ms * (PACKET_OVERHEAD + 1 + 3 * 2)
+    lossy = bus_ms(rig)
+    assert bus.counters.retries == 1
+    assert lossy == pytest.approx(clean - reply - cm730_reply + wait + retry_tx + wait_cm730)
     # A fixed timeout (the SDK's 34 ms, the emulator's old 15 ms) would have cost a tick or two.
     assert lossy - clean < 4.0
 
@@ -158,12 +168,13 @@ def test_under_drops_and_corruption_each_pass_waits_at_most_once() -> None:
         took = bus_ms(rig)
         bad = stats["dropped"] + stats["corrupted"] - before
         rig.link.idle_until(rig.link.clock_ms + TICK_S * 1000)
-        # At most one wait runs out in the bulk read and one in its retry, whatever the number
-        # of bad replies: the retry asks again for at most ``bad`` blocks.
+        # At most one wait runs out in the bulk read and one in its retry (of the missing tail),
+        # whatever the number of bad replies: the retry asks again for at most ``bad`` blocks.
         retry = byte_ms * (PACKET_OVERHEAD + 1 + 3 * bad + bad * (CM730_BULK_LENGTH + 6))
         if took > floor + 2 * wait + retry + 1e-6:
             over.append((took, bad))
     faults = stats["dropped"] + stats["corrupted"]
     assert faults > 300  # the faults happened: ~6 % of ~21 replies a tick
-    assert bus.counters.missing_replies < faults / 4  # the retries recovered most of them
+    # Each bad reply costs at most its own reading for that tick.
+    assert bus.counters.missing_replies <= faults
     assert over == []
