@@ -61,7 +61,11 @@ class BulkResult:
 
     data: dict[int, bytes] = field(default_factory=dict)
     errors: dict[int, int] = field(default_factory=dict)  # id → error bits of its status packet
-    missing: list[int] = field(default_factory=list)  # no reply
+    missing: list[int] = field(default_factory=list)  # no data this time
+    # The missing ones whose silence is their own: a device heard after them shows the chain
+    # held, or they were the first of the devices not heard at the end (on the real bus, the
+    # one that silences the rest). The others at the end were cut off with it, or by a late bus.
+    blamed: list[int] = field(default_factory=list)
     corrupt: int = 0  # packets dropped for a bad checksum or length
     retried: bool = False
     stalled: bool = False  # nothing answered at all
@@ -178,18 +182,26 @@ class DxlBus:
             # Not one byte came back: the bus (or the adapter) stalled, not a device. Every
             # reading is stale this tick; nobody is blamed.
             out.stalled = True
+            out.missing = missing
+            return out
+        # On the real bus a device waits for the one before it, so a silent device silences the
+        # rest: when several in a row at the end were not heard, ask again for them, the first
+        # silent one last so that, if it is still silent, it delays nobody. A device heard after
+        # a missing one shows the chain held: that one is simply missing.
+        scattered, tail = _split_tail(blocks, missing, heard)
+        if len(tail) > 1:
+            out.retried = True
+            again = [b for b in blocks if b[0] in tail[1:]]
+            again += [b for b in blocks if b[0] == tail[0]]
+            missing_again, heard_again = self._bulk_once(again, out)
+            out.missing = scattered + missing_again
+            if heard_again:
+                out.blamed = scattered + _blame(again, missing_again, heard_again)
+            else:
+                out.blamed = [*scattered, tail[0]]
         else:
-            # On the real bus a device waits for the one before it, so a silent device silences
-            # the rest: when several in a row at the end were not heard, ask again for them, the
-            # first silent one last so that, if it is still silent, it delays nobody. A device
-            # heard after a missing one shows the chain held: that one is simply missing.
-            last = max(k for k, b in enumerate(blocks) if b[0] in heard)
-            tail = [b for b in blocks[last + 1 :] if b[0] in missing]
-            if len(tail) > 1:
-                out.retried = True
-                again, _ = self._bulk_once([*tail[1:], tail[0]], out)
-                missing = [i for i in missing if i not in {b[0] for b in tail}] + again
-        out.missing = missing
+            out.missing = missing
+            out.blamed = scattered + tail
         return out
 
     def _bulk_once(
@@ -245,6 +257,21 @@ class DxlBus:
                 deadline = port.getCurrentTime() + waits[due]
         port.is_using = False
         return [b[0] for b in blocks if b[0] in pending], heard
+
+
+def _split_tail(
+    blocks: list[tuple[int, int, int]], missing: list[int], heard: set[int]
+) -> tuple[list[int], list[int]]:
+    """The missing IDs before the last device heard, and those after it (in bus order)."""
+    order = [b[0] for b in blocks]
+    last = max((k for k, i in enumerate(order) if i in heard), default=-1)
+    before = [i for i in missing if order.index(i) < last]
+    return before, [i for i in missing if order.index(i) > last]
+
+
+def _blame(blocks: list[tuple[int, int, int]], missing: list[int], heard: set[int]) -> list[int]:
+    before, tail = _split_tail(blocks, missing, heard)
+    return before + tail[:1]
 
 
 def _retry(tries: int, once: Callable[[], T]) -> T:

@@ -312,7 +312,7 @@ class RobotBus:
         if res.stalled:
             c.bus_stalls += 1
             return
-        for jid in res.missing:
+        for jid in res.blamed:
             if jid in (self.cm730_id, probe):
                 continue
             st.misses[jid] += 1
