@@ -178,3 +178,22 @@ def test_under_drops_and_corruption_each_pass_waits_at_most_once() -> None:
     # Each bad reply costs at most its own reading for that tick.
     assert bus.counters.missing_replies <= faults
     assert over == []
+
+
+def test_only_the_first_of_a_silent_tail_is_blamed() -> None:
+    """On the real bus a silent device silences every one after it, and a late bus looks the
+    same: the ones cut off are not counted against (and not sent offline)."""
+    rig = rig_without_slow_reads()
+    bus = rig.bus
+    for dxl_id in (18, 19, 20, 200):
+        rig.emulator.silence(dxl_id)
+    bus.read_sensors()
+    assert bus.counters.retries == 1
+    assert bus.counters.missing_replies == 4
+    assert [int(bus.state.misses[j]) for j in (17, 18, 19, 20)] == [0, 1, 0, 0]
+    # A device heard after a missing one shows the chain held: that one is blamed alone.
+    for dxl_id in (18, 19, 20, 200):
+        rig.emulator.silence(dxl_id, False)
+    rig.emulator.silence(10)
+    bus.read_sensors()
+    assert [int(bus.state.misses[j]) for j in (10, 18)] == [1, 0]
