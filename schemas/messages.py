@@ -194,18 +194,25 @@ def ok_reply(verb: str, applied: dict[str, Any] | None = None) -> bytes:
     )
 
 
-def error_reply(verb: str, code: ErrorCode | str, message: str, field_: str | None = None) -> bytes:
-    return msgpack.packb(
-        {
-            "v": SCHEMA_VERSION,
-            "ok": False,
-            "verb": verb,
-            "code": str(code),
-            "message": message,
-            "field": field_,
-        },
-        use_bin_type=True,
-    )
+def error_reply(
+    verb: str,
+    code: ErrorCode | str,
+    message: str,
+    field_: str | None = None,
+    retry_after: float | None = None,
+) -> bytes:
+    """An error reply; ``retry_after`` (s) comes with ``rate_limited``."""
+    d: dict[str, Any] = {
+        "v": SCHEMA_VERSION,
+        "ok": False,
+        "verb": verb,
+        "code": str(code),
+        "message": message,
+        "field": field_,
+    }
+    if retry_after is not None:
+        d["retry_after"] = round(float(retry_after), 3)
+    return msgpack.packb(d, use_bin_type=True)
 
 
 def command_payload(client: str, **fields: Any) -> bytes:

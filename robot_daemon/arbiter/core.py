@@ -1,9 +1,13 @@
 """The arbiter: one queryable per verb under ``…/cmd/``, one queue to the motion thread.
 
-A query is decoded in the Zenoh thread and handed to a worker; the worker queues it for the
-motion thread, which checks the lease and runs the verb handler between bus transactions
-(:meth:`Arbiter.apply_pending`), then the worker replies. Rejected commands never reach a
-handler, so they never touch the bus. Clients' liveliness tokens tell when a holder vanished.
+A query is checked in the intake thread, before anything reaches the motion thread: its size
+(before decoding), its envelope, its fields against the verb's declaration, and the client's rate.
+What passes is queued; the motion thread takes a bounded amount of it per tick
+(:meth:`Arbiter.apply_pending`: ``halt`` first and always, then commands in arrival order within
+a count, time and bus budget), checks the lease and runs the verb handler between bus
+transactions; then the replier thread answers. Rejected commands never reach a handler, so they
+never touch the bus. ``lease`` op=renew (the holder's heartbeat) is pure state and answered in
+the intake thread, so a busy loop never makes a holder look silent.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import logging
 import queue
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -21,16 +26,27 @@ import zenoh
 
 from robot_daemon.arbiter import verbs
 from robot_daemon.arbiter.lease import Lease
-from robot_daemon.arbiter.registry import REGISTRY, MotionContext, Reject, Request, needs_lease
-from schemas import SCHEMA_VERSION
-from schemas.errors import ErrorCode, ProtocolError
+from robot_daemon.arbiter.registry import (
+    REGISTRY,
+    MotionContext,
+    Reject,
+    Request,
+    check_fields,
+    needs_lease,
+)
+from robot_daemon.arbiter.throttle import ArbiterLimits, Buckets
+from schemas.commands import ENVELOPE, MAX_CLIENT_ID, MAX_NAME, LeaseOp
+from schemas.errors import CommandError, ErrorCode, ProtocolError
 from schemas.keys import VERBS, Keys, verb_of
-from schemas.messages import decode_dict, error_reply, ok_reply
+from schemas.messages import error_reply, ok_reply
+from schemas.query import MAX_PAYLOAD, answer, decode_request, error_payload, request_bytes
 
 log = logging.getLogger(__name__)
 
-# Fields of a command payload that are not the verb's own.
-_ENVELOPE = ("v", "client", "client_name")
+# Commands that are bus transactions in the motion thread: they share a per-tick budget.
+BUS_VERBS = frozenset({"registers", "torque", "led"})
+# Halts are cheap (no bus I/O) and always first; this only bounds a flood of them per tick.
+MAX_HALTS_PER_TICK = 64
 
 
 @dataclass
@@ -42,29 +58,41 @@ class Pending:
     ok: bool = False
     answered: bool = False
 
+    @property
+    def on_bus(self) -> bool:
+        return self.request.verb in BUS_VERBS
 
-def parse_request(verb_name: str, payload: bytes | None) -> Request:
-    """Decode a command payload or raise ``Reject`` naming what is wrong."""
-    if not payload:
-        raise Reject(ErrorCode.INVALID, "empty payload: send a msgpack map with v and client")
+
+def _text(d: dict[str, Any], name: str, limit: int, required: bool) -> str | None:
+    value = d.get(name)
+    if value is None and not required:
+        return None
+    if not isinstance(value, str) or not value or len(value) > limit:
+        what = f"a string of 1..{limit} characters"
+        raise Reject(ErrorCode.INVALID, f"field {name!r} must be {what}", name)
+    return value
+
+
+def parse_request(verb_name: str, payload: bytes | None, max_bytes: int = MAX_PAYLOAD) -> Request:
+    """Decode a command payload and check its fields, or raise ``Reject`` naming what is
+    wrong. Never lets any input through as anything but a ``Reject``."""
     try:
-        d = decode_dict(payload)
-    except ProtocolError as exc:
-        raise Reject(ErrorCode.INVALID, str(exc)) from None
-    if d.get("v") != SCHEMA_VERSION:
-        raise Reject(
-            ErrorCode.INVALID,
-            f"schema version {d.get('v')!r} not supported (this daemon speaks {SCHEMA_VERSION})",
-            "v",
-        )
-    client = d.get("client")
-    if not isinstance(client, str) or not client:
-        raise Reject(ErrorCode.INVALID, "missing field 'client' (the caller's client id)", "client")
-    name = d.get("client_name")
-    if not isinstance(name, str) and verb_name == "lease":
-        name = d.get("name")  # the lease verb's own field is the human name
-    fields_ = {k: v for k, v in d.items() if k not in _ENVELOPE}
-    return Request(verb_name, client, name if isinstance(name, str) and name else client, fields_)
+        d = decode_request(payload or b"", max_bytes)
+    except CommandError as exc:
+        raise Reject(exc.code, exc.message, exc.field) from None
+    client = _text(d, "client", MAX_CLIENT_ID, required=True)
+    assert client is not None
+    name = _text(d, "client_name", MAX_NAME, required=False)
+    token = _text(d, "lease_token", 64, required=False)
+    fields_ = {k: v for k, v in d.items() if k not in ENVELOPE}
+    check_fields(verb_name, fields_)
+    if name is None and verb_name == "lease" and isinstance(fields_.get("name"), str):
+        name = fields_["name"]  # the lease verb's own field is the human name
+    return Request(verb_name, client, name or client, fields_, token)
+
+
+def _is_read(req: Request) -> bool:
+    return req.verb == "registers" and req.fields.get("data") is None
 
 
 class Arbiter:
@@ -73,19 +101,26 @@ class Arbiter:
         session: zenoh.Session,
         keys: Keys,
         lease: Lease,
-        reply_timeout: float = 5.0,
+        reply_timeout: float | None = None,
+        limits: ArbiterLimits | None = None,
     ) -> None:
         verbs.load_all()
         self.session = session
         self.keys = keys
         self.lease = lease
-        self.reply_timeout = reply_timeout
-        self._to_motion: queue.SimpleQueue[Pending] = queue.SimpleQueue()
+        self.limits = limits or ArbiterLimits()
+        self.reply_timeout = reply_timeout or self.limits.reply_timeout
+        self._urgent: deque[Pending] = deque()  # halt: served first, never throttled
+        self._queue: deque[Pending] = deque()
+        self._qlock = threading.Lock()
         self._incoming: queue.SimpleQueue[zenoh.Query | None] = queue.SimpleQueue()
         self._done: queue.SimpleQueue[Pending | None] = queue.SimpleQueue()
         self._outstanding: dict[int, Pending] = {}
         self._lock = threading.Lock()
-        self.counts = {"accepted": 0, "rejected": 0, "errors": 0}
+        lim = self.limits
+        self._rate = Buckets(lim.client_rate, lim.client_burst)
+        self._reads = Buckets(lim.client_read_rate, lim.client_read_burst)
+        self.counts = {"accepted": 0, "rejected": 0, "errors": 0, "rate_limited": 0}
         self.on_wakeup: Callable[[], None] | None = None  # the loop may wait for commands
         self._queryables = [
             session.declare_queryable(keys.cmd(v), self._incoming.put, complete=True) for v in VERBS
@@ -107,25 +142,72 @@ class Arbiter:
             self.lease.client_gone(client)
 
     def _intake(self) -> None:
-        """Decode queries and queue them for the motion thread, in arrival order."""
+        """Check queries and queue them for the motion thread, in arrival order."""
         while True:
             query = self._incoming.get()
             if query is None:
                 return
             verb_name = verb_of(str(query.key_expr))
             try:
-                payload = query.payload.to_bytes() if query.payload is not None else None
-                req = parse_request(verb_name, payload)
+                self._admit(query, verb_name)
             except Reject as r:
+                if r.code == ErrorCode.RATE_LIMITED:
+                    self.counts["rate_limited"] += 1
+                else:
+                    self.counts["rejected"] += 1
+                self._finish_query(query, False, error_payload(verb_name, r))
+            except ProtocolError as exc:
                 self.counts["rejected"] += 1
-                self._finish_query(query, False, error_reply(verb_name, r.code, r.message, r.field))
-                continue
-            pending = Pending(req, query, time.monotonic() + self.reply_timeout)
-            with self._lock:
-                self._outstanding[id(pending)] = pending
-            self._to_motion.put(pending)
-            if self.on_wakeup is not None:
-                self.on_wakeup()
+                self._finish_query(query, False, error_payload(verb_name, exc))
+            except Exception as exc:  # never lose the intake thread to one query
+                self.counts["errors"] += 1
+                self._finish_query(query, False, error_payload(verb_name, exc))
+
+    def _admit(self, query: zenoh.Query, verb_name: str) -> None:
+        req = parse_request(verb_name, request_bytes(query, self.limits.max_payload_bytes))
+        if req.verb == "lease" and req.fields.get("op") == LeaseOp.RENEW:
+            self.lease.renew(req.client, req.token)  # pure state: answered here, at once
+            self.counts["accepted"] += 1
+            applied = {"op": "renew", "holder": self.lease.status(), "you": True}
+            self._finish_query(query, True, ok_reply("lease", applied), "lease")
+            return
+        urgent = req.verb == "halt"
+        if not urgent:
+            self._throttle(req)
+        pending = Pending(req, query, time.monotonic() + self.reply_timeout)
+        with self._qlock:
+            if urgent:
+                self._urgent.append(pending)
+            elif len(self._queue) >= self.limits.queue_size:
+                raise Reject(
+                    ErrorCode.RATE_LIMITED,
+                    f"busy: {len(self._queue)} commands are waiting for the motion loop; "
+                    f"retry in {self._drain_time():.2f} s",
+                    retry_after=self._drain_time(),
+                )
+            else:
+                self._queue.append(pending)
+        with self._lock:
+            self._outstanding[id(pending)] = pending
+        if self.on_wakeup is not None:
+            self.on_wakeup()
+
+    def _throttle(self, req: Request) -> None:
+        wait = self._rate.take(req.client)
+        kind = "commands"
+        if not wait and _is_read(req):
+            wait, kind = self._reads.take(req.client), "register reads"
+        if wait:
+            raise Reject(
+                ErrorCode.RATE_LIMITED,
+                f"busy: client {req.client} sends {kind} faster than this daemon takes them "
+                f"from one client; retry in {wait:.2f} s",
+                retry_after=wait,
+            )
+
+    def _drain_time(self) -> float:
+        # Ticks needed to take the queue at the per-tick count, as seconds at 8 ms a tick.
+        return max(0.01, len(self._queue) / self.limits.commands_per_tick * 0.008)
 
     def _replier(self) -> None:
         """Reply to what the motion thread applied; time out what it never took."""
@@ -162,31 +244,45 @@ class Arbiter:
         self._finish_query(pending.query, pending.ok, pending.reply, pending.request.verb)
 
     def _finish_query(self, query: zenoh.Query, ok: bool, reply: bytes, verb: str = "") -> None:
-        try:
-            if ok:
-                query.reply(self.keys.cmd(verb), reply)
-            else:
-                query.reply_err(reply)
-        except Exception:
-            log.exception("replying to a %s command failed", verb or "malformed")
-        finally:
-            with contextlib.suppress(Exception):
-                query.drop()
+        answer(query, self.keys.cmd(verb) if ok else "", ok, reply)
 
     # -- motion-thread side ------------------------------------------------------------------
     def has_pending(self) -> bool:
-        return not self._to_motion.empty()
+        return bool(self._urgent or self._queue)
+
+    def _next(self, bus_left: int, halts: int) -> Pending | None:
+        with self._qlock:
+            if self._urgent and halts < MAX_HALTS_PER_TICK:
+                return self._urgent.popleft()
+            if self._queue and (bus_left > 0 or not self._queue[0].on_bus):
+                return self._queue.popleft()
+            return None
 
     def apply_pending(self, ctx: MotionContext) -> int:
-        """Run every queued command in arrival order; called by the motion thread between bus
-        transactions. Returns how many ran."""
-        n = 0
+        """Run queued commands in arrival order within this tick's budget (``halt`` always,
+        first); called by the motion thread between bus transactions. Returns how many ran.
+        What is left waits for the next tick, still in order."""
+        lim = self.limits
+        start = time.perf_counter()
+        budget = lim.work_budget_ms / 1000.0
+        n = urgent = 0
+        bus_left = lim.bus_commands_per_tick
         while True:
-            try:
-                pending = self._to_motion.get_nowait()
-            except queue.Empty:
+            with self._qlock:
+                has_urgent = bool(self._urgent) and urgent < MAX_HALTS_PER_TICK
+            if not has_urgent and (
+                n - urgent >= lim.commands_per_tick
+                or (n > urgent and time.perf_counter() - start >= budget)
+            ):
+                return n
+            pending = self._next(bus_left, urgent)
+            if pending is None:
                 return n
             n += 1
+            if pending.request.verb == "halt":
+                urgent += 1
+            elif pending.on_bus:
+                bus_left -= 1
             if not pending.answered:  # else it timed out: too late to apply it
                 self._apply(pending, ctx)
                 self._done.put(pending)
@@ -201,29 +297,30 @@ class Arbiter:
                     f"verb {req.verb!r} is not available in this daemon build",
                 )
             if needs_lease(req.verb, req.fields):
-                self.lease.check(req.client)
+                self.lease.check(req.client, req.token)
             applied = handler(req, ctx)
             pending.reply, pending.ok = ok_reply(req.verb, applied), True
             self.counts["accepted"] += 1
-        except Reject as r:
-            pending.reply = error_reply(req.verb, r.code, r.message, r.field)
+        except CommandError as r:
+            pending.reply = error_payload(req.verb, r)
             self.counts["rejected"] += 1
         except Exception as exc:
             log.exception("verb %s failed", req.verb)
-            pending.reply = error_reply(
-                req.verb, ErrorCode.INTERNAL, f"{type(exc).__name__}: {exc} (a daemon bug)"
-            )
+            pending.reply = error_payload(req.verb, exc)
             self.counts["errors"] += 1
 
-    def fail_pending(self, message: str) -> None:
-        """Answer every queued command with an error (the daemon is stopping)."""
-        while True:
-            try:
-                pending = self._to_motion.get_nowait()
-            except queue.Empty:
-                return
-            pending.reply = error_reply(pending.request.verb, ErrorCode.UNAVAILABLE, message)
+    def fail_pending(self, message: str, code: ErrorCode = ErrorCode.UNAVAILABLE) -> int:
+        """Answer every queued command with an error (the daemon is stopping, or the port is
+        lost and nothing queued may run later); returns how many."""
+        with self._qlock:
+            taken = [*self._urgent, *self._queue]
+            self._urgent.clear()
+            self._queue.clear()
+        for pending in taken:
+            pending.reply = error_reply(pending.request.verb, code, message)
+            pending.ok = False
             self._reply(pending)
+        return len(taken)
 
     def close(self) -> None:
         for q in self._queryables:
@@ -238,4 +335,4 @@ class Arbiter:
             t.join(timeout=2.0)
 
     def status(self) -> dict[str, Any]:
-        return {**self.counts, "lease": self.lease.status()}
+        return {**self.counts, "queued": len(self._queue), "lease": self.lease.status()}
