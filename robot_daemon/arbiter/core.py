@@ -91,6 +91,17 @@ def parse_request(verb_name: str, payload: bytes | None, max_bytes: int = MAX_PA
     return Request(verb_name, client, name or client, fields_, token)
 
 
+def execute(req: Request, ctx: MotionContext, lease: Lease) -> dict[str, Any]:
+    """Run a parsed request in the motion thread: the lease check, then the verb's handler.
+    Raises ``CommandError`` (a refusal, nothing touched) or returns what was applied."""
+    handler = REGISTRY.get(req.verb)
+    if handler is None:
+        raise Reject(ErrorCode.UNAVAILABLE, f"verb {req.verb!r} is not available in this build")
+    if needs_lease(req.verb, req.fields):
+        lease.check(req.client, req.token)
+    return handler(req, ctx)
+
+
 def _is_read(req: Request) -> bool:
     return req.verb == "registers" and req.fields.get("data") is None
 
@@ -290,15 +301,7 @@ class Arbiter:
     def _apply(self, pending: Pending, ctx: MotionContext) -> None:
         req = pending.request
         try:
-            handler = REGISTRY.get(req.verb)
-            if handler is None:
-                raise Reject(
-                    ErrorCode.UNAVAILABLE,
-                    f"verb {req.verb!r} is not available in this daemon build",
-                )
-            if needs_lease(req.verb, req.fields):
-                self.lease.check(req.client, req.token)
-            applied = handler(req, ctx)
+            applied = execute(req, ctx, self.lease)
             pending.reply, pending.ok = ok_reply(req.verb, applied), True
             self.counts["accepted"] += 1
         except CommandError as r:

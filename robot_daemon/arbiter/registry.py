@@ -100,7 +100,9 @@ def check_fields(verb_name: str, fields: dict[str, Any]) -> None:
     for name, value in fields.items():
         f = spec.get(name)
         if f is None:
-            near = difflib.get_close_matches(str(name), list(spec), n=1)
+            lower = {k.lower(): k for k in spec}
+            near = [lower[str(name).lower()]] if str(name).lower() in lower else []
+            near = near or difflib.get_close_matches(str(name), list(spec), n=1)
             hint = f"; did you mean {near[0]!r}?" if near else ""
             known = ", ".join(spec) or "none"
             raise Reject(
