@@ -35,6 +35,7 @@ from schemas.errors import (
     LeaseBusyError,
     NoLeaseError,
     ProtocolError,
+    RateLimitedError,
     RobotUnreachableError,
 )
 from schemas.keys import Keys
@@ -221,15 +222,20 @@ class Commander:
                 f"{self.target.robot!r} running (`darwin up`), and is the robot name right?"
             )
 
+        budget = timeout or self.timeout
+        deadline = time.monotonic() + budget
         try:
-            return ask(
-                self.session,
-                key,
-                payload,
-                timeout or self.timeout,
-                verb=verb,
-                unreachable=unreachable,
-            )
+            while True:
+                try:
+                    return ask(
+                        self.session, key, payload, budget, verb=verb, unreachable=unreachable
+                    )
+                except RateLimitedError as exc:
+                    # Throttled, nothing applied: wait as told while the timeout allows.
+                    wait = exc.retry_after or 0.05
+                    if time.monotonic() + wait >= deadline:
+                        raise
+                    time.sleep(wait)
         except (NoLeaseError, LeaseBusyError) as exc:
             if exc.field in ("client", "lease_token") and token is not None:
                 self._lost_lease(token)  # the daemon ended our lease meanwhile

@@ -19,8 +19,9 @@ from schemas.keys import DEFAULT_ROBOT, check_robot_name
 DEFAULT_PORT = 7447
 # Zenoh drops (never delivers) any message larger than this that a server receives, so a huge
 # payload costs no Python time at all; smaller oversized requests get a clear error from
-# ``schemas.query``. Big enough for a rendered camera frame (a reply the daemon receives).
-MAX_MESSAGE_BYTES = 8 * 1024 * 1024
+# ``schemas.query``. Big enough for a rendered 640×480 camera frame (a reply the daemon
+# receives); small, because Zenoh buffers a fragmented message up to this size before it drops it.
+MAX_MESSAGE_BYTES = 2 * 1024 * 1024
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 ENV_ENDPOINT = "DARWIN_ENDPOINT"
 ENV_ROBOT = "DARWIN_ROBOT"

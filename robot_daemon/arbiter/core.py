@@ -123,6 +123,11 @@ class Arbiter:
         self.reply_timeout = reply_timeout or self.limits.reply_timeout
         self._urgent: deque[Pending] = deque()  # halt: served first, never throttled
         self._queue: deque[Pending] = deque()
+        self._reads: deque[Pending] = deque()  # register reads, within the bus share
+        self._reading: dict[str, int] = {}  # client → its entries in _reads
+        self._bus_credit = 0.0  # s of bus time client reads may use now
+        self._credit_at = time.monotonic()
+        self._read_cost = 0.002  # s, running estimate of one client read
         self._qlock = threading.Lock()
         self._incoming: queue.SimpleQueue[zenoh.Query | None] = queue.SimpleQueue()
         self._done: queue.SimpleQueue[Pending | None] = queue.SimpleQueue()
@@ -130,7 +135,7 @@ class Arbiter:
         self._lock = threading.Lock()
         lim = self.limits
         self._rate = Buckets(lim.client_rate, lim.client_burst)
-        self._reads = Buckets(lim.client_read_rate, lim.client_read_burst)
+        self._read_rate = Buckets(lim.client_read_rate, lim.client_read_burst)
         self.counts = {"accepted": 0, "rejected": 0, "errors": 0, "rate_limited": 0}
         self.on_wakeup: Callable[[], None] | None = None  # the loop may wait for commands
         self._queryables = [
@@ -189,15 +194,22 @@ class Arbiter:
         with self._qlock:
             if urgent:
                 self._urgent.append(pending)
-            elif len(self._queue) >= self.limits.queue_size:
-                raise Reject(
-                    ErrorCode.RATE_LIMITED,
-                    f"busy: {len(self._queue)} commands are waiting for the motion loop; "
-                    f"retry in {self._drain_time():.2f} s",
-                    retry_after=self._drain_time(),
-                )
             else:
-                self._queue.append(pending)
+                # Register reads wait for the bus share; so does whatever their client sends
+                # next, so that one client's commands still run in the order it sent them.
+                slow = _is_read(req) or self._reading.get(req.client, 0) > 0
+                target = self._reads if slow else self._queue
+                if len(target) >= self.limits.queue_size:
+                    wait = self._drain_time(len(target), slow)
+                    raise Reject(
+                        ErrorCode.RATE_LIMITED,
+                        f"busy: {len(target)} commands are waiting for the motion loop; "
+                        f"retry in {wait:.2f} s",
+                        retry_after=wait,
+                    )
+                target.append(pending)
+                if slow:
+                    self._reading[req.client] = self._reading.get(req.client, 0) + 1
         with self._lock:
             self._outstanding[id(pending)] = pending
         if self.on_wakeup is not None:
@@ -207,7 +219,7 @@ class Arbiter:
         wait = self._rate.take(req.client)
         kind = "commands"
         if not wait and _is_read(req):
-            wait, kind = self._reads.take(req.client), "register reads"
+            wait, kind = self._read_rate.take(req.client), "register reads"
         if wait:
             raise Reject(
                 ErrorCode.RATE_LIMITED,
@@ -216,9 +228,11 @@ class Arbiter:
                 retry_after=wait,
             )
 
-    def _drain_time(self) -> float:
-        # Ticks needed to take the queue at the per-tick count, as seconds at 8 ms a tick.
-        return max(0.01, len(self._queue) / self.limits.commands_per_tick * 0.008)
+    def _drain_time(self, queued: int, reads: bool) -> float:
+        """About how long until the queue has room again (s)."""
+        if reads:  # one read per ~read cost / share of the wall time
+            return max(0.05, queued * self._read_cost / self.limits.bus_time_share)
+        return max(0.01, queued / self.limits.commands_per_tick * 0.008)
 
     def _replier(self) -> None:
         """Reply to what the motion thread applied; time out what it never took."""
@@ -259,44 +273,83 @@ class Arbiter:
 
     # -- motion-thread side ------------------------------------------------------------------
     def has_pending(self) -> bool:
-        return bool(self._urgent or self._queue)
+        return bool(self._urgent or self._queue or self._reads)
 
-    def _next(self, bus_left: int, halts: int) -> Pending | None:
+    def _pop(self, source: deque[Pending]) -> Pending | None:
         with self._qlock:
-            if self._urgent and halts < MAX_HALTS_PER_TICK:
-                return self._urgent.popleft()
-            if self._queue and (bus_left > 0 or not self._queue[0].on_bus):
-                return self._queue.popleft()
-            return None
+            if not source:
+                return None
+            pending = source.popleft()
+            if source is self._reads:
+                left = self._reading.get(pending.request.client, 1) - 1
+                if left > 0:
+                    self._reading[pending.request.client] = left
+                else:
+                    self._reading.pop(pending.request.client, None)
+            return pending
+
+    def _run(self, pending: Pending, ctx: MotionContext) -> float:
+        """Apply one command (unless it already timed out); returns the time it took."""
+        t0 = time.perf_counter()
+        if not pending.answered:
+            self._apply(pending, ctx)
+            self._done.put(pending)
+        return time.perf_counter() - t0
 
     def apply_pending(self, ctx: MotionContext) -> int:
-        """Run queued commands in arrival order within this tick's budget (``halt`` always,
-        first); called by the motion thread between bus transactions. Returns how many ran.
-        What is left waits for the next tick, still in order."""
+        """Run queued commands within this tick's budget; called by the motion thread between
+        bus transactions. Returns how many ran; the rest waits for the next tick, in order.
+
+        ``halt`` always runs, first. Then the commands in arrival order, at most
+        ``commands_per_tick``, none started after ``work_budget_ms``, at most
+        ``bus_commands_per_tick`` bus writes. Then at most one client register read, when the
+        reads' share of bus time (``bus_time_share`` of the wall time, measured) allows: a read
+        is a whole bus transaction in the tick, and a tick has little bus time to spare."""
         lim = self.limits
         start = time.perf_counter()
         budget = lim.work_budget_ms / 1000.0
-        n = urgent = 0
-        bus_left = lim.bus_commands_per_tick
-        while True:
-            with self._qlock:
-                has_urgent = bool(self._urgent) and urgent < MAX_HALTS_PER_TICK
-            if not has_urgent and (
-                n - urgent >= lim.commands_per_tick
-                or (n > urgent and time.perf_counter() - start >= budget)
-            ):
-                return n
-            pending = self._next(bus_left, urgent)
+        now = time.monotonic()
+        self._bus_credit = min(
+            lim.bus_burst_ms / 1000.0,
+            self._bus_credit + (now - self._credit_at) * lim.bus_time_share,
+        )
+        self._credit_at = now
+        n = 0
+        for _ in range(MAX_HALTS_PER_TICK):
+            pending = self._pop(self._urgent)
             if pending is None:
-                return n
+                break
+            self._run(pending, ctx)
             n += 1
-            if pending.request.verb == "halt":
-                urgent += 1
-            elif pending.on_bus:
+        ran = 0
+        bus_left = lim.bus_commands_per_tick
+        while ran < lim.commands_per_tick and (ran == 0 or time.perf_counter() - start < budget):
+            with self._qlock:
+                head = self._queue[0] if self._queue else None
+            if head is None or (head.on_bus and bus_left <= 0):
+                break
+            pending = self._pop(self._queue)
+            if pending is None:
+                break
+            took = self._run(pending, ctx)
+            ran += 1
+            if pending.on_bus:
                 bus_left -= 1
-            if not pending.answered:  # else it timed out: too late to apply it
-                self._apply(pending, ctx)
-                self._done.put(pending)
+                self._bus_credit -= took  # the holder's bus writes come first; reads yield
+        if (
+            self._reads
+            and bus_left > 0
+            and self._bus_credit > 0
+            and time.perf_counter() - start < budget
+        ):
+            pending = self._pop(self._reads)
+            if pending is not None:
+                took = self._run(pending, ctx)
+                ran += 1
+                if _is_read(pending.request):
+                    self._bus_credit -= took
+                    self._read_cost = 0.8 * self._read_cost + 0.2 * took
+        return n + ran
 
     def _apply(self, pending: Pending, ctx: MotionContext) -> None:
         req = pending.request
@@ -316,9 +369,11 @@ class Arbiter:
         """Answer every queued command with an error (the daemon is stopping, or the port is
         lost and nothing queued may run later); returns how many."""
         with self._qlock:
-            taken = [*self._urgent, *self._queue]
+            taken = [*self._urgent, *self._queue, *self._reads]
             self._urgent.clear()
             self._queue.clear()
+            self._reads.clear()
+            self._reading.clear()
         for pending in taken:
             pending.reply = error_reply(pending.request.verb, code, message)
             pending.ok = False
@@ -338,4 +393,9 @@ class Arbiter:
             t.join(timeout=2.0)
 
     def status(self) -> dict[str, Any]:
-        return {**self.counts, "queued": len(self._queue), "lease": self.lease.status()}
+        return {
+            **self.counts,
+            "queued": len(self._queue),
+            "reads_queued": len(self._reads),
+            "lease": self.lease.status(),
+        }
