@@ -70,9 +70,9 @@ class SoundPlayer:
             path = self.resolve(file)
             if not path.is_file():
                 raise ValueError(f"sound file {path} does not exist (check [sound] sounds_dir)")
-            argv = [a.format(file=str(path)) for a in self.play_command]
+            argv = [str(a).replace("{file}", str(path)) for a in self.play_command]
         else:
-            argv = [a.format(lang=lang) for a in self.say_command]
+            argv = [str(a).replace("{lang}", lang) for a in self.say_command]
         if shutil.which(argv[0]) is None:
             raise ValueError(
                 f"sound player {argv[0]!r} is not installed; set [sound] play_command/"
