@@ -17,7 +17,7 @@ import secrets
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from schemas.commands import TOKEN_BYTES
@@ -32,7 +32,7 @@ class Holder:
     name: str
     since: float  # wall clock, for people
     last_seen: float  # monotonic, for the idle timeout (commands)
-    token: str = ""  # the secret; never in to_dict()
+    token: str = field(default="", repr=False)  # the secret: never in to_dict() or a log
     last_renew: float = 0.0  # monotonic, for the heartbeat timeout
 
     def to_dict(self) -> dict[str, Any]:
