@@ -13,6 +13,7 @@ the intake thread, so a busy loop never makes a holder look silent.
 from __future__ import annotations
 
 import contextlib
+import heapq
 import logging
 import queue
 import threading
@@ -36,7 +37,7 @@ from robot_daemon.arbiter.registry import (
 )
 from robot_daemon.arbiter.throttle import ArbiterLimits, Buckets
 from schemas.commands import ENVELOPE, MAX_CLIENT_ID, MAX_NAME, LeaseOp
-from schemas.errors import CommandError, ErrorCode, ProtocolError
+from schemas.errors import CommandError, ErrorCode, ProtocolError, brief
 from schemas.keys import VERBS, Keys, verb_of
 from schemas.messages import error_reply, ok_reply
 from schemas.query import MAX_PAYLOAD, answer, decode_request, error_payload, request_bytes
@@ -47,6 +48,9 @@ log = logging.getLogger(__name__)
 BUS_VERBS = frozenset({"registers", "torque", "led"})
 # Halts are cheap (no bus I/O) and always first; this only bounds a flood of them per tick.
 MAX_HALTS_PER_TICK = 64
+# Throttled answers held back until their retry time (see Arbiter._park).
+MAX_PARKED = 256
+MAX_PARK_S = 1.0
 
 
 @dataclass
@@ -73,13 +77,22 @@ def _text(d: dict[str, Any], name: str, limit: int, required: bool) -> str | Non
     return value
 
 
+def decode_command(payload: bytes | None, max_bytes: int = MAX_PAYLOAD) -> dict[str, Any]:
+    """A command payload as a bounded map with this build's schema version, or ``Reject``."""
+    try:
+        return decode_request(payload or b"", max_bytes)
+    except CommandError as exc:
+        raise Reject(exc.code, exc.message, exc.field) from None
+
+
 def parse_request(verb_name: str, payload: bytes | None, max_bytes: int = MAX_PAYLOAD) -> Request:
     """Decode a command payload and check its fields, or raise ``Reject`` naming what is
     wrong. Never lets any input through as anything but a ``Reject``."""
-    try:
-        d = decode_request(payload or b"", max_bytes)
-    except CommandError as exc:
-        raise Reject(exc.code, exc.message, exc.field) from None
+    return request_from(verb_name, decode_command(payload, max_bytes))
+
+
+def request_from(verb_name: str, d: dict[str, Any]) -> Request:
+    """The request in a decoded payload: envelope and fields checked (``Reject`` otherwise)."""
     client = _text(d, "client", MAX_CLIENT_ID, required=True)
     assert client is not None
     name = _text(d, "client_name", MAX_NAME, required=False)
@@ -132,6 +145,8 @@ class Arbiter:
         self._incoming: queue.SimpleQueue[zenoh.Query | None] = queue.SimpleQueue()
         self._done: queue.SimpleQueue[Pending | None] = queue.SimpleQueue()
         self._outstanding: dict[int, Pending] = {}
+        self._parked: list[tuple[float, int, zenoh.Query, bytes]] = []  # heap by due time
+        self._park_seq = 0
         self._lock = threading.Lock()
         lim = self.limits
         self._rate = Buckets(lim.client_rate, lim.client_burst)
@@ -169,8 +184,9 @@ class Arbiter:
             except Reject as r:
                 if r.code == ErrorCode.RATE_LIMITED:
                     self.counts["rate_limited"] += 1
-                else:
-                    self.counts["rejected"] += 1
+                    self._park(query, verb_name, r)
+                    continue
+                self.counts["rejected"] += 1
                 self._finish_query(query, False, error_payload(verb_name, r))
             except ProtocolError as exc:
                 self.counts["rejected"] += 1
@@ -180,16 +196,25 @@ class Arbiter:
                 self._finish_query(query, False, error_payload(verb_name, exc))
 
     def _admit(self, query: zenoh.Query, verb_name: str) -> None:
-        req = parse_request(verb_name, request_bytes(query, self.limits.max_payload_bytes))
-        if req.verb == "lease" and req.fields.get("op") == LeaseOp.RENEW:
-            self.lease.renew(req.client, req.token)  # pure state: answered here, at once
+        d = decode_command(request_bytes(query, self.limits.max_payload_bytes))
+        client = d.get("client")
+        client = client[:MAX_CLIENT_ID] if isinstance(client, str) else "?"
+        urgent = verb_name == "halt"
+        if verb_name == "lease" and d.get("op") == LeaseOp.RENEW:
+            try:
+                req = request_from(verb_name, d)
+                self.lease.renew(req.client, req.token)  # pure state: answered here, at once
+            except Reject:
+                self._throttle(client, verb_name, d)  # a stranger's renewals are throttled
+                raise
             self.counts["accepted"] += 1
             applied = {"op": "renew", "holder": self.lease.status(), "you": True}
             self._finish_query(query, True, ok_reply("lease", applied), "lease")
             return
-        urgent = req.verb == "halt"
         if not urgent:
-            self._throttle(req)
+            # Before the field checks: a client that floods bad commands is throttled too.
+            self._throttle(client, verb_name, d)
+        req = request_from(verb_name, d)
         pending = Pending(req, query, time.monotonic() + self.reply_timeout)
         with self._qlock:
             if urgent:
@@ -215,18 +240,45 @@ class Arbiter:
         if self.on_wakeup is not None:
             self.on_wakeup()
 
-    def _throttle(self, req: Request) -> None:
-        wait = self._rate.take(req.client)
+    def _throttle(self, client: str, verb_name: str, d: dict[str, Any]) -> None:
+        wait = self._rate.take(client)
         kind = "commands"
-        if not wait and _is_read(req):
-            wait, kind = self._read_rate.take(req.client), "register reads"
+        if not wait and verb_name == "registers" and d.get("data") is None:
+            wait, kind = self._read_rate.take(client), "register reads"
         if wait:
             raise Reject(
                 ErrorCode.RATE_LIMITED,
-                f"busy: client {req.client} sends {kind} faster than this daemon takes them "
+                f"busy: client {brief(client)} sends {kind} faster than this daemon takes them "
                 f"from one client; retry in {wait:.2f} s",
                 retry_after=wait,
             )
+
+    def _park(self, query: zenoh.Query, verb_name: str, r: Reject) -> None:
+        """Answer a throttled command when its wait is over rather than at once: a client that
+        retries on every answer then paces itself, instead of costing the daemon a query per
+        answer as fast as it can send. Only a bounded number is held; the rest is answered now."""
+        wait = min(r.retry_after or 0.0, MAX_PARK_S)
+        with self._lock:
+            if wait > 0 and len(self._parked) < MAX_PARKED:
+                r = Reject(r.code, r.message + " (this answer was held that long)", r.field, 0.0)
+                self._park_seq += 1
+                heapq.heappush(
+                    self._parked,
+                    (time.monotonic() + wait, self._park_seq, query, error_payload(verb_name, r)),
+                )
+                return
+        self._finish_query(query, False, error_payload(verb_name, r))
+
+    def _release_parked(self, now: float) -> float:
+        """Answer the parked queries that are due; returns the seconds until the next one."""
+        due = []
+        with self._lock:
+            while self._parked and self._parked[0][0] <= now:
+                due.append(heapq.heappop(self._parked))
+            nxt = self._parked[0][0] - now if self._parked else 0.25
+        for _, _, query, payload in due:
+            self._finish_query(query, False, payload)
+        return max(0.001, min(0.25, nxt))
 
     def _drain_time(self, queued: int, reads: bool) -> float:
         """About how long until the queue has room again (s)."""
@@ -236,9 +288,10 @@ class Arbiter:
 
     def _replier(self) -> None:
         """Reply to what the motion thread applied; time out what it never took."""
+        wait = 0.25
         while True:
             try:
-                pending = self._done.get(timeout=0.25)
+                pending = self._done.get(timeout=wait)
             except queue.Empty:
                 pending = None
             else:
@@ -247,6 +300,7 @@ class Arbiter:
             if pending is not None:
                 self._reply(pending)
             now = time.monotonic()
+            wait = self._release_parked(now)
             with self._lock:
                 late = [p for p in self._outstanding.values() if p.deadline < now]
             for p in late:
@@ -387,6 +441,7 @@ class Arbiter:
         with contextlib.suppress(Exception):
             self._clients.undeclare()
         self.fail_pending("the daemon is stopping")
+        self._release_parked(float("inf"))
         self._incoming.put(None)
         self._done.put(None)
         for t in self._threads:

@@ -37,7 +37,10 @@ class Query:
 def arbiter() -> Iterator[tuple[Arbiter, ArbiterRig]]:
     rig = ArbiterRig()
     session = zenoh.open(server_config([]))
-    limits = ArbiterLimits(commands_per_tick=3, bus_time_share=0.02, queue_size=8)
+    # A generous time budget: these tests check the count and the bus share, on any machine.
+    limits = ArbiterLimits(
+        commands_per_tick=3, bus_time_share=0.02, queue_size=8, work_budget_ms=1000.0
+    )
     arb = Arbiter(session, Keys("budget"), rig.lease, limits=limits)
     try:
         yield arb, rig
