@@ -28,9 +28,9 @@ from typing import Any, Self
 
 import zenoh
 
+from clients.lease_keeper import LeaseKeeper
 from schemas.errors import (
     ClientError,
-    CommandError,
     CommandTimeoutError,
     LeaseBusyError,
     NoLeaseError,
@@ -55,9 +55,6 @@ from schemas.query import ask
 from schemas.session import Target, open_client, resolve
 
 log = logging.getLogger(__name__)
-
-# How often the holder renews the lease; the daemon's heartbeat_timeout (1.5 s) allows ~3 misses.
-RENEW_PERIOD = 0.4
 
 TOPICS: dict[str, type[Message]] = {
     "joints": Joints,
@@ -170,17 +167,17 @@ class Commander:
                 "Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT."
             ) from exc
         self._closed = False
-        self._lease_token: str | None = None  # the lease secret while we hold the lease
-        self._lease_lock = threading.Lock()
-        self._heartbeat: threading.Thread | None = None
-        self._heartbeat_stop = threading.Event()
+        # The lease secret while we hold the lease, renewed from a thread.
+        self._lease = LeaseKeeper(
+            lambda: self.command("lease", timeout=1.0, op="renew"), self.client_id
+        )
         # The arbiter releases our lease (and safely stops the robot) when this token goes.
         self._token = self.session.liveliness().declare_token(self.keys.client(self.client_id))
 
     def close(self) -> None:
         if self._closed:
             return
-        self._stop_heartbeat()
+        self._lease.drop()
         self._closed = True
         self._close_extra()
         with contextlib.suppress(Exception):
@@ -210,7 +207,7 @@ class Commander:
             raise ClientError("this Robot is closed; create a new one")
         key = self.keys.cmd(verb)
         envelope: dict[str, Any] = {"client_name": self.name}
-        token = self._lease_token
+        token = self._lease.token
         if token is not None:
             envelope["lease_token"] = token
         # The human name travels as ``client_name``: ``name`` is a verb field (joint, action…).
@@ -238,72 +235,26 @@ class Commander:
                     time.sleep(wait)
         except (NoLeaseError, LeaseBusyError) as exc:
             if exc.field in ("client", "lease_token") and token is not None:
-                self._lost_lease(token)  # the daemon ended our lease meanwhile
+                self._lease.lost(token)  # the daemon ended our lease meanwhile
             raise
 
     @property
     def holds_lease(self) -> bool:
         """True while this client believes it holds the lease (it renews it)."""
-        return self._lease_token is not None
+        return self._lease.token is not None
 
     def acquire(self) -> dict[str, Any]:
         applied = self.command("lease", op="acquire")
         token = applied.pop("token", None)
         if isinstance(token, str):
-            with self._lease_lock:
-                self._lease_token = token
-            self._start_heartbeat()
+            self._lease.hold(token)
         return applied
 
     def release(self) -> dict[str, Any]:
         try:
             return self.command("lease", op="release")
         finally:
-            self._stop_heartbeat()
-            with self._lease_lock:
-                self._lease_token = None
-
-    def _lost_lease(self, token: str) -> None:
-        with self._lease_lock:
-            if self._lease_token == token:
-                self._lease_token = None
-        self._heartbeat_stop.set()
-
-    def _start_heartbeat(self) -> None:
-        if self._heartbeat is not None and self._heartbeat.is_alive():
-            return
-        self._heartbeat_stop = threading.Event()
-        self._heartbeat = threading.Thread(
-            target=self._renew_loop,
-            args=(self._heartbeat_stop,),
-            name=f"lease-renew-{self.client_id}",
-            daemon=True,
-        )
-        self._heartbeat.start()
-
-    def _stop_heartbeat(self) -> None:
-        self._heartbeat_stop.set()
-        t = self._heartbeat
-        if t is not None and t is not threading.current_thread():
-            t.join(timeout=2.0)
-        self._heartbeat = None
-
-    def _renew_loop(self, stop: threading.Event) -> None:
-        """Prove to the daemon, with the secret, that the holder is alive; a client that goes
-        silent (killed, frozen, cut off) loses the lease and the robot stops safely."""
-        while not stop.wait(RENEW_PERIOD):
-            token = self._lease_token
-            if token is None or self._closed:
-                return
-            try:
-                self.command("lease", timeout=1.0, op="renew")
-            except CommandError as exc:
-                if isinstance(exc, NoLeaseError | LeaseBusyError):
-                    log.warning("the control lease was lost: %s", exc.message)
-                    return
-                log.debug("lease renewal refused: %s", exc)
-            except ClientError as exc:
-                log.debug("lease renewal failed: %s", exc)  # the next one may get through
+            self._lease.drop()
 
     @contextlib.contextmanager
     def control(self, name: str | None = None) -> Iterator[Self]:
