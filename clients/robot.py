@@ -7,12 +7,18 @@
     ...         robot.joint("head_pan", 0.3)
 
 Every command returns the arbiter's *applied* map or raises a :class:`schemas.errors.CommandError`
-(``LeaseBusyError``, ``InvalidCommandError``…) or a :class:`schemas.errors.ClientError`.
+(``LeaseBusyError``, ``InvalidCommandError``, ``RateLimitedError``…) or a
+:class:`schemas.errors.ClientError`.
+
+The lease is bound to this object: ``acquire`` keeps the secret token the daemon returns (to this
+caller alone), every command carries it, and a background thread renews the lease with it every
+0.4 s while it is held (the daemon ends a silent holder's lease with a safe stop).
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import threading
 import time
 import uuid
@@ -20,16 +26,17 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any, Self
 
-import msgpack
 import zenoh
 
+from clients.lease_keeper import LeaseKeeper
 from schemas.errors import (
     ClientError,
     CommandTimeoutError,
-    ErrorCode,
+    LeaseBusyError,
+    NoLeaseError,
     ProtocolError,
+    RateLimitedError,
     RobotUnreachableError,
-    command_error,
 )
 from schemas.keys import Keys
 from schemas.messages import (
@@ -43,9 +50,11 @@ from schemas.messages import (
     World,
     command_payload,
     decode,
-    decode_dict,
 )
+from schemas.query import ask
 from schemas.session import Target, open_client, resolve
+
+log = logging.getLogger(__name__)
 
 TOPICS: dict[str, type[Message]] = {
     "joints": Joints,
@@ -101,6 +110,24 @@ class Subscription:
         self.topic = topic
         self._callback = callback
         self._zsub: Any = None
+        self.errors = 0  # exceptions the callback raised
+        self.last_error: BaseException | None = None
+
+    def _deliver(self, msg: Message) -> None:
+        try:
+            self._callback(msg)
+        except Exception as exc:
+            # Logged once with its traceback (a bug in the callback should be seen), then
+            # counted: a callback failing on every message must not flood the log.
+            self.errors += 1
+            self.last_error = exc
+            if self.errors == 1:
+                log.exception(
+                    "the %s subscription callback %r raised (further errors are counted in "
+                    "Subscription.errors)",
+                    self.topic,
+                    self._callback,
+                )
 
     def close(self) -> None:
         self._robot._unsubscribe(self)
@@ -140,12 +167,17 @@ class Commander:
                 "Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT."
             ) from exc
         self._closed = False
+        # The lease secret while we hold the lease, renewed from a thread.
+        self._lease = LeaseKeeper(
+            lambda: self.command("lease", timeout=1.0, op="renew"), self.client_id
+        )
         # The arbiter releases our lease (and safely stops the robot) when this token goes.
         self._token = self.session.liveliness().declare_token(self.keys.client(self.client_id))
 
     def close(self) -> None:
         if self._closed:
             return
+        self._lease.drop()
         self._closed = True
         self._close_extra()
         with contextlib.suppress(Exception):
@@ -174,35 +206,55 @@ class Commander:
         if self._closed:
             raise ClientError("this Robot is closed; create a new one")
         key = self.keys.cmd(verb)
+        envelope: dict[str, Any] = {"client_name": self.name}
+        token = self._lease.token
+        if token is not None:
+            envelope["lease_token"] = token
         # The human name travels as ``client_name``: ``name`` is a verb field (joint, action…).
-        payload = command_payload(self.client_id, client_name=self.name, **fields)
-        replies = list(self.session.get(key, payload=payload, timeout=timeout or self.timeout))
-        if not replies:
-            raise RobotUnreachableError(
+        payload = command_payload(self.client_id, **envelope, **fields)
+
+        def unreachable() -> Exception:
+            return RobotUnreachableError(
                 f"nobody answers {key} at {self.target.endpoint}: is the daemon for robot "
                 f"{self.target.robot!r} running (`darwin up`), and is the robot name right?"
             )
-        reply = replies[0]
-        if reply.ok is not None:
-            d = decode_dict(reply.ok.payload.to_bytes())
-            return d.get("applied", {})
-        raw = reply.err.payload.to_bytes()
+
+        budget = timeout or self.timeout
+        deadline = time.monotonic() + budget
         try:
-            d = msgpack.unpackb(raw, raw=False)
-        except Exception:
-            d = None
-        if not isinstance(d, dict):
-            text = raw.decode("utf-8", "replace")
-            if "timeout" in text.lower():
-                raise CommandTimeoutError(f"{verb}: the daemon did not answer within the timeout")
-            raise command_error(ErrorCode.INTERNAL, text, None, verb)
-        raise command_error(d.get("code", "internal"), d.get("message", ""), d.get("field"), verb)
+            while True:
+                try:
+                    return ask(
+                        self.session, key, payload, budget, verb=verb, unreachable=unreachable
+                    )
+                except RateLimitedError as exc:
+                    # Throttled, nothing applied: wait as told while the timeout allows.
+                    wait = exc.retry_after or 0.05
+                    if time.monotonic() + wait >= deadline:
+                        raise
+                    time.sleep(wait)
+        except (NoLeaseError, LeaseBusyError) as exc:
+            if exc.field in ("client", "lease_token") and token is not None:
+                self._lease.lost(token)  # the daemon ended our lease meanwhile
+            raise
+
+    @property
+    def holds_lease(self) -> bool:
+        """True while this client believes it holds the lease (it renews it)."""
+        return self._lease.token is not None
 
     def acquire(self) -> dict[str, Any]:
-        return self.command("lease", op="acquire")
+        applied = self.command("lease", op="acquire")
+        token = applied.pop("token", None)
+        if isinstance(token, str):
+            self._lease.hold(token)
+        return applied
 
     def release(self) -> dict[str, Any]:
-        return self.command("lease", op="release")
+        try:
+            return self.command("lease", op="release")
+        finally:
+            self._lease.drop()
 
     @contextlib.contextmanager
     def control(self, name: str | None = None) -> Iterator[Self]:
@@ -365,8 +417,7 @@ class Robot(Commander):
             self._latest[topic] = msg
             self._conds.notify_all()
         for sub in listeners:
-            with contextlib.suppress(Exception):
-                sub._callback(msg)
+            sub._deliver(msg)
 
     def _ensure_zsub(self, topic: str) -> None:
         if topic in self._zsubs:

@@ -15,11 +15,9 @@ import logging
 from collections import deque
 from collections.abc import Callable
 
+from schemas.errors import SlowReaderError
+
 log = logging.getLogger(__name__)
-
-
-class SlowReaderError(Exception):
-    """A client let too many replies pile up: it is closed rather than buffered forever."""
 
 
 class Outbox:

@@ -24,6 +24,7 @@ from config.loader import RobotConfig
 from robot_daemon.arbiter.core import Arbiter
 from robot_daemon.arbiter.lease import Holder, Lease
 from robot_daemon.arbiter.registry import MotionContext
+from robot_daemon.arbiter.throttle import ArbiterLimits
 from robot_daemon.bus.robot_bus import RobotBus
 from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.interface import JointFrame, Targets
@@ -33,7 +34,7 @@ from robot_daemon.realtime import check_priority, current_policy, enter_realtime
 from schemas.errors import BusError, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, Status
-from schemas.session import server_config
+from schemas.session import MAX_MESSAGE_BYTES, server_config
 
 log = logging.getLogger(__name__)
 
@@ -112,9 +113,8 @@ class Daemon:
         self.session: zenoh.Session | None = None
         self.pub: Publishers | None = None
         self.arbiter: Arbiter | None = None
-        self.lease = Lease(
-            float(dcfg.get("lease", {}).get("idle_timeout", 60.0)), on_change=self._lease_changed
-        )
+        self.lease = Lease.from_config(dcfg.get("lease", {}), on_change=self._lease_changed)
+        self.arbiter_limits = ArbiterLimits.from_config(dcfg.get("arbiter", {}))
         self._early_events: list[tuple[str, str, dict[str, Any]]] = []
 
     # -- events and lease --------------------------------------------------------------------
@@ -148,7 +148,11 @@ class Daemon:
     # -- lifecycle ---------------------------------------------------------------------------
     def start_network(self) -> None:
         zcfg = self.settings.get("zenoh", {})
-        conf = server_config(self.options.listen, int(zcfg.get("link_lease_ms", 3000)))
+        conf = server_config(
+            self.options.listen,
+            int(zcfg.get("link_lease_ms", 3000)),
+            max_message_bytes=int(zcfg.get("max_message_bytes", MAX_MESSAGE_BYTES)),
+        )
         if self.options.connect:
             conf.insert_json5("connect/endpoints", json.dumps(self.options.connect))
         self.session = zenoh.open(conf)
@@ -156,7 +160,7 @@ class Daemon:
         for kind, message, data in self._early_events:
             self.pub.event(kind, message, **data)
         self._early_events.clear()
-        self.arbiter = Arbiter(self.session, self.keys, self.lease)
+        self.arbiter = Arbiter(self.session, self.keys, self.lease, limits=self.arbiter_limits)
         self._alive = self.session.liveliness().declare_token(self.keys.alive)
         if self.options.camera != "none":
             from robot_daemon.camera import CameraThread

@@ -52,6 +52,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="let the `registers` verb write EEPROM (config daemon.allow_eeprom_writes)",
     )
+    parser.add_argument(
+        "--allow-hardware-writes",
+        action="store_true",
+        default=None,
+        help="let the `registers` verb write power, IDs, baud rate and limits "
+        "(config daemon.allow_hardware_writes)",
+    )
     parser.add_argument("--config", help="user config file (TOML) on top of the shipped one")
     parser.add_argument(
         "--reply-margin-ms",
@@ -121,6 +128,13 @@ def build(args: argparse.Namespace, port: str) -> tuple[Daemon, dict[str, Any]]:
             if args.allow_eeprom is not None
             else dcfg.get("allow_eeprom_writes", False)
         ),
+        extras={
+            "allow_hardware_writes": bool(
+                args.allow_hardware_writes
+                if args.allow_hardware_writes is not None
+                else dcfg.get("allow_hardware_writes", False)
+            )
+        },
     )
     return Daemon(opts, robot, settings), settings
 

@@ -34,6 +34,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--camera", help="none | sim | pattern | device (config daemon.camera)")
     parser.add_argument("--tick-ms", type=float, help="motion loop period")
     parser.add_argument("--allow-eeprom", action="store_true", help="allow EEPROM register writes")
+    parser.add_argument(
+        "--allow-hardware-writes",
+        action="store_true",
+        help="allow register writes that can disable or lose hardware (power, IDs, limits)",
+    )
     parser.add_argument("--config", help="user config file (TOML), passed to every child")
     parser.add_argument(
         "--sim-arg",
@@ -76,6 +81,8 @@ def daemon_args(args: argparse.Namespace, listen: str) -> list[str]:
         out += ["--tick-ms", str(args.tick_ms)]
     if args.allow_eeprom:
         out.append("--allow-eeprom")
+    if args.allow_hardware_writes:
+        out.append("--allow-hardware-writes")
     return out
 
 

@@ -2,24 +2,41 @@
 
 DarwinError
 ├── ConfigError             a config file or value is wrong
+├── StateError              an object used in the wrong state (closed, already running)
+├── CameraError             a camera source gives no frames or cannot encode them
 ├── BusError                serial port and Dynamixel bus
 │   ├── PortError           cannot open / lost the serial port
 │   │   └── PortInUseError  another process holds it
 │   ├── NoReplyError        a device did not answer
 │   └── PacketError         a reply was corrupt or malformed
-├── ProtocolError           malformed input on a wire (legacy framing, JSON)
-├── CommandError            the arbiter refused a command (code, field)
-│   ├── LeaseBusyError      another client holds the control lease
-│   ├── NoLeaseError        the command needs the lease and the caller has none
-│   └── InvalidCommandError a field is missing, of the wrong type or out of range
+├── ProtocolError           malformed input on a wire (legacy framing, JSON, msgpack)
+│   ├── PayloadTooLargeError a payload over the size limit, refused before decoding
+│   └── SlowReaderError     a peer lets replies pile up: closed rather than buffered
+├── CommandError            a refused command (code, message, field); one class per ErrorCode
+│   ├── LeaseBusyError      busy: another client holds the control lease
+│   ├── NoLeaseError        no_lease: the command needs the lease and the caller has none
+│   ├── InvalidCommandError invalid: a field is missing, unknown or of the wrong type
+│   │   ├── FieldError      the same, raised by a handler for one named field
+│   │   ├── BehaviourError  a behaviour or choreography item that cannot be played
+│   │   ├── OutOfRangeError out_of_range: a value outside its limits (or a payload too long)
+│   │   └── UnknownNameError unknown: no such joint, page, behaviour, op
+│   ├── UnavailableError    unavailable: offline joint, lost port, feature off
+│   ├── RefusedError        refused: not allowed here (EEPROM/hardware write without the switch)
+│   ├── RateLimitedError    rate_limited: too many commands; retry after ``retry_after`` s
+│   ├── InternalError       internal: a daemon bug, reported instead of crashing
+│   └── Reject              the daemon side's refusal inside a handler (any code)
 └── ClientError             client side: cannot reach the robot, timed out
     ├── RobotUnreachableError
     └── CommandTimeoutError
+
+Error replies carry the code; :func:`command_error` turns a code back into its class, and
+``cls.CODE`` gives the code of a class, so both sides agree by construction.
 """
 
 from __future__ import annotations
 
 from enum import StrEnum
+from typing import Any, ClassVar
 
 
 class ErrorCode(StrEnum):
@@ -27,12 +44,25 @@ class ErrorCode(StrEnum):
 
     BUSY = "busy"  # lease held by another client
     NO_LEASE = "no_lease"  # command needs the lease
-    INVALID = "invalid"  # malformed field, wrong type
-    OUT_OF_RANGE = "out_of_range"  # value outside configured limits
+    INVALID = "invalid"  # malformed field, unknown field, wrong type
+    OUT_OF_RANGE = "out_of_range"  # value outside configured limits, string/list/payload too long
     UNKNOWN = "unknown"  # unknown joint, page, behaviour, verb
     UNAVAILABLE = "unavailable"  # joint offline, module not running, feature off
     REFUSED = "refused"  # not allowed in this state (e.g. EEPROM write without flag)
+    # Too many commands (per client, or the loop's queue is full): nothing was applied; the
+    # reply's ``retry_after`` (s) says when to try again. Distinct from ``busy``, which is about
+    # the lease, so a client never mistakes a throttled command for a lost lease.
+    RATE_LIMITED = "rate_limited"
     INTERNAL = "internal"  # a bug: the daemon says so instead of crashing
+
+
+def brief(value: Any, limit: int = 40) -> str:
+    """``repr(value)`` cut to ``limit`` characters: error messages echo a bad value, never all
+    of a large one."""
+    if isinstance(value, str | bytes | bytearray) and len(value) > 4 * limit:
+        value = value[: 2 * limit]  # never repr a megabyte to throw it away
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[: limit - 1]}… ({type(value).__name__})"
 
 
 class DarwinError(Exception):
@@ -40,6 +70,14 @@ class DarwinError(Exception):
 
 
 class ConfigError(DarwinError):
+    pass
+
+
+class StateError(DarwinError):
+    pass
+
+
+class CameraError(DarwinError):
     pass
 
 
@@ -67,29 +105,105 @@ class ProtocolError(DarwinError):
     pass
 
 
-class CommandError(DarwinError):
-    """An arbiter error reply, raised on the client side."""
+class PayloadTooLargeError(ProtocolError):
+    pass
 
-    def __init__(self, code: str, message: str, field: str | None = None, verb: str = ""):
-        self.code = code
+
+class SlowReaderError(ProtocolError):
+    """A client let too many replies pile up: it is closed rather than buffered forever."""
+
+
+class CommandError(DarwinError):
+    """A refused command: an arbiter (or control queryable) error reply, raised on the client
+    side; on the daemon side :class:`Reject`."""
+
+    CODE: ClassVar[str] = ""  # the ErrorCode of this class ("" for the base and Reject)
+
+    def __init__(
+        self,
+        code: str,
+        message: str,
+        field: str | None = None,
+        verb: str = "",
+        retry_after: float | None = None,
+    ):
+        self.code = str(code)
         self.message = message
         self.field = field
         self.verb = verb
+        self.retry_after = retry_after
         where = f" (field {field!r})" if field else ""
         prefix = f"{verb}: " if verb else ""
-        super().__init__(f"{prefix}{code}: {message}{where}")
+        super().__init__(f"{prefix}{self.code}: {message}{where}")
 
 
 class LeaseBusyError(CommandError):
-    pass
+    CODE = ErrorCode.BUSY
 
 
 class NoLeaseError(CommandError):
-    pass
+    CODE = ErrorCode.NO_LEASE
 
 
 class InvalidCommandError(CommandError):
-    pass
+    CODE = ErrorCode.INVALID
+
+
+class FieldError(InvalidCommandError, ValueError):
+    """A handler's refusal of one named field (``FieldError("x", "x must be …")``)."""
+
+    def __init__(self, field_name: str, message: str) -> None:
+        super().__init__(ErrorCode.INVALID, message, field_name)
+
+
+class BehaviourError(InvalidCommandError, ValueError):
+    """A behaviour or item that cannot be played; ``field`` names the offending field."""
+
+    def __init__(self, message: str, field: str | None = None) -> None:
+        super().__init__(ErrorCode.INVALID, message, field)
+
+    def __str__(self) -> str:
+        return self.message
+
+
+class OutOfRangeError(InvalidCommandError):
+    CODE = ErrorCode.OUT_OF_RANGE
+
+
+class UnknownNameError(InvalidCommandError):
+    CODE = ErrorCode.UNKNOWN
+
+
+class UnavailableError(CommandError):
+    CODE = ErrorCode.UNAVAILABLE
+
+
+class RefusedError(CommandError):
+    CODE = ErrorCode.REFUSED
+
+
+class RateLimitedError(CommandError):
+    CODE = ErrorCode.RATE_LIMITED
+
+
+class InternalError(CommandError):
+    CODE = ErrorCode.INTERNAL
+
+
+class Reject(CommandError):
+    """Refuse a command on the daemon side: becomes an error reply ``{code, message, field}``."""
+
+    def __init__(
+        self,
+        code: ErrorCode | str,
+        message: str,
+        field: str | None = None,
+        retry_after: float | None = None,
+    ) -> None:
+        super().__init__(str(code), message, field, retry_after=retry_after)
+
+    def __str__(self) -> str:
+        return self.message
 
 
 class ClientError(DarwinError):
@@ -104,17 +218,30 @@ class CommandTimeoutError(ClientError):
     pass
 
 
-_BY_CODE: dict[str, type[CommandError]] = {
-    ErrorCode.BUSY: LeaseBusyError,
-    ErrorCode.NO_LEASE: NoLeaseError,
-    ErrorCode.INVALID: InvalidCommandError,
-    ErrorCode.OUT_OF_RANGE: InvalidCommandError,
-    ErrorCode.UNKNOWN: InvalidCommandError,
+# One class per code; the reverse is ``cls.CODE``.
+ERROR_CLASSES: dict[str, type[CommandError]] = {
+    cls.CODE: cls
+    for cls in (
+        LeaseBusyError,
+        NoLeaseError,
+        InvalidCommandError,
+        OutOfRangeError,
+        UnknownNameError,
+        UnavailableError,
+        RefusedError,
+        RateLimitedError,
+        InternalError,
+    )
 }
 
 
 def command_error(
-    code: str, message: str, field: str | None = None, verb: str = ""
+    code: str,
+    message: str,
+    field: str | None = None,
+    verb: str = "",
+    retry_after: float | None = None,
 ) -> CommandError:
-    """The exception class that matches an error reply's code."""
-    return _BY_CODE.get(code, CommandError)(code, message, field, verb)
+    """The exception that matches an error reply's code (``CommandError`` for a code this build
+    does not know, e.g. from a newer daemon)."""
+    return ERROR_CLASSES.get(str(code), CommandError)(code, message, field, verb, retry_after)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, TypeVar
+from typing import Any, ClassVar, TypedDict, TypeVar
 
 import msgpack
 
@@ -129,24 +129,97 @@ class CameraFrame(Message):
     stamp: float = field(default_factory=time.time)
 
 
+# ---- the sub-maps of Status, typed so clients read known keys (msgpack carries plain maps) ----
+
+
+class LeaseInfo(TypedDict):
+    """Who holds the control lease (never its secret token)."""
+
+    client: str
+    name: str
+    since: float  # s since the epoch
+
+
+class ArbiterCounts(TypedDict, total=False):
+    accepted: int
+    rejected: int
+    errors: int
+    rate_limited: int
+
+
+class BusInfo(TypedDict, total=False):
+    port: str
+    open: bool
+    bulk_reads: int
+    missing_replies: int
+    corrupt_replies: int
+    retries: int
+    stale_ticks: int
+    bus_stalls: int
+    sync_writes: int
+    goal_writes: int
+    skipped_goals: int
+    limit_clamps: int
+    port_reopens: int
+    offline: list[int]
+    torque_off: list[int]
+    cm730_online: bool
+    warnings: list[str]
+    bytes_written: int
+    bytes_read: int
+    bus_errors: int
+    arbiter: ArbiterCounts
+
+
+class LoopInfo(TypedDict, total=False):
+    tick_ms: float
+    ticks: int
+    period_p50_ms: float
+    period_p99_ms: float
+    period_max_ms: float
+    bus_p50_ms: float
+    bus_p99_ms: float
+    work_p99_ms: float
+    overruns: int  # ticks whose work ran past the next deadline
+    skipped: int  # deadlines given up after overruns
+    scheduling: str
+
+
+class CameraInfo(TypedDict, total=False):
+    source: str
+    subscribed: bool
+    captured: int
+    published: int
+    errors: int
+    last_error: str | None
+    fps: float
+    width: int
+    height: int
+
+
+class AlarmInfo(TypedDict):
+    id: int
+    bits: int
+
+
 @dataclass
 class Status(Message):
-    """Daemon state, ~10 Hz and on change. Sub-maps are documented in README (Status)."""
+    """Daemon state, ~10 Hz and on change. Sub-maps are typed above (README, Status)."""
 
     TYPE: ClassVar[str] = "status"
     state: str  # starting | scanning | running | degraded | port_lost | stopping
     robot: str
-    lease: dict[str, Any] | None = None  # {"client", "name", "since"} or None
+    lease: LeaseInfo | None = None
     motion: dict[str, Any] = field(default_factory=dict)  # owners, action, walking, head, ball…
     choreography: dict[str, Any] = field(default_factory=dict)
     leds: dict[str, Any] = field(default_factory=dict)
     buttons: dict[str, bool] = field(default_factory=dict)
-    bus: dict[str, Any] = field(default_factory=dict)  # errors, retries, offline, port
-    loop: dict[str, Any] = field(default_factory=dict)  # period p50/p99/max, bus time, overruns
+    bus: BusInfo = field(default_factory=lambda: BusInfo())
+    loop: LoopInfo = field(default_factory=lambda: LoopInfo())
     voltage: float = 0.0
-    alarms: list[dict[str, Any]] = field(default_factory=list)
+    alarms: list[AlarmInfo] = field(default_factory=list)
     stamp: float = field(default_factory=time.time)
-    camera: dict[str, Any] = field(default_factory=dict)  # source, subscribed, captured, fps
+    camera: CameraInfo = field(default_factory=lambda: CameraInfo())
 
 
 @dataclass
@@ -194,18 +267,25 @@ def ok_reply(verb: str, applied: dict[str, Any] | None = None) -> bytes:
     )
 
 
-def error_reply(verb: str, code: ErrorCode | str, message: str, field_: str | None = None) -> bytes:
-    return msgpack.packb(
-        {
-            "v": SCHEMA_VERSION,
-            "ok": False,
-            "verb": verb,
-            "code": str(code),
-            "message": message,
-            "field": field_,
-        },
-        use_bin_type=True,
-    )
+def error_reply(
+    verb: str,
+    code: ErrorCode | str,
+    message: str,
+    field_: str | None = None,
+    retry_after: float | None = None,
+) -> bytes:
+    """An error reply; ``retry_after`` (s) comes with ``rate_limited``."""
+    d: dict[str, Any] = {
+        "v": SCHEMA_VERSION,
+        "ok": False,
+        "verb": verb,
+        "code": str(code),
+        "message": message,
+        "field": field_,
+    }
+    if retry_after is not None:
+        d["retry_after"] = round(float(retry_after), 3)
+    return msgpack.packb(d, use_bin_type=True)
 
 
 def command_payload(client: str, **fields: Any) -> bytes:

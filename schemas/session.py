@@ -17,6 +17,11 @@ import zenoh
 from schemas.keys import DEFAULT_ROBOT, check_robot_name
 
 DEFAULT_PORT = 7447
+# Zenoh drops (never delivers) any message larger than this that a server receives, so a huge
+# payload costs no Python time at all; smaller oversized requests get a clear error from
+# ``schemas.query``. Big enough for a rendered 640×480 camera frame (a reply the daemon
+# receives); small, because Zenoh buffers a fragmented message up to this size before it drops it.
+MAX_MESSAGE_BYTES = 2 * 1024 * 1024
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 ENV_ENDPOINT = "DARWIN_ENDPOINT"
 ENV_ROBOT = "DARWIN_ROBOT"
@@ -44,8 +49,16 @@ def check_endpoint(endpoint: str) -> str:
     return endpoint
 
 
-def _config(mode: str, listen: list[str], connect: list[str], lease_ms: int | None) -> zenoh.Config:
+def _config(
+    mode: str,
+    listen: list[str],
+    connect: list[str],
+    lease_ms: int | None,
+    max_message_bytes: int | None = None,
+) -> zenoh.Config:
     conf = zenoh.Config()
+    if max_message_bytes is not None:
+        conf.insert_json5("transport/link/rx/max_message_size", str(int(max_message_bytes)))
     conf.insert_json5("mode", json.dumps(mode))
     conf.insert_json5("scouting/multicast/enabled", "false")
     conf.insert_json5("listen/endpoints", json.dumps(listen))
@@ -58,11 +71,13 @@ def _config(mode: str, listen: list[str], connect: list[str], lease_ms: int | No
     return conf
 
 
-def server_config(listen: list[str], lease_ms: int | None = 3000) -> zenoh.Config:
+def server_config(
+    listen: list[str], lease_ms: int | None = 3000, max_message_bytes: int = MAX_MESSAGE_BYTES
+) -> zenoh.Config:
     """A peer that listens (daemon, simulator world, replay)."""
     for ep in listen:
         check_endpoint(ep)
-    return _config("peer", listen, [], lease_ms)
+    return _config("peer", listen, [], lease_ms, max_message_bytes)
 
 
 def client_config(endpoint: str, lease_ms: int | None = 3000) -> zenoh.Config:

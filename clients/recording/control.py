@@ -8,14 +8,12 @@ from __future__ import annotations
 
 from typing import Any
 
-import msgpack
 import zenoh
 
 from clients.robot import Commander
-from schemas import SCHEMA_VERSION
-from schemas.errors import ErrorCode, RobotUnreachableError, command_error
+from schemas.errors import RobotUnreachableError
 from schemas.keys import Keys
-from schemas.messages import decode_dict
+from schemas.query import ask, request_payload
 
 
 class ReplayControl:
@@ -36,23 +34,16 @@ class ReplayControl:
         return f"<ReplayControl {self.keys.replay_control}>"
 
     def _ask(self, op: str, **fields: Any) -> dict[str, Any]:
-        payload = msgpack.packb({"v": SCHEMA_VERSION, "op": op, **fields}, use_bin_type=True)
         key = self.keys.replay_control
-        replies = list(self._session.get(key, payload=payload, timeout=self.timeout))
-        if not replies:
-            raise RobotUnreachableError(
+
+        def unreachable() -> Exception:
+            return RobotUnreachableError(
                 f"nobody answers {key}: is `darwin replay … --robot {self.keys.robot}` running "
                 "and connected to the same Zenoh network?"
             )
-        reply = replies[0]
-        if reply.ok is not None:
-            return decode_dict(reply.ok.payload.to_bytes()).get("applied", {})
-        raw = reply.err.payload.to_bytes()
-        try:
-            d = decode_dict(raw)
-        except Exception:
-            d = {"code": ErrorCode.INTERNAL, "message": raw.decode("utf-8", "replace")}
-        raise command_error(d.get("code", "internal"), d.get("message", ""), d.get("field"), op)
+
+        payload = request_payload(op=op, **fields)
+        return ask(self._session, key, payload, self.timeout, verb=op, unreachable=unreachable)
 
     def status(self) -> dict[str, Any]:
         return self._ask("status")

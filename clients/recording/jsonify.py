@@ -50,6 +50,9 @@ def _type_schema(tp: Any) -> dict[str, Any]:
         return schema
     if origin is list:
         return {"type": "array", "items": _type_schema(args[0]) if args else {}}
+    if typing.is_typeddict(tp):  # the typed status sub-maps (schemas.messages)
+        hints = typing.get_type_hints(tp)
+        return {"type": "object", "properties": {k: _type_schema(v) for k, v in hints.items()}}
     if origin is dict or tp is dict:
         return {"type": "object"}
     if tp is bool:

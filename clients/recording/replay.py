@@ -2,9 +2,10 @@
 the recorded timing (scaled by ``rate``), so the TUI, the notebook client and the gateway show
 a recorded session as if it were live.
 
-A queryable on ``Keys(robot).replay_control`` takes ``{"op": "pause" | "resume" | "seek" |
-"rate" | "status", "t": seconds, "rate": factor}`` (msgpack) and answers with the replay's status
-(``ok_reply("replay", status)``); :class:`clients.recording.control.ReplayControl` is its client.
+A queryable on ``Keys(robot).replay_control`` takes ``{"v": 1, "op": "pause" | "resume" | "seek"
+| "rate" | "status", "t": seconds, "rate": factor}`` (msgpack, through :mod:`schemas.query`) and
+answers with the replay's status (``ok_reply("replay", status)``);
+:class:`clients.recording.control.ReplayControl` is its client.
 """
 
 from __future__ import annotations
@@ -21,9 +22,9 @@ from typing import Any, Self
 import zenoh
 
 from clients.recording.reader import Recording, read_recording
-from schemas.errors import ErrorCode, InvalidCommandError, ProtocolError
+from schemas.errors import ErrorCode, InvalidCommandError, StateError, brief
 from schemas.keys import Keys
-from schemas.messages import decode_dict, error_reply, ok_reply
+from schemas.query import serve
 
 log = logging.getLogger(__name__)
 
@@ -93,7 +94,7 @@ class Replayer:
     # -- lifecycle ------------------------------------------------------------------------------
     def start(self, paused: bool = False) -> Self:
         if self._state != "new":
-            raise RuntimeError(f"this Replayer is {self._state}; create a new one")
+            raise StateError(f"this Replayer is {self._state}; create a new one")
         topics = self.keys.topics()
         for t in {m.topic for m in self._msgs}:
             # BLOCK: a replay is not a control loop, and dropping recorded samples would make
@@ -101,8 +102,12 @@ class Replayer:
             self._pubs[t] = self._session.declare_publisher(
                 topics[t], congestion_control=zenoh.CongestionControl.BLOCK
             )
-        self._queryable = self._session.declare_queryable(
-            self.keys.replay_control, self._on_query, complete=True
+        self._queryable = serve(
+            self._session,
+            self.keys.replay_control,
+            self._control,
+            what="replay",
+            empty={"op": "status"},
         )
         # Viewers (the TUI) show a robot as connected while its `alive` token exists: the
         # replayed robot is "up" for as long as the replay runs.
@@ -250,29 +255,20 @@ class Replayer:
                 self.published += 1
 
     # -- the control queryable ------------------------------------------------------------------
-    def _on_query(self, query: zenoh.Query) -> None:
-        try:
-            payload = query.payload.to_bytes() if query.payload is not None else b""
-            req = decode_dict(payload) if payload else {"op": "status"}
-            op = req.get("op", "status")
-            if op == "pause":
-                status = self.pause()
-            elif op == "resume":
-                status = self.resume()
-            elif op == "seek":
-                status = self.seek(req.get("t"))  # type: ignore[arg-type]
-            elif op == "rate":
-                status = self.set_rate(req.get("rate"))  # type: ignore[arg-type]
-            elif op == "status":
-                status = self.status()
-            else:
-                raise InvalidCommandError(
-                    ErrorCode.INVALID,
-                    f"unknown op {op!r}; use pause, resume, seek (t), rate (rate) or status",
-                    "op",
-                )
-            query.reply(self.keys.replay_control, ok_reply("replay", status))
-        except InvalidCommandError as exc:
-            query.reply_err(error_reply("replay", exc.code, exc.message, exc.field))
-        except ProtocolError as exc:
-            query.reply_err(error_reply("replay", ErrorCode.INVALID, str(exc)))
+    def _control(self, req: dict[str, Any]) -> dict[str, Any]:
+        op = req.get("op", "status")
+        if op == "pause":
+            return self.pause()
+        if op == "resume":
+            return self.resume()
+        if op == "seek":
+            return self.seek(req.get("t"))  # type: ignore[arg-type]
+        if op == "rate":
+            return self.set_rate(req.get("rate"))  # type: ignore[arg-type]
+        if op == "status":
+            return self.status()
+        raise InvalidCommandError(
+            ErrorCode.INVALID,
+            f"unknown op {brief(op)}; use pause, resume, seek (t), rate (rate) or status",
+            "op",
+        )

@@ -1,18 +1,24 @@
 """The arbiter: one queryable per verb under ``…/cmd/``, one queue to the motion thread.
 
-A query is decoded in the Zenoh thread and handed to a worker; the worker queues it for the
-motion thread, which checks the lease and runs the verb handler between bus transactions
-(:meth:`Arbiter.apply_pending`), then the worker replies. Rejected commands never reach a
-handler, so they never touch the bus. Clients' liveliness tokens tell when a holder vanished.
+A query is checked in the intake thread, before anything reaches the motion thread: its size
+(before decoding), its envelope, its fields against the verb's declaration, and the client's rate.
+What passes is queued; the motion thread takes a bounded amount of it per tick
+(:meth:`Arbiter.apply_pending`: ``halt`` first and always, then commands in arrival order within
+a count, time and bus budget), checks the lease and runs the verb handler between bus
+transactions; then the replier thread answers. Rejected commands never reach a handler, so they
+never touch the bus. ``lease`` op=renew (the holder's heartbeat) is pure state and answered in
+the intake thread, so a busy loop never makes a holder look silent.
 """
 
 from __future__ import annotations
 
 import contextlib
+import heapq
 import logging
 import queue
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -21,16 +27,26 @@ import zenoh
 
 from robot_daemon.arbiter import verbs
 from robot_daemon.arbiter.lease import Lease
-from robot_daemon.arbiter.registry import REGISTRY, MotionContext, Reject, Request, needs_lease
-from schemas import SCHEMA_VERSION
-from schemas.errors import ErrorCode, ProtocolError
+from robot_daemon.arbiter.registry import MotionContext, Reject, Request
+from robot_daemon.arbiter.request import decode_command, execute, parse_request, request_from
+from robot_daemon.arbiter.throttle import ArbiterLimits, Buckets
+from schemas.commands import MAX_CLIENT_ID, LeaseOp
+from schemas.errors import CommandError, ErrorCode, ProtocolError, brief
 from schemas.keys import VERBS, Keys, verb_of
-from schemas.messages import decode_dict, error_reply, ok_reply
+from schemas.messages import error_reply, ok_reply
+from schemas.query import answer, error_payload, request_bytes
+
+__all__ = ["Arbiter", "Pending", "decode_command", "execute", "parse_request", "request_from"]
 
 log = logging.getLogger(__name__)
 
-# Fields of a command payload that are not the verb's own.
-_ENVELOPE = ("v", "client", "client_name")
+# Commands that are bus transactions in the motion thread: they share a per-tick budget.
+BUS_VERBS = frozenset({"registers", "torque", "led"})
+# Halts are cheap (no bus I/O) and always first; this only bounds a flood of them per tick.
+MAX_HALTS_PER_TICK = 64
+# Throttled answers held back until their retry time (see Arbiter._park).
+MAX_PARKED = 256
+MAX_PARK_S = 1.0
 
 
 @dataclass
@@ -42,29 +58,13 @@ class Pending:
     ok: bool = False
     answered: bool = False
 
+    @property
+    def on_bus(self) -> bool:
+        return self.request.verb in BUS_VERBS
 
-def parse_request(verb_name: str, payload: bytes | None) -> Request:
-    """Decode a command payload or raise ``Reject`` naming what is wrong."""
-    if not payload:
-        raise Reject(ErrorCode.INVALID, "empty payload: send a msgpack map with v and client")
-    try:
-        d = decode_dict(payload)
-    except ProtocolError as exc:
-        raise Reject(ErrorCode.INVALID, str(exc)) from None
-    if d.get("v") != SCHEMA_VERSION:
-        raise Reject(
-            ErrorCode.INVALID,
-            f"schema version {d.get('v')!r} not supported (this daemon speaks {SCHEMA_VERSION})",
-            "v",
-        )
-    client = d.get("client")
-    if not isinstance(client, str) or not client:
-        raise Reject(ErrorCode.INVALID, "missing field 'client' (the caller's client id)", "client")
-    name = d.get("client_name")
-    if not isinstance(name, str) and verb_name == "lease":
-        name = d.get("name")  # the lease verb's own field is the human name
-    fields_ = {k: v for k, v in d.items() if k not in _ENVELOPE}
-    return Request(verb_name, client, name if isinstance(name, str) and name else client, fields_)
+
+def _is_read(req: Request) -> bool:
+    return req.verb == "registers" and req.fields.get("data") is None
 
 
 class Arbiter:
@@ -73,19 +73,33 @@ class Arbiter:
         session: zenoh.Session,
         keys: Keys,
         lease: Lease,
-        reply_timeout: float = 5.0,
+        reply_timeout: float | None = None,
+        limits: ArbiterLimits | None = None,
     ) -> None:
         verbs.load_all()
         self.session = session
         self.keys = keys
         self.lease = lease
-        self.reply_timeout = reply_timeout
-        self._to_motion: queue.SimpleQueue[Pending] = queue.SimpleQueue()
+        self.limits = limits or ArbiterLimits()
+        self.reply_timeout = reply_timeout or self.limits.reply_timeout
+        self._urgent: deque[Pending] = deque()  # halt: served first, never throttled
+        self._queue: deque[Pending] = deque()
+        self._reads: deque[Pending] = deque()  # register reads, within the bus share
+        self._reading: dict[str, int] = {}  # client → its entries in _reads
+        self._bus_credit = 0.0  # s of bus time client reads may use now
+        self._credit_at = time.monotonic()
+        self._read_cost = 0.002  # s, running estimate of one client read
+        self._qlock = threading.Lock()
         self._incoming: queue.SimpleQueue[zenoh.Query | None] = queue.SimpleQueue()
         self._done: queue.SimpleQueue[Pending | None] = queue.SimpleQueue()
         self._outstanding: dict[int, Pending] = {}
+        self._parked: list[tuple[float, int, zenoh.Query, bytes]] = []  # heap by due time
+        self._park_seq = 0
         self._lock = threading.Lock()
-        self.counts = {"accepted": 0, "rejected": 0, "errors": 0}
+        lim = self.limits
+        self._rate = Buckets(lim.client_rate, lim.client_burst)
+        self._read_rate = Buckets(lim.client_read_rate, lim.client_read_burst)
+        self.counts = {"accepted": 0, "rejected": 0, "errors": 0, "rate_limited": 0}
         self.on_wakeup: Callable[[], None] | None = None  # the loop may wait for commands
         self._queryables = [
             session.declare_queryable(keys.cmd(v), self._incoming.put, complete=True) for v in VERBS
@@ -107,31 +121,125 @@ class Arbiter:
             self.lease.client_gone(client)
 
     def _intake(self) -> None:
-        """Decode queries and queue them for the motion thread, in arrival order."""
+        """Check queries and queue them for the motion thread, in arrival order."""
         while True:
             query = self._incoming.get()
             if query is None:
                 return
             verb_name = verb_of(str(query.key_expr))
             try:
-                payload = query.payload.to_bytes() if query.payload is not None else None
-                req = parse_request(verb_name, payload)
+                self._admit(query, verb_name)
             except Reject as r:
+                if r.code == ErrorCode.RATE_LIMITED:
+                    self.counts["rate_limited"] += 1
+                    self._park(query, verb_name, r)
+                    continue
                 self.counts["rejected"] += 1
-                self._finish_query(query, False, error_reply(verb_name, r.code, r.message, r.field))
-                continue
-            pending = Pending(req, query, time.monotonic() + self.reply_timeout)
-            with self._lock:
-                self._outstanding[id(pending)] = pending
-            self._to_motion.put(pending)
-            if self.on_wakeup is not None:
-                self.on_wakeup()
+                self._finish_query(query, False, error_payload(verb_name, r))
+            except ProtocolError as exc:
+                self.counts["rejected"] += 1
+                self._finish_query(query, False, error_payload(verb_name, exc))
+            except Exception as exc:  # never lose the intake thread to one query
+                self.counts["errors"] += 1
+                self._finish_query(query, False, error_payload(verb_name, exc))
+
+    def _admit(self, query: zenoh.Query, verb_name: str) -> None:
+        d = decode_command(request_bytes(query, self.limits.max_payload_bytes))
+        client = d.get("client")
+        client = client[:MAX_CLIENT_ID] if isinstance(client, str) else "?"
+        urgent = verb_name == "halt"
+        if verb_name == "lease" and d.get("op") == LeaseOp.RENEW:
+            try:
+                req = request_from(verb_name, d)
+                self.lease.renew(req.client, req.token)  # pure state: answered here, at once
+            except Reject:
+                self._throttle(client, verb_name, d)  # a stranger's renewals are throttled
+                raise
+            self.counts["accepted"] += 1
+            applied = {"op": "renew", "holder": self.lease.status(), "you": True}
+            self._finish_query(query, True, ok_reply("lease", applied), "lease")
+            return
+        if not urgent:
+            # Before the field checks: a client that floods bad commands is throttled too.
+            self._throttle(client, verb_name, d)
+        req = request_from(verb_name, d)
+        pending = Pending(req, query, time.monotonic() + self.reply_timeout)
+        with self._qlock:
+            if urgent:
+                self._urgent.append(pending)
+            else:
+                # Register reads wait for the bus share; so does whatever their client sends
+                # next, so that one client's commands still run in the order it sent them.
+                slow = _is_read(req) or self._reading.get(req.client, 0) > 0
+                target = self._reads if slow else self._queue
+                if len(target) >= self.limits.queue_size:
+                    wait = self._drain_time(len(target), slow)
+                    raise Reject(
+                        ErrorCode.RATE_LIMITED,
+                        f"busy: {len(target)} commands are waiting for the motion loop; "
+                        f"retry in {wait:.2f} s",
+                        retry_after=wait,
+                    )
+                target.append(pending)
+                if slow:
+                    self._reading[req.client] = self._reading.get(req.client, 0) + 1
+        with self._lock:
+            self._outstanding[id(pending)] = pending
+        if self.on_wakeup is not None:
+            self.on_wakeup()
+
+    def _throttle(self, client: str, verb_name: str, d: dict[str, Any]) -> None:
+        wait = self._rate.take(client)
+        kind = "commands"
+        if not wait and verb_name == "registers" and d.get("data") is None:
+            wait, kind = self._read_rate.take(client), "register reads"
+        if wait:
+            raise Reject(
+                ErrorCode.RATE_LIMITED,
+                f"busy: client {brief(client)} sends {kind} faster than this daemon takes them "
+                f"from one client; retry in {wait:.2f} s",
+                retry_after=wait,
+            )
+
+    def _park(self, query: zenoh.Query, verb_name: str, r: Reject) -> None:
+        """Answer a throttled command when its wait is over rather than at once: a client that
+        retries on every answer then paces itself, instead of costing the daemon a query per
+        answer as fast as it can send. Only a bounded number is held; the rest is answered now."""
+        wait = min(r.retry_after or 0.0, MAX_PARK_S)
+        with self._lock:
+            if wait > 0 and len(self._parked) < MAX_PARKED:
+                r = Reject(r.code, r.message + " (this answer was held that long)", r.field, 0.0)
+                self._park_seq += 1
+                heapq.heappush(
+                    self._parked,
+                    (time.monotonic() + wait, self._park_seq, query, error_payload(verb_name, r)),
+                )
+                return
+        self._finish_query(query, False, error_payload(verb_name, r))
+
+    def _release_parked(self, now: float) -> float:
+        """Answer the parked queries that are due; returns the seconds until the next one."""
+        due = []
+        with self._lock:
+            while self._parked and self._parked[0][0] <= now:
+                due.append(heapq.heappop(self._parked))
+            nxt = self._parked[0][0] - now if self._parked else 0.25
+        for _, _, query, payload in due:
+            self._finish_query(query, False, payload)
+        return max(0.001, min(0.25, nxt))
+
+    def _drain_time(self, queued: int, reads: bool) -> float:
+        """About how long until the queue has room again (s)."""
+        if reads:  # one read per ~read cost / share of the wall time
+            return max(0.05, queued * self._read_cost / self.limits.bus_time_share)
+        return max(0.01, queued / self.limits.commands_per_tick * 0.008)
 
     def _replier(self) -> None:
         """Reply to what the motion thread applied; time out what it never took."""
+        wait = 0.25
         while True:
             try:
-                pending = self._done.get(timeout=0.25)
+                pending = self._done.get(timeout=wait)
             except queue.Empty:
                 pending = None
             else:
@@ -140,6 +248,7 @@ class Arbiter:
             if pending is not None:
                 self._reply(pending)
             now = time.monotonic()
+            wait = self._release_parked(now)
             with self._lock:
                 late = [p for p in self._outstanding.values() if p.deadline < now]
             for p in late:
@@ -162,68 +271,116 @@ class Arbiter:
         self._finish_query(pending.query, pending.ok, pending.reply, pending.request.verb)
 
     def _finish_query(self, query: zenoh.Query, ok: bool, reply: bytes, verb: str = "") -> None:
-        try:
-            if ok:
-                query.reply(self.keys.cmd(verb), reply)
-            else:
-                query.reply_err(reply)
-        except Exception:
-            log.exception("replying to a %s command failed", verb or "malformed")
-        finally:
-            with contextlib.suppress(Exception):
-                query.drop()
+        answer(query, self.keys.cmd(verb) if ok else "", ok, reply)
 
     # -- motion-thread side ------------------------------------------------------------------
     def has_pending(self) -> bool:
-        return not self._to_motion.empty()
+        return bool(self._urgent or self._queue or self._reads)
+
+    def _pop(self, source: deque[Pending]) -> Pending | None:
+        with self._qlock:
+            if not source:
+                return None
+            pending = source.popleft()
+            if source is self._reads:
+                left = self._reading.get(pending.request.client, 1) - 1
+                if left > 0:
+                    self._reading[pending.request.client] = left
+                else:
+                    self._reading.pop(pending.request.client, None)
+            return pending
+
+    def _run(self, pending: Pending, ctx: MotionContext) -> float:
+        """Apply one command (unless it already timed out); returns the time it took."""
+        t0 = time.perf_counter()
+        if not pending.answered:
+            self._apply(pending, ctx)
+            self._done.put(pending)
+        return time.perf_counter() - t0
 
     def apply_pending(self, ctx: MotionContext) -> int:
-        """Run every queued command in arrival order; called by the motion thread between bus
-        transactions. Returns how many ran."""
+        """Run queued commands within this tick's budget; called by the motion thread between
+        bus transactions. Returns how many ran; the rest waits for the next tick, in order.
+
+        ``halt`` always runs, first. Then the commands in arrival order, at most
+        ``commands_per_tick``, none started after ``work_budget_ms``, at most
+        ``bus_commands_per_tick`` bus writes. Then at most one client register read, when the
+        reads' share of bus time (``bus_time_share`` of the wall time, measured) allows: a read
+        is a whole bus transaction in the tick, and a tick has little bus time to spare."""
+        lim = self.limits
+        start = time.perf_counter()
+        budget = lim.work_budget_ms / 1000.0
+        now = time.monotonic()
+        self._bus_credit = min(
+            lim.bus_burst_ms / 1000.0,
+            self._bus_credit + (now - self._credit_at) * lim.bus_time_share,
+        )
+        self._credit_at = now
         n = 0
-        while True:
-            try:
-                pending = self._to_motion.get_nowait()
-            except queue.Empty:
-                return n
+        for _ in range(MAX_HALTS_PER_TICK):
+            pending = self._pop(self._urgent)
+            if pending is None:
+                break
+            self._run(pending, ctx)
             n += 1
-            if not pending.answered:  # else it timed out: too late to apply it
-                self._apply(pending, ctx)
-                self._done.put(pending)
+        ran = 0
+        bus_left = lim.bus_commands_per_tick
+        while ran < lim.commands_per_tick and (ran == 0 or time.perf_counter() - start < budget):
+            with self._qlock:
+                head = self._queue[0] if self._queue else None
+            if head is None or (head.on_bus and bus_left <= 0):
+                break
+            pending = self._pop(self._queue)
+            if pending is None:
+                break
+            took = self._run(pending, ctx)
+            ran += 1
+            if pending.on_bus:
+                bus_left -= 1
+                self._bus_credit -= took  # the holder's bus writes come first; reads yield
+        if (
+            self._reads
+            and bus_left > 0
+            and self._bus_credit > 0
+            and time.perf_counter() - start < budget
+        ):
+            pending = self._pop(self._reads)
+            if pending is not None:
+                took = self._run(pending, ctx)
+                ran += 1
+                if _is_read(pending.request):
+                    self._bus_credit -= took
+                    self._read_cost = 0.8 * self._read_cost + 0.2 * took
+        return n + ran
 
     def _apply(self, pending: Pending, ctx: MotionContext) -> None:
         req = pending.request
         try:
-            handler = REGISTRY.get(req.verb)
-            if handler is None:
-                raise Reject(
-                    ErrorCode.UNAVAILABLE,
-                    f"verb {req.verb!r} is not available in this daemon build",
-                )
-            if needs_lease(req.verb, req.fields):
-                self.lease.check(req.client)
-            applied = handler(req, ctx)
+            applied = execute(req, ctx, self.lease)
             pending.reply, pending.ok = ok_reply(req.verb, applied), True
             self.counts["accepted"] += 1
-        except Reject as r:
-            pending.reply = error_reply(req.verb, r.code, r.message, r.field)
+        except CommandError as r:
+            pending.reply = error_payload(req.verb, r)
             self.counts["rejected"] += 1
         except Exception as exc:
             log.exception("verb %s failed", req.verb)
-            pending.reply = error_reply(
-                req.verb, ErrorCode.INTERNAL, f"{type(exc).__name__}: {exc} (a daemon bug)"
-            )
+            pending.reply = error_payload(req.verb, exc)
             self.counts["errors"] += 1
 
-    def fail_pending(self, message: str) -> None:
-        """Answer every queued command with an error (the daemon is stopping)."""
-        while True:
-            try:
-                pending = self._to_motion.get_nowait()
-            except queue.Empty:
-                return
-            pending.reply = error_reply(pending.request.verb, ErrorCode.UNAVAILABLE, message)
+    def fail_pending(self, message: str, code: ErrorCode = ErrorCode.UNAVAILABLE) -> int:
+        """Answer every queued command with an error (the daemon is stopping, or the port is
+        lost and nothing queued may run later); returns how many."""
+        with self._qlock:
+            taken = [*self._urgent, *self._queue, *self._reads]
+            self._urgent.clear()
+            self._queue.clear()
+            self._reads.clear()
+            self._reading.clear()
+        for pending in taken:
+            pending.reply = error_reply(pending.request.verb, code, message)
+            pending.ok = False
             self._reply(pending)
+        return len(taken)
 
     def close(self) -> None:
         for q in self._queryables:
@@ -232,10 +389,16 @@ class Arbiter:
         with contextlib.suppress(Exception):
             self._clients.undeclare()
         self.fail_pending("the daemon is stopping")
+        self._release_parked(float("inf"))
         self._incoming.put(None)
         self._done.put(None)
         for t in self._threads:
             t.join(timeout=2.0)
 
     def status(self) -> dict[str, Any]:
-        return {**self.counts, "lease": self.lease.status()}
+        return {
+            **self.counts,
+            "queued": len(self._queue),
+            "reads_queued": len(self._reads),
+            "lease": self.lease.status(),
+        }

@@ -1,4 +1,5 @@
-"""Field checks for verb handlers. Each raises :class:`Reject` naming the field and the value."""
+"""Field checks for verb handlers. Each raises :class:`Reject` naming the field and echoing at
+most a short prefix of the value (:func:`schemas.errors.brief`)."""
 
 from __future__ import annotations
 
@@ -6,8 +7,7 @@ import math
 from typing import Any
 
 from config.loader import JointConfig, RobotConfig
-from robot_daemon.arbiter.registry import Reject
-from schemas.errors import ErrorCode
+from schemas.errors import ErrorCode, Reject, brief
 
 _MISSING = object()
 
@@ -30,11 +30,13 @@ def number(
         return default
     value = present(fields, name)
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise Reject(ErrorCode.INVALID, f"{name} must be a number, got {value!r}", name)
+        raise Reject(ErrorCode.INVALID, f"{name} must be a number, got {brief(value)}", name)
     if not math.isfinite(value):
-        raise Reject(ErrorCode.INVALID, f"{name} must be finite, got {value!r}", name)
+        raise Reject(ErrorCode.INVALID, f"{name} must be finite, got {brief(value)}", name)
     if (low is not None and value < low) or (high is not None and value > high):
-        raise Reject(ErrorCode.OUT_OF_RANGE, f"{name}={value!r} is outside {low!r}..{high!r}", name)
+        raise Reject(
+            ErrorCode.OUT_OF_RANGE, f"{name}={brief(value)} is outside {low!r}..{high!r}", name
+        )
     return float(value)
 
 
@@ -49,9 +51,11 @@ def integer(
         return default
     value = present(fields, name)
     if isinstance(value, bool) or not isinstance(value, int):
-        raise Reject(ErrorCode.INVALID, f"{name} must be an integer, got {value!r}", name)
+        raise Reject(ErrorCode.INVALID, f"{name} must be an integer, got {brief(value)}", name)
     if (low is not None and value < low) or (high is not None and value > high):
-        raise Reject(ErrorCode.OUT_OF_RANGE, f"{name}={value!r} is outside {low}..{high}", name)
+        raise Reject(
+            ErrorCode.OUT_OF_RANGE, f"{name}={brief(value)} is outside {low}..{high}", name
+        )
     return value
 
 
@@ -60,7 +64,7 @@ def boolean(fields: dict[str, Any], name: str, default: Any = _MISSING) -> bool:
         return default
     value = present(fields, name)
     if not isinstance(value, bool):
-        raise Reject(ErrorCode.INVALID, f"{name} must be true or false, got {value!r}", name)
+        raise Reject(ErrorCode.INVALID, f"{name} must be true or false, got {brief(value)}", name)
     return value
 
 
@@ -71,10 +75,12 @@ def text(
         return default
     value = present(fields, name)
     if not isinstance(value, str):
-        raise Reject(ErrorCode.INVALID, f"{name} must be a string, got {value!r}", name)
+        raise Reject(ErrorCode.INVALID, f"{name} must be a string, got {brief(value)}", name)
     if choices is not None and value not in choices:
         raise Reject(
-            ErrorCode.INVALID, f"{name}={value!r} is not one of {', '.join(sorted(choices))}", name
+            ErrorCode.INVALID,
+            f"{name}={brief(value)} is not one of {', '.join(sorted(choices))}",
+            name,
         )
     return value
 
@@ -85,7 +91,9 @@ def joint_ref(robot: RobotConfig, value: Any, field_name: str) -> JointConfig:
         value = int(value)
     if isinstance(value, bool) or not isinstance(value, int | str):
         raise Reject(
-            ErrorCode.INVALID, f"{field_name} must be a joint id or name, got {value!r}", field_name
+            ErrorCode.INVALID,
+            f"{field_name} must be a joint id or name, got {brief(value)}",
+            field_name,
         )
     try:
         return robot.joint(value)
@@ -111,12 +119,14 @@ def rgb(fields: dict[str, Any], name: str) -> tuple[int, int, int] | None:
     if value is None:
         return None
     if not isinstance(value, list | tuple) or len(value) != 3:
-        raise Reject(ErrorCode.INVALID, f"{name} must be [r, g, b], got {value!r}", name)
+        raise Reject(ErrorCode.INVALID, f"{name} must be [r, g, b], got {brief(value)}", name)
     out = []
     for c in value:
         if isinstance(c, bool) or not isinstance(c, int) or not 0 <= c <= 255:
             raise Reject(
-                ErrorCode.OUT_OF_RANGE, f"{name} components must be 0..255, got {value!r}", name
+                ErrorCode.OUT_OF_RANGE,
+                f"{name} components must be 0..255, got {brief(value)}",
+                name,
             )
         out.append(c)
     return (out[0], out[1], out[2])

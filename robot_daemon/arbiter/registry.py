@@ -11,17 +11,24 @@
 
 A handler raises :class:`Reject` (usually through the ``fields`` helpers) to answer an error;
 anything else it raises is reported as an ``internal`` error and logged, never crashes the loop.
-Whether a call needs the lease is decided before the handler runs (``needs_lease``).
+
+Each verb's fields are declared once, in ``schemas.commands.COMMAND_FIELDS`` (or with
+``@verb(name, fields={...})`` for a verb that is not in the contract yet). :func:`check_fields`
+runs before anything else: an undeclared field, a wrong type or an over-long string/list is
+refused naming the field, so a handler only ever sees declared fields of the declared kinds.
+Whether a call needs the lease is decided next, before the handler runs (``needs_lease``).
 """
 
 from __future__ import annotations
 
+import difflib
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
-from schemas.commands import OPS_WITHOUT_LEASE
-from schemas.errors import ErrorCode
+from schemas.commands import COMMAND_FIELDS, OPS_WITHOUT_LEASE, Field
+from schemas.errors import ErrorCode, Reject, brief
 from schemas.keys import LEASE_FREE_VERBS
 
 if TYPE_CHECKING:
@@ -30,14 +37,7 @@ if TYPE_CHECKING:
     from robot_daemon.motion.manager import MotionManager
 
 
-class Reject(Exception):
-    """Refuse a command: becomes an error reply ``{code, message, field}``."""
-
-    def __init__(self, code: ErrorCode | str, message: str, field: str | None = None) -> None:
-        super().__init__(message)
-        self.code = str(code)
-        self.message = message
-        self.field = field
+__all__ = ["REGISTRY", "BusCommands", "MotionContext", "Reject", "Request", "verb"]
 
 
 @dataclass
@@ -46,6 +46,7 @@ class Request:
     client: str  # client id (its liveliness token is …/clients/<client>)
     name: str  # human name of the client
     fields: dict[str, Any] = field(default_factory=dict)
+    token: str | None = None  # the lease secret, when the caller holds the lease
 
 
 class BusCommands(Protocol):
@@ -72,24 +73,94 @@ class MotionContext:
 Handler = Callable[[Request, MotionContext], dict[str, Any]]
 
 REGISTRY: dict[str, Handler] = {}
+SPECS: dict[str, dict[str, Field]] = {}
 
 
-def verb(name: str) -> Callable[[Handler], Handler]:
+def verb(name: str, fields: dict[str, Field] | None = None) -> Callable[[Handler], Handler]:
+    spec = fields if fields is not None else COMMAND_FIELDS.get(name)
+    if spec is None:
+        raise ValueError(
+            f"verb {name!r} declares no fields: add it to schemas.commands.COMMAND_FIELDS "
+            "(or pass fields= to @verb)"
+        )
+
     def deco(fn: Handler) -> Handler:
         if name in REGISTRY and REGISTRY[name] is not fn:
             raise ValueError(f"verb {name!r} is registered twice")
         REGISTRY[name] = fn
+        SPECS[name] = spec
         return fn
 
     return deco
 
 
+def check_fields(verb_name: str, fields: dict[str, Any]) -> None:
+    """Refuse an undeclared field, a wrong type or an over-long value (naming the field)."""
+    spec = SPECS.get(verb_name, COMMAND_FIELDS.get(verb_name, {}))
+    for name, value in fields.items():
+        f = spec.get(name)
+        if f is None:
+            lower = {k.lower(): k for k in spec}
+            near = [lower[str(name).lower()]] if str(name).lower() in lower else []
+            near = near or difflib.get_close_matches(str(name), list(spec), n=1)
+            hint = f"; did you mean {near[0]!r}?" if near else ""
+            known = ", ".join(spec) or "none"
+            raise Reject(
+                ErrorCode.INVALID,
+                f"unknown field {brief(name)} for {verb_name} (fields: {known}){hint}",
+                str(name)[:64],
+            )
+        if value is not None:
+            _check_kind(name, f, value)
+
+
+_KINDS: dict[str, tuple[str, Callable[[Any], bool]]] = {
+    "int": ("an integer", lambda v: isinstance(v, int) and not isinstance(v, bool)),
+    "number": (
+        "a finite number",
+        lambda v: isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v),
+    ),
+    "bool": ("true or false", lambda v: isinstance(v, bool)),
+    "str": ("a string", lambda v: isinstance(v, str)),
+    "ref": (
+        "an id or a name",
+        lambda v: (isinstance(v, int) and not isinstance(v, bool)) or isinstance(v, str),
+    ),
+    "rgb": (
+        "[r, g, b]",
+        lambda v: isinstance(v, list | tuple)
+        and len(v) == 3
+        and all(isinstance(c, int) and not isinstance(c, bool) for c in v),
+    ),
+    "list": ("a list", lambda v: isinstance(v, list | tuple)),
+    "map": ("a map", lambda v: isinstance(v, dict)),
+}
+
+
+def _check_kind(name: str, f: Field, value: Any) -> None:
+    what, ok = _KINDS[f.kind]
+    if not ok(value):
+        raise Reject(ErrorCode.INVALID, f"{name} must be {what}, got {brief(value)}", name)
+    sized = isinstance(value, str | list | tuple | dict)
+    if f.max_len is not None and sized and len(value) > f.max_len:
+        unit = "characters" if isinstance(value, str) else "entries"
+        raise Reject(ErrorCode.OUT_OF_RANGE, f"{name} is longer than {f.max_len} {unit}", name)
+    if f.choices is not None and value not in f.choices:
+        raise Reject(
+            ErrorCode.INVALID, f"{name}={brief(value)} is not one of {', '.join(f.choices)}", name
+        )
+
+
 def needs_lease(verb_name: str, fields: dict[str, Any]) -> bool:
+    """Whether this call needs the lease; fields must have passed :func:`check_fields`
+    (anything else is treated as needing it, the safe answer)."""
     if verb_name in LEASE_FREE_VERBS:
         return False
     op = fields.get("op")
     if verb_name == "registers":
-        op = "write" if "data" in fields else "read"
+        op = "write" if fields.get("data") is not None else "read"
     if verb_name == "walk_params":
-        op = "set" if "set" in fields else "read"
+        op = "set" if fields.get("set") is not None else "read"
+    if not isinstance(op, str):
+        return True
     return op not in OPS_WITHOUT_LEASE.get(verb_name, frozenset())

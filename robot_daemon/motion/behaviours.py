@@ -18,6 +18,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from schemas.errors import BehaviourError
+
 KINDS = ("action", "walk", "sound", "led", "pause", "head")
 MAX_DURATION = 600.0
 _PARAMS: dict[str, set[str]] = {
@@ -28,14 +30,6 @@ _PARAMS: dict[str, set[str]] = {
     "pause": {"duration"},
     "head": {"pan", "tilt"},
 }
-
-
-class BehaviourError(ValueError):
-    """A behaviour or item that cannot be played; ``field`` names the offending field."""
-
-    def __init__(self, message: str, field: str | None = None) -> None:
-        super().__init__(message)
-        self.field = field
 
 
 @dataclass(frozen=True)

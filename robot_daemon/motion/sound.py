@@ -1,6 +1,10 @@
 """Sounds and phrases. Where the robot has a speaker, a configured player runs in a
 subprocess (``aplay``/``mpg123`` for files, ``espeak-ng`` for text) so the motion loop never
-waits; in the simulator (``backend = "event"``) the sound is published as an event instead."""
+waits; in the simulator (``backend = "event"``) the sound is published as an event instead.
+
+Text from a message never becomes a program argument: a phrase is written to the player's stdin
+(``espeak-ng --stdin``), and a file name must name a file (inside ``sounds_dir`` when one is set),
+is passed as an absolute path and may not start with ``-``."""
 
 from __future__ import annotations
 
@@ -23,7 +27,12 @@ class SoundPlayer:
         if self.backend not in ("event", "command"):
             raise ValueError(f"[sound] backend must be 'event' or 'command', not {self.backend!r}")
         self.play_command = list(s.get("play_command", ["aplay", "-q", "{file}"]))
-        self.say_command = list(s.get("say_command", ["espeak-ng", "-v", "{lang}", "{text}"]))
+        self.say_command = list(s.get("say_command", ["espeak-ng", "-v", "{lang}", "--stdin"]))
+        if any("{text}" in str(a) for a in self.say_command):
+            raise ValueError(
+                "[sound] say_command must not contain {text}: the phrase is written to the "
+                'player\'s stdin, e.g. ["espeak-ng", "-v", "{lang}", "--stdin"]'
+            )
         self.language = str(s.get("language", "en"))
         self.sounds_dir = Path(s["sounds_dir"]) if s.get("sounds_dir") else None
         self._proc: subprocess.Popen[bytes] | None = None
@@ -31,8 +40,18 @@ class SoundPlayer:
         self.last: dict[str, Any] | None = None
 
     def resolve(self, file: str) -> Path:
+        """The sound file's absolute path; ``ValueError`` for a name that could read as an
+        option or that leaves ``sounds_dir``."""
+        if file.startswith("-") or "\x00" in file:
+            raise ValueError(f"sound file name {file[:40]!r} may not start with '-'")
         p = Path(file)
-        return self.sounds_dir / p if self.sounds_dir and not p.is_absolute() else p
+        if self.sounds_dir is None:
+            return p.resolve()
+        base = self.sounds_dir.resolve()
+        path = (base / p).resolve()
+        if not path.is_relative_to(base):
+            raise ValueError(f"sound file {file[:40]!r} is outside [sound] sounds_dir ({base})")
+        return path
 
     def play(
         self, emit: Emit, file: str | None = None, say: str | None = None, lang: str | None = None
@@ -51,9 +70,9 @@ class SoundPlayer:
             path = self.resolve(file)
             if not path.is_file():
                 raise ValueError(f"sound file {path} does not exist (check [sound] sounds_dir)")
-            argv = [a.format(file=str(path)) for a in self.play_command]
+            argv = [str(a).replace("{file}", str(path)) for a in self.play_command]
         else:
-            argv = [a.format(text=say, lang=lang) for a in self.say_command]
+            argv = [str(a).replace("{lang}", lang) for a in self.say_command]
         if shutil.which(argv[0]) is None:
             raise ValueError(
                 f"sound player {argv[0]!r} is not installed; set [sound] play_command/"
@@ -61,8 +80,18 @@ class SoundPlayer:
             )
         self.stop()
         self._proc = subprocess.Popen(
-            argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+            argv,
+            stdin=subprocess.PIPE if say and not file else subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
         )
+        if self._proc.stdin is not None:
+            # A phrase is at most a few hundred bytes: the pipe buffer takes it without waiting.
+            try:
+                self._proc.stdin.write(str(say).encode("utf-8"))
+                self._proc.stdin.close()
+            except OSError as exc:  # the player exited at once
+                log.warning("the say player took no text: %s", exc)
         emit("sound", f"playing {file or repr(say)}", **what)
         return {**what, "played": argv[0]}
 

@@ -1,8 +1,9 @@
 """Run-time control of a running emulator: an op table, served on ``Keys(robot).sim_control``.
 
-A request is a msgpack map ``{"op": name, …fields}``; the reply is ``ok_reply(op, result)`` or,
-through ``query.reply_err``, ``error_reply(op, code, message, field)``. In-process callers use
-:func:`handle_request` with a dict; other processes use :class:`SimControl`.
+A request is a msgpack map ``{"v": 1, "op": name, …fields}``; the reply is ``ok_reply(op,
+result)`` or, through ``query.reply_err``, ``error_reply(op, code, message, field)`` (both through
+:mod:`schemas.query`, as every queryable). In-process callers use :func:`handle_request` with a
+dict; other processes use :class:`SimControl`.
 
 The table is open: ``register_control_op("place_ball", fn)`` (or ``@control_op("place_ball")``)
 adds ``fn(emulator, request) -> dict | None``. A handler raises :class:`FieldError` (or
@@ -15,12 +16,20 @@ import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-import msgpack
 import zenoh
 
-from schemas.errors import ErrorCode, ProtocolError, command_error
+from schemas.errors import (
+    CommandError,
+    ErrorCode,
+    FieldError,
+    InvalidCommandError,
+    UnavailableError,
+    UnknownNameError,
+    brief,
+)
 from schemas.keys import Keys
-from schemas.messages import decode_dict, error_reply, ok_reply
+from schemas.messages import ok_reply
+from schemas.query import ask, error_payload, request_payload, serve
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
@@ -32,10 +41,7 @@ _OPS: dict[str, ControlHandler] = {}
 _MISSING = object()
 
 
-class FieldError(ValueError):
-    def __init__(self, field_name: str, message: str) -> None:
-        super().__init__(message)
-        self.field = field_name
+__all__ = ["FieldError", "SimControl", "control_op", "field", "handle_request", "serve_control"]
 
 
 def register_control_op(name: str, handler: ControlHandler) -> None:
@@ -69,53 +75,40 @@ def field(
         value = float(value)
     if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
         wanted = " or ".join(k.__name__ for k in kinds)
-        raise FieldError(name, f"field {name!r} must be {wanted}, got {value!r}")
+        raise FieldError(name, f"field {name!r} must be {wanted}, got {brief(value)}")
     return value
 
 
-def handle_request(emulator: Emulator, request: dict[str, Any]) -> tuple[bool, bytes]:
-    """Run one request; (ok, reply payload)."""
+def run_op(emulator: Emulator, request: dict[str, Any]) -> dict[str, Any]:
+    """Run one request; its result, or a :class:`CommandError` naming what was wrong."""
     op = request.get("op")
     if not isinstance(op, str) or op not in _OPS:
-        return False, error_reply(
-            str(op), ErrorCode.UNKNOWN, f"unknown op {op!r}; ops: {', '.join(control_ops())}", "op"
+        raise UnknownNameError(
+            ErrorCode.UNKNOWN, f"unknown op {brief(op)}; ops: {', '.join(control_ops())}", "op"
         )
     try:
-        result = _OPS[op](emulator, request)
-    except FieldError as exc:
-        return False, error_reply(op, ErrorCode.INVALID, str(exc), exc.field)
+        return _OPS[op](emulator, request) or {}
+    except CommandError:
+        raise
     except (ValueError, KeyError, TypeError) as exc:
         message = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
-        return False, error_reply(op, ErrorCode.INVALID, str(message))
+        raise InvalidCommandError(ErrorCode.INVALID, str(message)) from None
+
+
+def handle_request(emulator: Emulator, request: dict[str, Any]) -> tuple[bool, bytes]:
+    """Run one request in process; (ok, reply payload)."""
+    op = str(request.get("op"))
+    try:
+        return True, ok_reply(op, run_op(emulator, request))
     except Exception as exc:
-        log.exception("sim control op %s failed", op)
-        return False, error_reply(op, ErrorCode.INTERNAL, f"{type(exc).__name__}: {exc}")
-    return True, ok_reply(op, result or {})
+        return False, error_payload(op, exc)
 
 
 def serve_control(session: zenoh.Session, robot: str, emulator: Emulator) -> zenoh.Queryable:
     """Declare the queryable; keep the returned object alive while serving."""
-    key = Keys(robot).sim_control
-
-    def on_query(query: zenoh.Query) -> None:
-        try:
-            payload = query.payload.to_bytes() if query.payload is not None else b""
-            try:
-                request = decode_dict(payload)
-            except ProtocolError as exc:
-                ok, reply = False, error_reply("?", ErrorCode.INVALID, str(exc))
-            else:
-                ok, reply = handle_request(emulator, request)
-            if ok:
-                query.reply(key, reply)
-            else:
-                query.reply_err(reply)
-        except Exception:
-            log.exception("answering a sim control query failed")
-        finally:
-            query.drop()
-
-    return session.declare_queryable(key, on_query, complete=True)
+    return serve(
+        session, Keys(robot).sim_control, lambda req: run_op(emulator, req), what="sim"
+    )
 
 
 class SimControl:
@@ -127,23 +120,15 @@ class SimControl:
         self.timeout = timeout
 
     def call(self, op: str, **fields: Any) -> dict[str, Any]:
-        payload = msgpack.packb({"op": op, **fields}, use_bin_type=True)
-        replies = list(self.session.get(self.key, payload=payload, timeout=self.timeout))
-        if not replies:
-            raise command_error(
+        def unreachable() -> Exception:
+            return UnavailableError(
                 ErrorCode.UNAVAILABLE,
                 f"no emulator answers on {self.key}; is `darwin sim --control-listen` running?",
                 verb=op,
             )
-        reply = replies[0]
-        if reply.ok is not None:
-            return decode_dict(reply.ok.payload.to_bytes()).get("applied", {})
-        raw = reply.err.payload.to_bytes()
-        try:
-            d = decode_dict(raw)
-        except ProtocolError:
-            d = {"code": ErrorCode.UNAVAILABLE, "message": raw.decode(errors="replace")}
-        raise command_error(d.get("code", "internal"), d.get("message", ""), d.get("field"), op)
+
+        payload = request_payload(op=op, **fields)
+        return ask(self.session, self.key, payload, self.timeout, verb=op, unreachable=unreachable)
 
 
 # The built-in ops register themselves; imported last because they use the names above.

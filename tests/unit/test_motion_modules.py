@@ -114,11 +114,9 @@ def test_sound_is_an_event_in_the_simulator_and_a_subprocess_on_the_robot() -> N
     assert got[-1][0] == "sound" and got[-1][2]["say"] == "Olá"
     with pytest.raises(ValueError, match="file or a phrase"):
         player.play(emit)
-    cmd = SoundPlayer(
-        {"backend": "command", "say_command": [sys.executable, "-c", "pass", "{text}"]}
-    )
+    cmd = SoundPlayer({"backend": "command", "say_command": [sys.executable, "-c", "pass"]})
     assert cmd.play(emit, say="hello")["played"] == sys.executable
-    missing = SoundPlayer({"backend": "command", "say_command": ["no-such-player-xyz", "{text}"]})
+    missing = SoundPlayer({"backend": "command", "say_command": ["no-such-player-xyz"]})
     with pytest.raises(ValueError, match="not installed"):
         missing.play(emit, say="hello")
     with pytest.raises(ValueError, match="does not exist"):

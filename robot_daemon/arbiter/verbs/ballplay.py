@@ -17,7 +17,7 @@ from robot_daemon.arbiter.registry import MotionContext, Reject, Request, verb
 from robot_daemon.motion.ball.module import BallPlayModule
 from robot_daemon.vision.ball_finder import BallFinder, FinderSettings, color_names
 from robot_daemon.vision.ball_thread import BallVision
-from schemas.errors import ConfigError, ErrorCode
+from schemas.errors import CameraError, ConfigError, ErrorCode
 from schemas.messages import BallDetection, encode
 
 # The running finder thread lives with the module it feeds (one daemon, one module).
@@ -91,7 +91,7 @@ def _source_opener(daemon: Any, spec: str):
     def opener() -> Any:
         source = open_source(spec, ctx)
         if source is None:
-            raise RuntimeError(f"camera {spec!r} gives no frames")
+            raise CameraError(f"camera {spec!r} gives no frames")
         return source
 
     return opener

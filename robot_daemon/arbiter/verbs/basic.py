@@ -10,13 +10,14 @@ from typing import Any
 
 from robot_daemon.arbiter import fields as F
 from robot_daemon.arbiter.lease import Lease
+from robot_daemon.arbiter.protected import is_protected
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, verb
 from robot_daemon.bus.calibration import joint_angle
 from robot_daemon.bus.tables import CM730, CM730_TABLE_SIZE, MX28, MX28_TABLE_SIZE
 from robot_daemon.motion.direct import DirectModule
 from schemas import units
 from schemas.commands import LeaseOp
-from schemas.errors import BusError, ErrorCode
+from schemas.errors import BusError, ErrorCode, brief
 
 MAX_POSE_DURATION = 60.0
 
@@ -55,17 +56,28 @@ def lease(req: Request, ctx: MotionContext) -> dict[str, Any]:
     op = F.text(req.fields, "op", {o.value for o in LeaseOp}, default=LeaseOp.STATUS.value)
     state: Lease = ctx.extras["lease"]
     if op == LeaseOp.ACQUIRE:
-        holder = state.acquire(req.client, req.name)
-        return {"op": op, "holder": holder.to_dict(), "you": True}
+        holder = state.acquire(req.client, req.name, req.token)
+        # The token goes to this caller alone: it binds the lease to the session that took it.
+        return {
+            "op": op,
+            "holder": holder.to_dict(),
+            "you": True,
+            "token": holder.token,
+            "heartbeat_timeout": state.heartbeat_timeout,
+        }
     if op == LeaseOp.RELEASE:
-        released = state.release(req.client)
+        released = state.release(req.client, req.token)
         return {"op": op, "released": released, "holder": state.status()}
-    holder_d = state.status()
+    if op == LeaseOp.RENEW:
+        state.renew(req.client, req.token)
+        return {"op": op, "holder": state.status(), "you": True}
+    h = state.holder
     return {
         "op": op,
-        "holder": holder_d,
-        "you": bool(holder_d and holder_d["client"] == req.client),
+        "holder": state.status(),
+        "you": bool(h and h.client == req.client and h.token == req.token),
         "idle_timeout": state.idle_timeout,
+        "heartbeat_timeout": state.heartbeat_timeout,
     }
 
 
@@ -76,8 +88,11 @@ def joint(req: Request, ctx: MotionContext) -> dict[str, Any]:
     position = F.joint_position(j, req.fields.get("position"), "position")
     speed = F.number(req.fields, "speed", 0.0, ctx.robot.max_speed, default=0.0)
     _check_online(ctx, j.id, key)
-    _direct(ctx).set_joint(j.id, position, speed or None)
-    return {"id": j.id, "name": j.name, "position": position, "speed": speed}
+    # 0 (or absent) is the servo's maximum, as documented: say so explicitly, never let the
+    # module's own default (a gentler speed for poses) stand in for it.
+    applied_speed = speed or ctx.robot.max_speed
+    _direct(ctx).set_joint(j.id, position, applied_speed)
+    return {"id": j.id, "name": j.name, "position": position, "speed": applied_speed}
 
 
 @verb("pose")
@@ -172,9 +187,13 @@ def config(req: Request, ctx: MotionContext) -> dict[str, Any]:
         "tick_ms": daemon.options.tick_ms if daemon is not None else dcfg.get("tick_ms", 8.0),
         "max_speed": ctx.robot.max_speed,
         "allow_eeprom": bool(ctx.extras.get("allow_eeprom")),
+        "allow_hardware_writes": _hardware_writes(ctx),
         "lease_idle_timeout": ctx.settings.get("daemon", {})
         .get("lease", {})
         .get("idle_timeout", 60.0),
+        "lease_heartbeat_timeout": ctx.settings.get("daemon", {})
+        .get("lease", {})
+        .get("heartbeat_timeout", 1.5),
         "joints": [
             {
                 "id": j.id,
@@ -208,6 +227,13 @@ def _table(ctx: MotionContext, dxl_id: int) -> tuple[type[MX28] | type[CM730], i
     )
 
 
+def _hardware_writes(ctx: MotionContext) -> bool:
+    return bool(
+        ctx.extras.get("allow_hardware_writes")
+        or ctx.settings.get("daemon", {}).get("allow_hardware_writes", False)
+    )
+
+
 @verb("registers")
 def registers(req: Request, ctx: MotionContext) -> dict[str, Any]:
     dxl_id = F.integer(req.fields, "id", 0, 253)
@@ -227,33 +253,88 @@ def registers(req: Request, ctx: MotionContext) -> dict[str, Any]:
         or any(isinstance(b, bool) or not isinstance(b, int) or not 0 <= b <= 255 for b in data)
     ):
         raise Reject(
-            ErrorCode.INVALID, f"data must be a list of bytes 0..255, got {data!r}", "data"
+            ErrorCode.INVALID, f"data must be a list of bytes 0..255, got {brief(data)}", "data"
         )
     end = address + len(data)
     if end > size:
         raise Reject(
             ErrorCode.OUT_OF_RANGE, f"{len(data)} bytes from {address} run past {size}", "data"
         )
-    for reg in table:  # type: ignore[attr-defined]
+    touched = [reg for reg in table if reg.reg.address < end and address < reg.reg.end]  # type: ignore[attr-defined]
+    for reg in touched:
         r = reg.reg
-        if r.address < end and address < r.end:
-            if r.eeprom and not ctx.extras.get("allow_eeprom"):
-                raise Reject(
-                    ErrorCode.REFUSED,
-                    f"{reg.name} ({r.address}) is EEPROM: writes are refused unless the daemon "
-                    "runs with --allow-eeprom",
-                    "address",
-                )
-            if r.access.value == "r":
-                raise Reject(ErrorCode.REFUSED, f"{reg.name} ({r.address}) is read-only", "address")
+        if r.access.value == "r":
+            raise Reject(ErrorCode.REFUSED, f"{reg.name} ({r.address}) is read-only", "address")
+        if is_protected(reg) and not _hardware_writes(ctx):
+            raise Reject(
+                ErrorCode.REFUSED,
+                f"{reg.name} ({r.address}) can disable or lose the hardware: writes are refused "
+                "unless the daemon runs with --allow-hardware-writes "
+                "(config daemon.allow_hardware_writes)",
+                "address",
+            )
+        if r.eeprom and not ctx.extras.get("allow_eeprom"):
+            raise Reject(
+                ErrorCode.REFUSED,
+                f"{reg.name} ({r.address}) is EEPROM: writes are refused unless the daemon "
+                "runs with --allow-eeprom",
+                "address",
+            )
     goal = MX28.GOAL_POSITION.reg.address
     if table is MX28 and address < goal + 2 and end > goal:
         _check_goal_write(ctx, dxl_id, address, bytes(data))
+    id_reg = table.ID.reg  # type: ignore[attr-defined]
+    new_id = data[id_reg.address - address] if address <= id_reg.address < end else dxl_id
+    if new_id != dxl_id and (new_id in ctx.robot.by_id or new_id == ctx.robot.cm730_id):
+        raise Reject(
+            ErrorCode.REFUSED,
+            f"ID {new_id} is already taken by another device on this bus: two devices with one "
+            "ID answer over each other",
+            "data",
+        )
+    return _write_and_verify(ctx, dxl_id, new_id, address, bytes(data))
+
+
+def _write_and_verify(
+    ctx: MotionContext, dxl_id: int, new_id: int, address: int, data: bytes
+) -> dict[str, Any]:
+    """Write, then read the bytes back (at the new ID after an ID change) and report what the
+    device holds: a lost status packet is not a failed write, and a write that did not take is
+    not a success."""
+    write_error: BusError | None = None
     try:
-        ctx.bus.write_registers(dxl_id, address, bytes(data))
+        ctx.bus.write_registers(dxl_id, address, data)
     except BusError as exc:
-        raise _bus_error(exc) from None
-    return {"id": dxl_id, "address": address, "data": list(data)}
+        write_error = exc  # the status may have come from the new ID, or been lost
+    try:
+        readback = ctx.bus.read_registers(new_id, address, len(data))
+    except BusError as exc:
+        if write_error is not None:
+            raise _bus_error(write_error) from None
+        raise Reject(
+            ErrorCode.UNAVAILABLE,
+            f"the write to device {dxl_id} was acknowledged but reading it back at ID {new_id} "
+            f"failed: {exc} (see status.bus)",
+        ) from None
+    out: dict[str, Any] = {
+        "id": new_id,
+        "address": address,
+        "data": list(data),
+        "readback": list(readback),
+        "verified": readback == data,
+    }
+    if new_id != dxl_id:
+        out["moved_from"] = dxl_id
+    if write_error is not None:
+        out["status_lost"] = str(write_error)
+    if readback != data:
+        raise Reject(
+            ErrorCode.UNAVAILABLE,
+            f"device {new_id} holds {list(readback)} at {address} after writing {list(data)}: "
+            "the write did not take (a locked or clamped register?)",
+            "data",
+        )
+    return out
 
 
 def _check_goal_write(ctx: MotionContext, dxl_id: int, address: int, data: bytes) -> None:

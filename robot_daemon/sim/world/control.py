@@ -17,7 +17,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any
 
-from robot_daemon.sim.control import FieldError, field, register_control_op
+from robot_daemon.sim.control import field, register_control_op
+from schemas.errors import FieldError, brief
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
@@ -37,7 +38,7 @@ def world_of(emulator: Emulator) -> SimWorld:
 def _coord(request: dict[str, Any], name: str, default: Any = ...) -> float:
     value = field(request, name, float) if default is ... else field(request, name, float, default)
     if not math.isfinite(value) or abs(value) > MAX_COORD:
-        raise FieldError(name, f"{name}={value!r} must be finite and within ±{MAX_COORD} m")
+        raise FieldError(name, f"{name}={brief(value)} must be finite and within ±{MAX_COORD} m")
     return value
 
 
@@ -49,7 +50,7 @@ def place_robot(emulator: Emulator, request: dict[str, Any]) -> dict[str, Any]:
     x, y = _coord(request, "x"), _coord(request, "y")
     yaw = field(request, "yaw", float, 0.0)
     if not math.isfinite(yaw):
-        raise FieldError("yaw", f"yaw={yaw!r} must be finite (rad)")
+        raise FieldError("yaw", f"yaw={brief(yaw)} must be finite (rad)")
     world = world_of(emulator)
     world.place_robot(x, y, math.remainder(yaw, 2 * math.pi))
     return {"robot": world.snapshot().robot}

@@ -1,0 +1,163 @@
+"""Every verb's fields are declared once; anything else is refused, naming the field, before
+the lease check and the handler: nothing reaches the bus."""
+
+from __future__ import annotations
+
+import pytest
+
+from robot_daemon.arbiter.protected import PROTECTED
+from robot_daemon.arbiter.registry import REGISTRY, SPECS, Reject
+from robot_daemon.bus.tables import CM730, MX28
+from schemas.commands import COMMAND_FIELDS
+from schemas.keys import VERBS
+from tests.unit.arbiter_rig import ArbiterRig
+
+
+@pytest.fixture
+def rig() -> ArbiterRig:
+    return ArbiterRig()
+
+
+def test_every_verb_is_declared_and_registered_with_its_declaration() -> None:
+    ArbiterRig()
+    assert set(COMMAND_FIELDS) == set(VERBS) == set(REGISTRY)
+    assert all(SPECS[v] is COMMAND_FIELDS[v] for v in VERBS)
+
+
+@pytest.mark.parametrize(
+    ("verb", "fields", "field", "hint"),
+    [
+        ("torque", {"enable": False, "id": 5}, "id", "ids"),  # turned off all 20 joints
+        ("walk", {"X": 0.1}, "X", "x"),  # walked in place
+        ("pose", {"positions": {"head_pan": 0.1}, "duraton": 3.0}, "duraton", "duration"),
+        ("led", {"head": [1, 2, 3], "colour": 1}, "colour", None),
+        ("halt", {"now": True}, "now", None),
+    ],
+)
+def test_a_misspelt_or_unknown_field_is_refused_naming_it(
+    rig: ArbiterRig, verb: str, fields: dict, field: str, hint: str | None
+) -> None:
+    token = rig.acquire()
+    with pytest.raises(Reject) as info:
+        rig.send(verb, lease_token=token, **fields)
+    assert info.value.code == "invalid" and info.value.field == field
+    if hint:
+        assert f"did you mean {hint!r}" in info.value.message
+    assert rig.bus.writes == []
+    assert not rig.manager.module("walking").running
+
+
+@pytest.mark.parametrize("verb", [v for v in VERBS if "op" in COMMAND_FIELDS[v]])
+@pytest.mark.parametrize("op", [["start"], {"a": 1}, 3, True, "x" * 10_000])
+def test_an_op_of_the_wrong_type_is_an_error_not_a_crash(
+    rig: ArbiterRig, verb: str, op: object
+) -> None:
+    with pytest.raises(Reject) as info:
+        rig.send(verb, op=op)
+    assert info.value.field == "op" and info.value.code in ("invalid", "out_of_range")
+    assert len(info.value.message) < 200
+
+
+def test_wrong_types_name_the_field(rig: ArbiterRig) -> None:
+    token = rig.acquire()
+    for verb, fields, field in [
+        ("joint", {"id": 1, "position": "0.1"}, "position"),
+        ("joint", {"id": 1.5, "position": 0.1}, "id"),
+        ("joint", {"id": 1, "position": float("nan")}, "position"),
+        ("torque", {"enable": 0}, "enable"),
+        ("torque", {"enable": True, "ids": "1,2"}, "ids"),
+        ("led", {"head": [1, 2]}, "head"),
+        ("pose", {"positions": [0.1]}, "positions"),
+        ("walk_params", {"set": 3}, "set"),
+    ]:
+        with pytest.raises(Reject) as info:
+            rig.send(verb, lease_token=token, **fields)
+        assert (info.value.code, info.value.field) == ("invalid", field), (verb, fields)
+    assert rig.bus.writes == []
+
+
+def test_strings_and_lists_are_capped_and_errors_echo_a_short_prefix(rig: ArbiterRig) -> None:
+    token = rig.acquire()
+    with pytest.raises(Reject) as info:
+        rig.send("lease", op="acquire", name="n" * 1_000_000)
+    assert info.value.code == "out_of_range" and len(info.value.message) < 200
+    with pytest.raises(Reject) as info:
+        rig.send("torque", lease_token=token, enable=False, ids=list(range(1000)))
+    assert info.value.code == "out_of_range" and info.value.field == "ids"
+    with pytest.raises(Reject) as info:
+        rig.send("joint", lease_token=token, name="x" * 200_000, position=0.0)
+    assert len(info.value.message) < 200
+    with pytest.raises(Reject) as info:
+        rig.send("head", lease_token=token, pan="p" * 900)
+    assert info.value.field == "pan" and len(info.value.message) < 200
+    assert rig.bus.writes == []
+
+
+def test_joint_speed_zero_is_the_servo_maximum(rig: ArbiterRig) -> None:
+    token = rig.acquire()
+    applied = rig.send("joint", lease_token=token, name="head_pan", position=0.2, speed=0)
+    assert applied["speed"] == rig.robot.max_speed
+    direct = rig.manager.module("direct")
+    assert direct._pending[-1][2] == rig.robot.max_speed
+
+
+def test_a_reused_client_id_cannot_command_or_release(rig: ArbiterRig) -> None:
+    token = rig.acquire("holder")
+    for verb, fields in [
+        ("joint", {"id": 1, "position": 0.1}),
+        ("walk", {"op": "start", "x": 0.01}),
+        ("torque", {"enable": False}),
+    ]:
+        with pytest.raises(Reject) as info:
+            rig.send(verb, client="holder", **fields)  # the public id, no secret
+        assert info.value.code == "busy"
+    applied = rig.send("lease", client="holder", op="release")
+    assert applied["released"] is False and rig.lease.holder is not None
+    assert rig.bus.writes == [] and not rig.manager.module("walking").running
+    assert rig.send("joint", client="holder", lease_token=token, id=19, position=0.1)
+
+
+# -- registers that can disable or lose hardware ------------------------------------------------
+def test_the_protected_set_is_data_keyed_by_the_register_tables() -> None:
+    assert {CM730.DXL_POWER, MX28.ID, CM730.ID, MX28.BAUD_RATE} <= PROTECTED
+    assert MX28.GOAL_POSITION not in PROTECTED and CM730.LED_HEAD not in PROTECTED
+
+
+@pytest.mark.parametrize(
+    ("dxl_id", "address", "data"),
+    [
+        (200, CM730.DXL_POWER.reg.address, [0]),  # cut power to every servo
+        (19, MX28.ID.reg.address, [42]),  # lose a servo
+        (19, MX28.BAUD_RATE.reg.address, [3]),
+        (19, MX28.STATUS_RETURN_LEVEL.reg.address, [0]),
+        (19, MX28.CW_ANGLE_LIMIT.reg.address, [0, 0]),
+        (19, MX28.TORQUE_LIMIT.reg.address, [0, 0]),
+    ],
+)
+def test_hardware_writes_are_refused_without_the_admin_switch(
+    dxl_id: int, address: int, data: list[int]
+) -> None:
+    rig = ArbiterRig(allow_eeprom=True)  # ordinary EEPROM is not enough
+    token = rig.acquire()
+    with pytest.raises(Reject) as info:
+        rig.send("registers", lease_token=token, id=dxl_id, address=address, data=data)
+    assert info.value.code == "refused" and "--allow-hardware-writes" in info.value.message
+    assert rig.bus.writes == []
+
+
+def test_an_id_write_reports_the_true_outcome_at_the_new_id() -> None:
+    rig = ArbiterRig(allow_eeprom=True, allow_hardware_writes=True)
+    token = rig.acquire()
+    with pytest.raises(Reject) as info:  # two devices with one ID answer over each other
+        rig.send("registers", lease_token=token, id=19, address=3, data=[20])
+    assert info.value.code == "refused" and rig.bus.writes == []
+    applied = rig.send("registers", lease_token=token, id=19, address=3, data=[42])
+    assert applied["verified"] is True and applied["id"] == 42 and applied["moved_from"] == 19
+    assert rig.bus.reads[-1] == (42, 3, 1)  # read back where the servo answers now
+
+
+def test_dxl_power_with_the_switch_is_written_and_read_back() -> None:
+    rig = ArbiterRig(allow_hardware_writes=True)
+    token = rig.acquire()
+    applied = rig.send("registers", lease_token=token, id=200, address=24, data=[1])
+    assert applied["readback"] == [1] and applied["verified"] is True
