@@ -21,6 +21,8 @@ log = logging.getLogger(__name__)
 
 # Topics the daemon publishes from the loop, by name → key property of ``Keys``.
 LOOP_TOPICS = ("joints", "imu", "status")
+# Newest-only topics: the loop's, and ball vision's detections (from its thread).
+SLOT_TOPICS = (*LOOP_TOPICS, "vision_ball")
 
 
 class Publishers:
@@ -28,7 +30,7 @@ class Publishers:
         self.session = session
         self.keys = keys
         self._pubs: dict[str, zenoh.Publisher] = {}
-        for topic in LOOP_TOPICS:
+        for topic in SLOT_TOPICS:
             self._pubs[topic] = session.declare_publisher(
                 getattr(keys, topic),
                 congestion_control=zenoh.CongestionControl.DROP,

@@ -87,6 +87,9 @@ class Arbiter:
         self._lock = threading.Lock()
         self.counts = {"accepted": 0, "rejected": 0, "errors": 0}
         self.on_wakeup: Callable[[], None] | None = None  # the loop may wait for commands
+        # The daemon's say on whether a command may run now (it raises Reject, e.g. while the
+        # serial port is lost); checked before the lease and the handler.
+        self.gate: Callable[[Request], None] | None = None
         self._queryables = [
             session.declare_queryable(keys.cmd(v), self._incoming.put, complete=True) for v in VERBS
         ]
@@ -200,6 +203,8 @@ class Arbiter:
                     ErrorCode.UNAVAILABLE,
                     f"verb {req.verb!r} is not available in this daemon build",
                 )
+            if self.gate is not None:
+                self.gate(req)
             if needs_lease(req.verb, req.fields):
                 self.lease.check(req.client)
             applied = handler(req, ctx)

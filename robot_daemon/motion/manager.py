@@ -116,6 +116,12 @@ class MotionManager:
             self._hold = {j: float(frame.position[j]) for j in self._owner if frame.online[j]}
         self.emit("halt", "all motion stopped; holding the present pose")
 
+    def hold_present(self, frame: JointFrame) -> None:
+        """Hold the pose in ``frame`` on every joint nobody owns (the port came back: whatever
+        goal the servos had, the robot stays as it is until someone commands it)."""
+        free = [j for j, o in self._owner.items() if o is None and frame.online[j]]
+        self._hold = {j: float(frame.position[j]) for j in free}
+
     def stop_all(self) -> None:
         """Ask every module to stop gracefully (lease loss, fall)."""
         for m in self.modules:
