@@ -172,9 +172,8 @@ class Daemon:
         try:
             self.session = zenoh.open(conf)
         except zenoh.ZError as exc:
-            detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise ListenError(
-                f"cannot listen on {', '.join(self.options.listen)} ({_short(detail)}): is "
+                f"cannot listen on {', '.join(self.options.listen)}: {_zenoh_reason(exc)}; is "
                 "another daemon or `darwin up` using it? Stop it, or pass --listen "
                 "tcp/127.0.0.1:0 for any free port"
             ) from None
@@ -482,5 +481,10 @@ class Daemon:
             self._wake.wait(min(self.status_period, max(0.0, deadline - time.monotonic())))
 
 
-def _short(text: str, limit: int = 160) -> str:
-    return text if len(text) <= limit else text[: limit - 1] + "…"
+def _zenoh_reason(exc: Exception) -> str:
+    """Zenoh's error without its Rust source paths."""
+    text = str(exc).strip()
+    if "already in use" in text.lower():
+        return "the address is already in use"
+    text = text.splitlines()[0] if text else type(exc).__name__
+    return text.split(" at /", 1)[0][:160]
