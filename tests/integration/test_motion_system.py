@@ -248,3 +248,25 @@ def test_losing_the_lease_mid_walk_stops_the_robot(robot_system: RunningSystem) 
             "status", lambda s: not s.motion.get("walking", {}).get("walking", True), WAIT
         )
         events.close()
+
+
+def test_a_released_lease_stops_the_walk_within_a_step(robot_system: RunningSystem) -> None:
+    with robot_system.robot_client(name="releaser") as walker:
+        walker.wait_for("joints", timeout=WAIT)
+        events = Events(walker)
+        with walker.control():
+            walker.walk(x=0.05)
+            events.wait(_kind("walk", state="started"))
+            walking = walker.wait_for(
+                "status", lambda s: s.motion.get("walking", {}).get("steps", 0) >= 2, WAIT
+            )
+            # The newest count before the release: status is at most one period old.
+            steps = walker.wait_for("status").motion["walking"]["steps"]
+            assert steps >= walking.motion["walking"]["steps"]
+        # Leaving the block released the lease: nobody controls the walk, so it ends.
+        stopped = events.wait(_kind("walk", state="stopped"))
+        events.close()
+        assert stopped.data["steps"] - steps <= 2
+        walker.wait_for(
+            "status", lambda s: not s.motion.get("walking", {}).get("walking", True), WAIT
+        )
