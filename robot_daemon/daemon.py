@@ -423,7 +423,11 @@ class Daemon:
                 "bus_errors": self.bus_errors,
                 "arbiter": self.arbiter.counts if self.arbiter else {},
             },
-            loop={**self.stats.summary(), "scheduling": self.scheduling},
+            loop={
+                **self.stats.summary(),
+                "scheduling": self.scheduling,
+                "events_dropped": self.pub.dropped_events if self.pub is not None else 0,
+            },
             voltage=cm["voltage"],
             alarms=alarms,
             **extra,

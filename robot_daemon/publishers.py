@@ -43,8 +43,7 @@ class Publishers:
         self._events: deque[Event] = deque(maxlen=1000)
         self._cond = threading.Condition()
         self._stop = False
-        self.published = dict.fromkeys(self._pubs, 0)
-        self.dropped_events = 0
+        self.dropped_events = 0  # the FIFO was full: status.loop.events_dropped
         self._event_seq = 0
         self._thread = threading.Thread(target=self._run, name="publisher", daemon=True)
         self._thread.start()
@@ -81,7 +80,6 @@ class Publishers:
     def _put(self, topic: str, msg: Message) -> None:
         try:
             self._pubs[topic].put(encode(msg))
-            self.published[topic] += 1
         except Exception:  # a closed session at shutdown, a value msgpack refuses
             log.exception("publishing %s failed", topic)
 
