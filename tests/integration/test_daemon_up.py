@@ -130,8 +130,10 @@ def test_a_crashed_gateway_leaves_the_robot_serving() -> None:
 
 
 def test_first_run_on_the_emulator_has_the_simulated_camera() -> None:
-    with start_system(camera=None, gateway=False) as system:
-        with system.robot_client(name="newcomer") as robot:
-            assert robot.wait_for("status", timeout=10).camera["source"] == "sim"
-            img = robot.image(timeout=15)
-            assert img.shape == (240, 320, 3)
+    with (
+        start_system(camera=None, gateway=False) as system,
+        system.robot_client(name="newcomer") as robot,
+    ):
+        assert robot.wait_for("status", timeout=10).camera["source"] == "sim"
+        img = robot.image(timeout=15)
+        assert img.shape == (240, 320, 3)
