@@ -137,3 +137,18 @@ def test_first_run_on_the_emulator_has_the_simulated_camera() -> None:
         assert robot.wait_for("status", timeout=10).camera["source"] == "sim"
         img = robot.image(timeout=15)
         assert img.shape == (240, 320, 3)
+
+
+def test_sigkill_of_the_daemon_takes_its_emulator_with_it() -> None:
+    with start_system(gateway=False) as system:
+        with system.robot_client() as robot:
+            robot.wait_for("status", timeout=10)
+        below = descendants(system.process.pid)
+        daemon = [p for p, c in below.items() if " daemon " in c]
+        sim = [p for p, c in below.items() if " sim " in c]
+        assert len(daemon) == 1 and len(sim) == 1, below
+        os.kill(daemon[0], signal.SIGKILL)
+        assert not wait_gone(sim, timeout=30), "the emulator outlived its daemon"
+        # Without its daemon there is no robot: `darwin up` stops and says so.
+        assert system.process.wait(timeout=30) == 1
+        assert any("daemon exited" in line for line in system.lines)
