@@ -49,9 +49,6 @@ class MotionManager:
     def owned_by(self, name: str) -> set[int]:
         return {j for j, o in self._owner.items() if o == name}
 
-    def owners(self) -> dict[int, str | None]:
-        return dict(self._owner)
-
     def claim(self, name: str, ids: set[int]) -> None:
         if name not in self._by_name:
             raise KeyError(f"no motion module named {name!r}")
