@@ -62,11 +62,13 @@ class RobotHeader(Static):
 
     def update_view(self, model: Model, info: LinkInfo) -> None:
         self._last = (model, info)
-        self.update(self.compose_text(model, info, self.content_size.width or None))
+        self.refresh()
 
-    def on_resize(self) -> None:
-        if self._last is not None:
-            self.update_view(*self._last)
+    def render(self) -> Text:
+        # Composed at drawing time, for the width the header has then (resizes included).
+        if self._last is None:
+            return Text("")
+        return self.compose_text(*self._last, self.content_size.width or None)
 
     @staticmethod
     def compose_text(model: Model, info: LinkInfo, width: int | None = None) -> Text:
