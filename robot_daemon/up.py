@@ -181,6 +181,7 @@ def tend(adapter: Adapter, children: list[Child], relay: Callable[[str, str], No
     if now < adapter.restart_at:
         return
     adapter.restart_at = None
+    child.stop()  # already gone: this lets go of its pipe
     children.remove(child)
     adapter.child = Child(child.name, child.args, relay, ready=True)
     adapter.started = now
