@@ -1,8 +1,11 @@
-"""The camera thread: captures and JPEG-encodes frames only while someone subscribes.
+"""The camera thread: the one owner of the camera source, capturing only while someone needs it.
 
-A Zenoh matching listener on the camera publisher says when the first subscriber arrives and
-the last one leaves; in between, the thread reads the source at its frame rate (absolute
-deadlines), encodes and publishes. Never in the motion loop.
+Two kinds of consumer need frames: Zenoh subscribers of the camera key (a matching listener on
+the publisher says when the first arrives and the last leaves) and in-daemon readers such as
+ball vision (:meth:`CameraThread.consumer`). While either is there, the thread reads the source
+at its frame rate (absolute deadlines), JPEG-encodes and publishes when someone subscribes, and
+hands the raw frame to every reader. The source is opened once for all of them, and closed when
+nobody needs frames. Never in the motion loop.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import time
 from typing import Any
 
 import cv2
+import numpy as np
 import zenoh
 
 from robot_daemon.vision.sources import CameraSource, SourceContext, open_source
@@ -21,6 +25,37 @@ from schemas.keys import Keys
 from schemas.messages import CameraFrame, encode
 
 log = logging.getLogger(__name__)
+
+# How long a reader waits for the next frame before it gets None (a stalled source).
+READ_TIMEOUT = 2.0
+
+
+class FrameConsumer:
+    """A reader of the camera owner's frames (newest only); capture runs while it is open."""
+
+    def __init__(self, owner: CameraThread) -> None:
+        self._owner = owner
+        self._cond = threading.Condition()
+        self._frame: np.ndarray | None = None
+        self._closed = False
+
+    def offer(self, img: np.ndarray) -> None:
+        with self._cond:
+            self._frame = img
+            self._cond.notify_all()
+
+    def read(self, timeout: float = READ_TIMEOUT) -> np.ndarray | None:
+        """The next frame captured since the last read, or None after ``timeout``."""
+        with self._cond:
+            self._cond.wait_for(lambda: self._frame is not None or self._closed, timeout)
+            img, self._frame = self._frame, None
+            return img
+
+    def close(self) -> None:
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self._owner._remove(self)
 
 
 class CameraThread:
@@ -36,6 +71,7 @@ class CameraThread:
         self.ctx = ctx
         self.quality = quality
         self.period = 1.0 / max(ctx.fps, 1.0)
+        self.opened = 0  # times the source was opened (once per stretch of being needed)
         self.captured = 0
         self.published = 0
         self.errors = 0
@@ -43,6 +79,7 @@ class CameraThread:
         self._source: CameraSource | None = None
         self._cond = threading.Condition()
         self._subscribed = False
+        self._consumers: list[FrameConsumer] = []
         self._stop = False
         self._pub = session.declare_publisher(
             keys.camera_jpeg, congestion_control=zenoh.CongestionControl.DROP
@@ -72,11 +109,28 @@ class CameraThread:
             self._subscribed = status.matching
             self._cond.notify_all()
 
+    def consumer(self) -> FrameConsumer:
+        """A reader of this camera's frames; capture runs until it is closed."""
+        reader = FrameConsumer(self)
+        with self._cond:
+            self._consumers.append(reader)
+            self._cond.notify_all()
+        return reader
+
+    def _remove(self, reader: FrameConsumer) -> None:
+        with self._cond:
+            if reader in self._consumers:
+                self._consumers.remove(reader)
+            self._cond.notify_all()
+
+    def _needed(self) -> bool:
+        return self._subscribed or bool(self._consumers)
+
     def _run(self) -> None:
         next_t = time.monotonic()
         while True:
             with self._cond:
-                while not self._subscribed and not self._stop:
+                while not self._needed() and not self._stop:
                     self._close_source()
                     self._cond.wait()
                 if self._stop:
@@ -95,10 +149,17 @@ class CameraThread:
                 if self._source is None:
                     self._stop = True
                     return
+                self.opened += 1
             img = self._source.read()
             if img is None:
                 return
             self.captured += 1
+            with self._cond:
+                readers, subscribed = list(self._consumers), self._subscribed
+            for reader in readers:
+                reader.offer(img)
+            if not subscribed:
+                return  # only in-daemon readers: no JPEG nobody receives
             ok, jpeg = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, self.quality])
             if not ok:
                 raise RuntimeError("JPEG encoding failed")
@@ -124,6 +185,8 @@ class CameraThread:
         return {
             "source": self.spec,
             "subscribed": self._subscribed,
+            "readers": len(self._consumers),
+            "opened": self.opened,
             "captured": self.captured,
             "published": self.published,
             "errors": self.errors,
@@ -136,7 +199,10 @@ class CameraThread:
     def close(self) -> None:
         with self._cond:
             self._stop = True
+            readers = list(self._consumers)
             self._cond.notify_all()
+        for reader in readers:
+            reader.close()
         self._thread.join(timeout=2.0)
         with contextlib.suppress(Exception):
             self._listener.undeclare()

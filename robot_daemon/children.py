@@ -1,9 +1,17 @@
 """Child processes of ``darwin up`` and ``darwin daemon --sim``: start a ``darwin`` subcommand,
-wait for the line that says where it listens, relay the rest, stop it cleanly."""
+wait for the line that says where it listens, relay the rest, stop it cleanly.
+
+A child never outlives its parent, however the parent ends (SIGKILL included): on Linux the
+kernel sends it SIGTERM when the parent dies (``PR_SET_PDEATHSIG``), and everywhere it watches a
+pipe from the parent (``DARWIN_PARENT_FD``) whose end-of-file means the same. SIGTERM is the
+child's ordinary clean stop, so a daemon orphaned this way still halts the robot first.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import ctypes.util
 import os
 import queue
 import signal
@@ -15,6 +23,50 @@ from collections.abc import Callable
 
 from schemas.errors import DarwinError
 
+PARENT_FD_ENV = "DARWIN_PARENT_FD"
+_PR_SET_PDEATHSIG = 1
+
+
+def _prctl() -> Callable[..., int] | None:
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        return ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+
+_PRCTL = _prctl()  # looked up here: the child between fork and exec only calls it
+
+
+def _die_with(parent: int) -> Callable[[], None]:
+    def preexec() -> None:
+        if _PRCTL is not None:
+            _PRCTL(_PR_SET_PDEATHSIG, signal.SIGTERM)
+        if os.getppid() != parent:  # the parent died before the line above took effect
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    return preexec
+
+
+def watch_parent() -> None:
+    """In a child started by :class:`Child`: SIGTERM ourselves when the parent's pipe closes
+    (the parent died), the fallback where ``PR_SET_PDEATHSIG`` does not exist."""
+    fd_text = os.environ.pop(PARENT_FD_ENV, "")
+    if not fd_text.isdigit():
+        return
+    fd = int(fd_text)
+
+    def watch() -> None:
+        try:
+            while os.read(fd, 1):
+                pass
+        except OSError:
+            pass
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
+
 
 class ChildError(DarwinError):
     pass
@@ -24,23 +76,63 @@ class Child:
     """A ``darwin <command>`` child whose stdout lines are read by a thread."""
 
     def __init__(
-        self, name: str, args: list[str], relay: Callable[[str, str], None] | None = None
+        self,
+        name: str,
+        args: list[str],
+        relay: Callable[[str, str], None] | None = None,
+        ready: bool = False,
     ) -> None:
+        """``ready=True``: relay every line at once (nobody waits for an address line)."""
         self.name = name
         self.args = args
         self._relay = relay
         self._lines: queue.Queue[str | None] = queue.Queue()
-        self._ready = False
+        self._ready = ready
         self.output: list[str] = []
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "robot_daemon.cli", *args],
-            stdout=subprocess.PIPE,
-            stdin=subprocess.DEVNULL,
-            text=True,
-            env=dict(os.environ, PYTHONUNBUFFERED="1"),
-        )
+        self.errors: list[str] = []  # its stderr, relayed once ready, kept for failures
+        self._held_errors: list[str] = []
+        self._err_lock = threading.Lock()
+        watch_r, self._watch_w = os.pipe()  # our end stays open until we die
+        try:
+            self.proc = subprocess.Popen(
+                [sys.executable, "-m", "robot_daemon.cli", *args],
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                stdin=subprocess.DEVNULL,
+                text=True,
+                env=dict(os.environ, PYTHONUNBUFFERED="1", **{PARENT_FD_ENV: str(watch_r)}),
+                pass_fds=(watch_r,),
+                preexec_fn=_die_with(os.getpid()),
+            )
+        finally:
+            os.close(watch_r)
         self._reader = threading.Thread(target=self._read, name=f"{name}-out", daemon=True)
         self._reader.start()
+        self._err_reader = threading.Thread(target=self._read_err, name=f"{name}-err", daemon=True)
+        self._err_reader.start()
+
+    def _read_err(self) -> None:
+        assert self.proc.stderr is not None
+        for line in self.proc.stderr:
+            line = line.rstrip("\n")
+            self.errors.append(line)
+            with self._err_lock:
+                held = not self._ready
+                if held:
+                    self._held_errors.append(line)
+            if not held and self._relay is not None:
+                self._relay(self.name, line)
+
+    def failure(self) -> str:
+        """The child's own one-line account of why it stopped (``darwin X: …``), if it gave
+        one, else everything it said."""
+        self._err_reader.join(timeout=2.0)
+        prefix = f"darwin {self.args[0]}: " if self.args else "darwin "
+        mine = [line for line in self.errors if line.startswith(prefix)]
+        if mine:
+            return mine[-1][len(prefix) :]
+        said = [*self.output, *self.errors]
+        return "its output:\n" + "\n".join(said) if said else "it said nothing"
 
     def _read(self) -> None:
         assert self.proc.stdout is not None
@@ -64,7 +156,7 @@ class Child:
                 self.stop()
                 raise ChildError(
                     f"`darwin {' '.join(self.args)}` did not say {prefix!r} within "
-                    f"{timeout:.0f} s; its output:\n" + "\n".join(self.output)
+                    f"{timeout:.0f} s; {self.failure()}"
                 )
             try:
                 line = self._lines.get(timeout=remaining)
@@ -72,12 +164,14 @@ class Child:
                 continue
             if line is None:
                 code = self.proc.wait()
-                raise ChildError(
-                    f"`darwin {' '.join(self.args)}` exited with {code} before it was ready"
-                    + ("; its output:\n" + "\n".join(self.output) if self.output else "")
-                )
+                raise ChildError(f"{self.name} exited with {code}: {self.failure()}")
             if line.startswith(prefix):
-                self._ready = True
+                with self._err_lock:
+                    self._ready = True
+                    held, self._held_errors = self._held_errors, []
+                if self._relay is not None:
+                    for err in held:
+                        self._relay(self.name, err)
                 # Lines that arrived before readiness are relayed now, in order.
                 while True:
                     try:
@@ -95,6 +189,9 @@ class Child:
 
     def stop(self, timeout: float = 5.0) -> int | None:
         """SIGTERM, then SIGKILL after ``timeout``; returns the exit code."""
+        if self._watch_w >= 0:
+            os.close(self._watch_w)
+            self._watch_w = -1
         if self.proc.poll() is None:
             with contextlib.suppress(ProcessLookupError):
                 self.proc.send_signal(signal.SIGTERM)

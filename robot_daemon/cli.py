@@ -4,10 +4,13 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import logging
+import re
 import sys
 
+from robot_daemon.children import watch_parent
 from schemas.errors import DarwinError
 
 # name → (module, one-line help). Keep in the order a newcomer meets them.
@@ -44,6 +47,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"darwin: unknown command {name!r}\n\n{_usage()}", file=sys.stderr)
         return 2
     module_name, helptext = COMMANDS[name]
+    watch_parent()  # started by `darwin up`/`darwin daemon --sim`: end with that parent
     try:
         module = importlib.import_module(module_name)
     except ModuleNotFoundError as exc:
@@ -67,10 +71,29 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(module.run(args) or 0)
     except DarwinError as exc:
-        print(f"darwin {name}: {exc}", file=sys.stderr)
+        print(f"darwin {name}: {one_line(str(exc))}", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        if exc.errno != errno.EADDRINUSE:
+            raise
+        print(
+            f"darwin {name}: cannot listen: {exc.strerror or exc}; is another `darwin {name}` "
+            "(or `darwin up`) running? Stop it, or choose another address with --listen "
+            "(`darwin up --gateway-listen` for the gateway)",
+            file=sys.stderr,
+        )
         return 1
     except KeyboardInterrupt:
         return 130
+
+
+# Zenoh's errors carry the Rust source file they came from; a user needs the sentence only.
+_RUST_PLACE = re.compile(r"\s+at /\S+\.rs:\d+\.*")
+
+
+def one_line(message: str) -> str:
+    """An error message as the one line a program prints for an expected failure."""
+    return " ".join(_RUST_PLACE.sub(".", message).split())
 
 
 if __name__ == "__main__":

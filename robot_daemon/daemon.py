@@ -3,6 +3,12 @@
 One motion thread owns the bus. Each tick, at an absolute deadline: bulk-read the sensors,
 apply queued commands, run the motion modules, sync-write the goals, hand the messages to the
 publisher thread. A lost port is reopened with back-off while ``status.state`` says so.
+
+Safety rules the loop keeps: whenever the control lease ends (released, holder gone, idle) the
+motion comes to a safe stop; losing the port halts every motion module, commands that need the
+bus are refused with ``unavailable`` until it is back, and then the robot holds the pose it is
+in until someone commands it; every shutdown halts the motion and holds the pose before the bus
+is let go.
 """
 
 from __future__ import annotations
@@ -13,30 +19,42 @@ import logging
 import math
 import threading
 import time
-from collections import deque
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import zenoh
 
 from config.loader import RobotConfig
 from robot_daemon.arbiter.core import Arbiter
 from robot_daemon.arbiter.lease import Holder, Lease
-from robot_daemon.arbiter.registry import MotionContext
+from robot_daemon.arbiter.registry import MotionContext, Reject, Request, needs_lease
 from robot_daemon.arbiter.throttle import ArbiterLimits
 from robot_daemon.bus.robot_bus import RobotBus
 from robot_daemon.loop_stats import LoopStats
+from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
-from schemas.errors import BusError, PortError
+from robot_daemon.services import DaemonInfo
+from schemas.errors import BusError, DarwinError, ErrorCode, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, Status
 from schemas.session import MAX_MESSAGE_BYTES, server_config
 
+if TYPE_CHECKING:
+    from robot_daemon.camera import CameraThread
+
 log = logging.getLogger(__name__)
+
+# Motion time follows the clock (a late tick moves the gait on by the time that passed), but a
+# stall longer than this many periods counts as this many: the gait must not jump.
+MAX_DT_TICKS = 4.0
+
+
+class ListenError(DarwinError):
+    """The daemon cannot listen on its Zenoh endpoint."""
 
 
 class DaemonState(StrEnum):
@@ -60,27 +78,6 @@ class DaemonOptions:
     extras: dict[str, Any] = field(default_factory=dict)
 
 
-class FallDetector:
-    """The framework's rule: mean of the last N front/back accelerometer counts."""
-
-    def __init__(self, settings: dict[str, Any]) -> None:
-        imu = settings.get("imu", {})
-        self.forward_below = float(imu.get("fall_forward_below", 390))
-        self.backward_above = float(imu.get("fall_backward_above", 580))
-        self.samples: deque[int] = deque(maxlen=int(imu.get("fall_window", 30)))
-
-    def update(self, accel_front_back_raw: int) -> str:
-        self.samples.append(accel_front_back_raw)
-        if len(self.samples) < self.samples.maxlen:  # type: ignore[operator]
-            return "none"
-        mean = sum(self.samples) / len(self.samples)
-        if mean < self.forward_below:
-            return "forward"
-        if mean > self.backward_above:
-            return "backward"
-        return "none"
-
-
 class Daemon:
     def __init__(self, options: DaemonOptions, robot: RobotConfig, settings: dict[str, Any]):
         self.options = options
@@ -100,16 +97,22 @@ class Daemon:
         self.stats = LoopStats(self.tick_s)
         self.manager = build_manager(robot, settings)
         self.bus = RobotBus(options.port, robot, settings, self._emit)
-        self.fall = FallDetector(settings)
+        fall = self.manager.get("fall")
+        self.fall = fall if isinstance(fall, FallMonitor) else None  # the one fall detector
+        self.info = DaemonInfo(robot=options.robot, tick_ms=options.tick_ms)
         self.tick = 0
         self.bus_errors = 0
         self.frame: JointFrame | None = None
         self._sampled_at = time.time()
         self._stop = threading.Event()
+        self._wake = threading.Event()  # a command arrived (the port-lost wait ends at once)
         self._safe_stop = threading.Event()
         self._status_dirty = True
-        self._fall_state = "none"
-        self.camera: Any = None
+        self._last_start: float | None = None  # start of the previous tick, for its real dt
+        self._bus_down = False  # port lost: commands that need the bus are refused
+        self._hold_on_return = False  # the first tick after the port is back holds the pose
+        self._motion_thread: threading.Thread | None = None
+        self.camera: CameraThread | None = None
         self.session: zenoh.Session | None = None
         self.pub: Publishers | None = None
         self.arbiter: Arbiter | None = None
@@ -132,10 +135,25 @@ class Daemon:
         else:
             who = old.name if old else "?"
             self._emit("lease", f"lease of {who!r} ended: {reason}", holder=None, reason=reason)
-            if reason != "released":
-                # The controller vanished or went quiet: bring the robot to a safe stop.
+            # Whatever ended it (released, vanished, idle), nobody controls the motion it
+            # started any more: a safe stop (a walk ends its step). In the motion thread (a
+            # `lease release` command, the idle check) at once, so a command queued after it
+            # in the same tick is not stopped; from elsewhere at the next tick.
+            if threading.current_thread() is self._motion_thread:
+                self.manager.stop_all()
+            else:
                 self._safe_stop.set()
         self._status_dirty = True
+
+    def _outage_gate(self, req: Request) -> None:
+        """While the port is lost, refuse what needs the bus or moves the robot (halt, lease,
+        config and stops still work): acknowledging it would run it when the port returns."""
+        if self._bus_down and (req.verb == "registers" or needs_lease(req.verb, req.fields)):
+            raise Reject(
+                ErrorCode.UNAVAILABLE,
+                f"the serial port {self.bus.port_name} is lost (status.state is port_lost): "
+                f"{req.verb} not done; send it again once the port is back",
+            )
 
     def _set_state(self, state: DaemonState) -> None:
         if state != self.state:
@@ -155,12 +173,21 @@ class Daemon:
         )
         if self.options.connect:
             conf.insert_json5("connect/endpoints", json.dumps(self.options.connect))
-        self.session = zenoh.open(conf)
+        try:
+            self.session = zenoh.open(conf)
+        except zenoh.ZError as exc:
+            raise ListenError(
+                f"cannot listen on {', '.join(self.options.listen)}: {_zenoh_reason(exc)}; is "
+                "another daemon or `darwin up` using it? Stop it, or pass --listen "
+                "tcp/127.0.0.1:0 for any free port"
+            ) from None
         self.pub = Publishers(self.session, self.keys)
         for kind, message, data in self._early_events:
             self.pub.event(kind, message, **data)
         self._early_events.clear()
         self.arbiter = Arbiter(self.session, self.keys, self.lease, limits=self.arbiter_limits)
+        self.arbiter.gate = self._outage_gate
+        self.arbiter.on_wakeup = self._wake.set
         self._alive = self.session.liveliness().declare_token(self.keys.alive)
         if self.options.camera != "none":
             from robot_daemon.camera import CameraThread
@@ -190,9 +217,12 @@ class Daemon:
 
     def stop(self) -> None:
         self._stop.set()
+        self._wake.set()
 
     def close(self) -> None:
+        """Halt the motion and hold the pose, then let go of everything (the bus last)."""
         self._set_state(DaemonState.STOPPING)
+        self._halt_and_hold()
         self._publish_status(time.monotonic())
         if self.camera is not None:
             self.camera.close()
@@ -207,10 +237,27 @@ class Daemon:
             with contextlib.suppress(Exception):
                 self.session.close()
 
+    def _halt_and_hold(self) -> None:
+        """Every module stops now and the present pose is written as the goal, while the bus
+        is still ours: no walk or page goes on (or freezes mid-stride) once nobody drives it."""
+        self.manager.halt()
+        if self.bus.is_open:
+            try:
+                self.bus.read_sensors()
+                frame = self.bus.frame(self.tick + 1, time.monotonic(), self.tick_s)
+                self.manager.hold_present(frame)
+                self.bus.write_targets(self.manager.step(frame))
+            except Exception as exc:  # a port already gone: nothing more to hold
+                log.warning("holding the pose at shutdown failed: %s", exc)
+        if self.pub is not None:
+            for kind, message, data in self.manager.drain_events():
+                self.pub.event(kind, message, **data)
+
     # -- the loop ----------------------------------------------------------------------------
     def run(self) -> None:
         """Run until :meth:`stop`; the caller's thread becomes the motion thread."""
         self._last_status = 0.0
+        self._motion_thread = threading.current_thread()
         warning = enter_realtime(self.realtime_priority)
         if warning:
             log.warning("%s", warning)
@@ -236,6 +283,7 @@ class Daemon:
 
     def _loop(self) -> None:
         next_deadline = time.monotonic()
+        self._last_start = None
         self.stats.reset_period()
         while not self._stop.is_set():
             start = time.monotonic()
@@ -268,11 +316,18 @@ class Daemon:
         # stamp differences are the sampling interval whatever the tick's work took.
         self._sampled_at = time.time()
         self.tick += 1
-        frame = self.bus.frame(self.tick, start, self.tick_s)
+        # Motion time is the time that passed (bounded), so late ticks do not slow the gait.
+        last, self._last_start = self._last_start, start
+        dt = self.tick_s if last is None else min(start - last, MAX_DT_TICKS * self.tick_s)
+        frame = self.bus.frame(self.tick, start, dt)
         self.frame = frame
         if self._safe_stop.is_set():
             self._safe_stop.clear()
             self.manager.stop_all()
+        if self._hold_on_return:
+            # The port is back: whatever goals the servos kept, hold the present pose.
+            self._hold_on_return = False
+            self.manager.hold_present(frame)
         assert self.arbiter is not None
         self.arbiter.apply_pending(self._context(frame))
         try:
@@ -297,12 +352,11 @@ class Daemon:
             settings=self.settings,
             frame=frame,
             emit=self._emit,
-            extras={
-                "allow_eeprom": self.options.allow_eeprom,
-                "lease": self.lease,
-                "daemon": self,
-                **self.options.extras,
-            },
+            lease=self.lease,
+            camera=self.camera,
+            publish=self.pub.post if self.pub is not None else None,
+            info=self.info,
+            extras={"allow_eeprom": self.options.allow_eeprom, **self.options.extras},
         )
 
     # -- publication -------------------------------------------------------------------------
@@ -340,11 +394,8 @@ class Daemon:
         )
 
     def _imu_message(self, frame: JointFrame) -> Imu:
-        fall = self.fall.update(int(frame.accel_raw[0]))
-        if fall != self._fall_state:
-            self._fall_state = fall
-            if fall != "none":
-                self._emit("fall", f"the robot has fallen {fall}", direction=fall)
+        # The fall monitor (a motion module) classified this frame in manager.step.
+        fall = self.fall.direction if self.fall is not None else "none"
         return Imu(
             gyro=[float(v) for v in frame.gyro],
             accel=[float(v) for v in frame.accel],
@@ -376,7 +427,11 @@ class Daemon:
                 "bus_errors": self.bus_errors,
                 "arbiter": self.arbiter.counts if self.arbiter else {},
             },
-            loop={**self.stats.summary(), "scheduling": self.scheduling},
+            loop={
+                **self.stats.summary(),
+                "scheduling": self.scheduling,
+                "events_dropped": self.pub.dropped_events if self.pub is not None else 0,
+            },
             voltage=cm["voltage"],
             alarms=alarms,
             **extra,
@@ -393,8 +448,15 @@ class Daemon:
     def _port_lost(self, exc: Exception) -> None:
         log.warning("serial port lost: %s", exc)
         self._emit(
-            "fault", f"serial port lost: {exc}; reopening with back-off", port=self.bus.port_name
+            "fault",
+            f"serial port lost: {exc}; motion halted, reopening with back-off",
+            port=self.bus.port_name,
         )
+        # Nothing that ran before the outage resumes after it: every module stops now, and
+        # the first tick with the port back holds the pose the robot is in.
+        self._bus_down = True
+        self._hold_on_return = True
+        self.manager.halt()
         self.bus.close()
         self.bus.counters.port_reopens += 1
         self._set_state(DaemonState.PORT_LOST)
@@ -405,7 +467,8 @@ class Daemon:
         backoff = getattr(self, "_backoff", self.backoff_min)
         try:
             self.connect_bus()
-            self._emit("port", f"serial port {self.bus.port_name} is back")
+            self._bus_down = False
+            self._emit("port", f"serial port {self.bus.port_name} is back; holding the pose")
             return
         except BusError as exc:
             log.info("reopening %s failed: %s", self.bus.port_name, exc)
@@ -414,7 +477,22 @@ class Daemon:
         deadline = time.monotonic() + backoff
         self._backoff = min(backoff * 2, self.backoff_max)
         while not self._stop.is_set() and time.monotonic() < deadline:
+            self._wake.clear()
             if self.arbiter is not None:
+                # Answered at once: refused (the gate) or done without the bus (halt, lease).
                 self.arbiter.apply_pending(self._context(self.frame))
+            if self.lease.expire():
+                self._status_dirty = True
+            for kind, message, data in self.manager.drain_events():
+                self._emit(kind, message, **data)
             self._publish_status(time.monotonic())
-            self._stop.wait(min(self.status_period, max(0.0, deadline - time.monotonic())))
+            self._wake.wait(min(self.status_period, max(0.0, deadline - time.monotonic())))
+
+
+def _zenoh_reason(exc: Exception) -> str:
+    """Zenoh's error without its Rust source paths."""
+    text = str(exc).strip()
+    if "already in use" in text.lower():
+        return "the address is already in use"
+    text = text.splitlines()[0] if text else type(exc).__name__
+    return text.split(" at /", 1)[0][:160]

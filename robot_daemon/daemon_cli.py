@@ -18,6 +18,7 @@ from config.loader import load_all, robot_from_dict
 from robot_daemon.children import Child, relay_to_stderr
 from robot_daemon.daemon import Daemon, DaemonOptions
 from robot_daemon.vision.sources import check_spec
+from schemas.errors import ConfigError
 from schemas.keys import check_robot_name
 from schemas.session import check_endpoint, endpoint_host_port, free_tcp_port
 
@@ -44,7 +45,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tick-ms", type=float, help="motion loop period (config daemon.tick_ms)")
     parser.add_argument(
         "--camera",
-        help="none | sim | pattern | device index or path (config daemon.camera.source)",
+        help="none | sim | pattern | device index or path (default: sim with --sim, else "
+        "config daemon.camera.source)",
     )
     parser.add_argument(
         "--allow-eeprom",
@@ -99,8 +101,28 @@ def sim_command(sim_args: list[str], wire_timing: bool | None) -> list[str]:
     return args
 
 
+def default_camera(args: argparse.Namespace, dcfg: dict[str, Any]) -> str:
+    """On the emulator the simulated camera, so a first run shows everything (ball play, the
+    Camera tab, ``robot.image()``); on a real port the config's choice (none unless set)."""
+    if args.sim:
+        return "sim"
+    return str(dcfg.get("camera", {}).get("source", "none"))
+
+
 def build(args: argparse.Namespace, port: str) -> tuple[Daemon, dict[str, Any]]:
     settings = load_all(args.config)
+    try:
+        return _build(args, port, settings), settings
+    except (ValueError, TypeError) as exc:
+        # Everything here reads the config: a value of the wrong kind is the file's fault.
+        where = args.config or "the shipped config (config/*.toml, DARWIN_CONFIG)"
+        raise ConfigError(
+            f"a value in {where} is not usable: {exc}; fix it (the shipped files in config/ show "
+            "each value's kind)"
+        ) from None
+
+
+def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Daemon:
     bus = settings.setdefault("bus", {})
     if args.reply_margin_ms is not None:
         bus["reply_margin_ms"] = args.reply_margin_ms
@@ -114,9 +136,12 @@ def build(args: argparse.Namespace, port: str) -> tuple[Daemon, dict[str, Any]]:
         )
     robot = robot_from_dict(settings["robot"])
     dcfg = settings.get("daemon", {})
-    name = check_robot_name(args.robot or robot.name)
-    listen = _resolve_listen(args.listen or list(settings.get("zenoh", {}).get("listen", [])))
-    camera = check_spec(args.camera or str(dcfg.get("camera", {}).get("source", "none")))
+    try:
+        name = check_robot_name(args.robot or robot.name)
+        listen = _resolve_listen(args.listen or list(settings.get("zenoh", {}).get("listen", [])))
+    except ValueError as exc:  # a bad --robot or --listen names itself
+        raise ConfigError(str(exc)) from None
+    camera = check_spec(args.camera or default_camera(args, dcfg))
     opts = DaemonOptions(
         robot=name,
         port=port,
@@ -136,7 +161,7 @@ def build(args: argparse.Namespace, port: str) -> tuple[Daemon, dict[str, Any]]:
             )
         },
     )
-    return Daemon(opts, robot, settings), settings
+    return Daemon(opts, robot, settings)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -21,6 +21,8 @@ log = logging.getLogger(__name__)
 
 # Topics the daemon publishes from the loop, by name → key property of ``Keys``.
 LOOP_TOPICS = ("joints", "imu", "status")
+# Newest-only topics: the loop's, and ball vision's detections (from its thread).
+SLOT_TOPICS = (*LOOP_TOPICS, "vision_ball")
 
 
 class Publishers:
@@ -28,7 +30,7 @@ class Publishers:
         self.session = session
         self.keys = keys
         self._pubs: dict[str, zenoh.Publisher] = {}
-        for topic in LOOP_TOPICS:
+        for topic in SLOT_TOPICS:
             self._pubs[topic] = session.declare_publisher(
                 getattr(keys, topic),
                 congestion_control=zenoh.CongestionControl.DROP,
@@ -41,8 +43,7 @@ class Publishers:
         self._events: deque[Event] = deque(maxlen=1000)
         self._cond = threading.Condition()
         self._stop = False
-        self.published = dict.fromkeys(self._pubs, 0)
-        self.dropped_events = 0
+        self.dropped_events = 0  # the FIFO was full: status.loop.events_dropped
         self._event_seq = 0
         self._thread = threading.Thread(target=self._run, name="publisher", daemon=True)
         self._thread.start()
@@ -79,7 +80,6 @@ class Publishers:
     def _put(self, topic: str, msg: Message) -> None:
         try:
             self._pubs[topic].put(encode(msg))
-            self.published[topic] += 1
         except Exception:  # a closed session at shutdown, a value msgpack refuses
             log.exception("publishing %s failed", topic)
 

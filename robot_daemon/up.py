@@ -2,7 +2,12 @@
 
 Prints where each listens, one line each and flushed — ``zenoh: tcp/HOST:PORT`` and
 ``gateway: HOST:PORT`` (or ``gateway: none (…)``) — then relays the children's output until
-Ctrl-C or SIGTERM, which stop every child (none is left behind).
+Ctrl-C or SIGTERM, which stop every child (none is left behind; if this process is killed
+outright, the children end themselves, see ``children.py``).
+
+The daemon is the robot; the gateway is an adapter. An adapter that dies is reported on one
+line and started again (with back-off); it never takes the robot down. If the daemon dies,
+everything stops.
 """
 
 from __future__ import annotations
@@ -13,12 +18,27 @@ import signal
 import subprocess
 import sys
 import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 from config.loader import load_all
 from robot_daemon.children import Child, ChildError, relay_to_stderr
 from robot_daemon.daemon_cli import _resolve_listen
 
 START_TIMEOUT = 30.0
+RESTART_BACKOFF_MIN = 1.0  # s before an adapter that died is started again, doubling …
+RESTART_BACKOFF_MAX = 30.0  # … up to this
+
+
+@dataclass
+class Adapter:
+    """A child that serves the robot to some kind of client (gateway; later ros2, web…)."""
+
+    child: Child
+    backoff: float = RESTART_BACKOFF_MIN
+    restart_at: float | None = None  # when it is due to start again after dying
+    started: float = field(default_factory=time.monotonic)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -31,7 +51,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--no-gateway", action="store_true", help="do not start the gateway")
     parser.add_argument("--port", help="a real robot's serial port instead of the emulator")
-    parser.add_argument("--camera", help="none | sim | pattern | device (config daemon.camera)")
+    parser.add_argument(
+        "--camera",
+        help="none | sim | pattern | device index or path (default: sim on the emulator; with "
+        "--port, config daemon.camera.source)",
+    )
     parser.add_argument("--tick-ms", type=float, help="motion loop period")
     parser.add_argument("--allow-eeprom", action="store_true", help="allow EEPROM register writes")
     parser.add_argument(
@@ -99,6 +123,7 @@ def run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     children: list[Child] = []
+    adapters: list[Adapter] = []
     # With the UI in this terminal, the children's chatter would scribble over it.
     relay = None if args.tui else relay_to_stderr
     try:
@@ -121,20 +146,17 @@ def run(args: argparse.Namespace) -> int:
                 gw += ["--config", args.config]
             gateway = Child("gateway", gw, relay)
             children.append(gateway)
+            adapters.append(Adapter(gateway))
             print(f"gateway: {gateway.wait_line('gateway:', START_TIMEOUT)}", flush=True)
         if args.tui:
             return run_tui(endpoint, robot)
-        # Run until a signal, or until a child dies (then stop the others and say so).
+        # Run until a signal or the daemon's death; adapters that die are started again.
         while not stop.wait(0.5):
-            dead = [c for c in children if not c.running()]
-            if dead:
-                for c in dead:
-                    print(
-                        f"darwin up: {c.name} exited with {c.proc.returncode}; stopping",
-                        file=sys.stderr,
-                        flush=True,
-                    )
+            if not daemon.running():
+                say(f"the daemon exited with {daemon.proc.returncode}; stopping")
                 return 1
+            for adapter in adapters:
+                tend(adapter, children, relay)
         return 0
     except ChildError as exc:
         print(f"darwin up: {exc}", file=sys.stderr, flush=True)
@@ -142,6 +164,35 @@ def run(args: argparse.Namespace) -> int:
     finally:
         for c in reversed(children):
             c.stop()
+
+
+def say(line: str) -> None:
+    print(f"darwin up: {line}", file=sys.stderr, flush=True)
+
+
+def tend(adapter: Adapter, children: list[Child], relay: Callable[[str, str], None] | None) -> None:
+    """Report an adapter that died and start it again when its back-off is over."""
+    child, now = adapter.child, time.monotonic()
+    if adapter.restart_at is None:
+        if child.running():
+            if now - adapter.started > RESTART_BACKOFF_MAX:
+                adapter.backoff = RESTART_BACKOFF_MIN  # it stayed up: a later crash starts afresh
+            return
+        adapter.restart_at = now + adapter.backoff
+        say(
+            f"{child.name} exited with {child.proc.returncode}; the robot keeps running; "
+            f"starting {child.name} again in {adapter.backoff:.0f} s"
+        )
+        adapter.backoff = min(adapter.backoff * 2, RESTART_BACKOFF_MAX)
+        return
+    if now < adapter.restart_at:
+        return
+    adapter.restart_at = None
+    child.stop()  # already gone: this lets go of its pipe
+    children.remove(child)
+    adapter.child = Child(child.name, child.args, relay, ready=True)
+    adapter.started = now
+    children.append(adapter.child)
 
 
 def daemon_robot(daemon: Child, default: str) -> str:

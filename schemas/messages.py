@@ -224,6 +224,12 @@ class Status(Message):
 
 @dataclass
 class Event(Message):
+    """Something happened (``…/events``). ``data`` depends on ``kind``; for ``fall`` (from the
+    daemon's one fall detector, ``robot_daemon/motion/fall.py``) it is always
+    ``{"state": "fallen_forward" | "fallen_backward" | "upright",
+    "direction": "forward" | "backward" | "none", "recovering": bool, "page": int | None}``:
+    one event when the robot falls, one when it is upright again."""
+
     TYPE: ClassVar[str] = "event"
     kind: str  # e.g. "lease", "choreography_started", "servo_alarm", "fall", "sound", "fault"
     message: str

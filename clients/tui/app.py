@@ -46,7 +46,8 @@ from clients.tui.tabs.pose import PoseTab
 from clients.tui.tabs.walk import WalkTab
 from clients.tui.widgets.header import RobotHeader
 from clients.tui.widgets.keybar import KeyBar
-from config.loader import RobotConfig, load_robot
+from config.loader import RobotConfig, load_robot, robot_from_dict
+from schemas.errors import ConfigError
 from schemas.messages import Event
 
 RENDER_HZ = 15.0
@@ -204,6 +205,8 @@ class DarwinApp(App[None]):
         if info.state is LinkState.CONNECTED and was is not LinkState.CONNECTED:
             if self.link.robot is not None:
                 # What the tabs need once per connection (the library, the gait).
+                # The daemon's joint limits, not this machine's config, bound what is sent.
+                self.link.send("config", tag="app:config", quiet=True)
                 self.link.send("behaviours", tag="app:library", quiet=True)
                 self.link.send("walk_params", tag="app:walk-params", quiet=True)
             self.local_event(
@@ -301,6 +304,11 @@ class DarwinApp(App[None]):
     def app_command_done(self, tag: str, message: CommandDone) -> None:
         if message.error:
             self.notify(message.error, severity="error", timeout=6)
+        elif tag == "config":
+            try:
+                self.use_robot_config(daemon_robot_config(message.applied, self.robot_config))
+            except (ConfigError, KeyError, TypeError, ValueError) as exc:
+                self.local_event("refused", f"the daemon's config reply is unusable: {exc}")
         elif tag == "library":
             self.model.edits.behaviours = library_entries(message.applied)
             self.model.bump("library")
@@ -316,6 +324,14 @@ class DarwinApp(App[None]):
         elif tag == "lease":
             holds = message.applied.get("holder", message.applied.get("client"))
             self.notify(_("Lease: {state}").format(state=holds or message.applied or "ok"))
+
+    def use_robot_config(self, robot: RobotConfig) -> None:
+        """Limits and names from now on; the open tabs switch too."""
+        self.robot_config = robot
+        for screen in self.screen_stack:
+            for tab in screen.query(TabView):
+                if hasattr(tab, "robot"):
+                    tab.robot = robot  # type: ignore[attr-defined]
 
     def action_halt(self) -> None:
         self.link.halt()
@@ -421,3 +437,26 @@ def create_app(
         ask=ask,
         clock=clock,
     )
+
+
+def daemon_robot_config(reply: dict[str, Any], local: RobotConfig) -> RobotConfig:
+    """The robot as the daemon's ``config`` verb describes it (its limits are the ones that
+    count), in the same checked form as a config file; ``local`` where the reply is silent."""
+    section = {
+        "name": reply.get("robot", local.name),
+        "cm730_id": local.cm730_id,
+        "defaults": {"max_speed": reply.get("max_speed", local.max_speed)},
+        "joints": {
+            j["name"]: {
+                "id": j["id"],
+                "urdf": j.get("urdf", j["name"]),
+                "min_deg": j["min_deg"],
+                "max_deg": j["max_deg"],
+                "offset_deg": j.get("offset_deg", 0.0),
+                "direction": j.get("direction", 1),
+                **dict(zip(("p", "i", "d"), j.get("pid", (32, 0, 0)), strict=False)),
+            }
+            for j in reply.get("joints", [])
+        },
+    }
+    return robot_from_dict(section) if section["joints"] else local

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from clients.tui import i18n
+from schemas.errors import RobotUnreachableError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,8 +24,32 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def check_reachable(endpoint: str) -> None:
+    """Raise ``RobotUnreachableError`` (one line: cause and fix) if nothing listens there."""
+    import zenoh
+
+    from schemas.session import check_endpoint, client_config
+
+    try:
+        check_endpoint(endpoint)
+    except ValueError as exc:
+        raise RobotUnreachableError(f"{exc}; pass e.g. --connect tcp/127.0.0.1:7447") from None
+    try:
+        session = zenoh.open(client_config(endpoint))
+    except zenoh.ZError:
+        raise RobotUnreachableError(
+            f"no daemon at {endpoint}: nothing answers there. Is `darwin up` running? Start it, "
+            "or pass the address it printed (`zenoh: …`) with --connect"
+        ) from None
+    session.close()
+
+
 def run(args: argparse.Namespace) -> int:
     from clients.tui.app import create_app
+
+    if args.connect and not args.ask:
+        # Named on the command line: a wrong address is a one-line error, not a UI that waits.
+        check_reachable(args.connect)
 
     app = create_app(
         endpoint=args.connect, robot=args.robot, name=args.name, lang=args.lang, ask=args.ask

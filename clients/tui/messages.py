@@ -79,12 +79,3 @@ class LinkChanged(Message, bubble=False):
     def __init__(self, info: LinkInfo) -> None:
         super().__init__()
         self.info = info
-
-
-class Notice(Message, bubble=False):
-    """A command's outcome, shown in the log and as a toast."""
-
-    def __init__(self, text: str, error: bool = False) -> None:
-        super().__init__()
-        self.text = text
-        self.error = error

@@ -101,6 +101,9 @@ class Arbiter:
         self._read_rate = Buckets(lim.client_read_rate, lim.client_read_burst)
         self.counts = {"accepted": 0, "rejected": 0, "errors": 0, "rate_limited": 0}
         self.on_wakeup: Callable[[], None] | None = None  # the loop may wait for commands
+        # The daemon's say on whether a command may run now (it raises Reject, e.g. while the
+        # serial port is lost); checked before the lease and the handler.
+        self.gate: Callable[[Request], None] | None = None
         self._queryables = [
             session.declare_queryable(keys.cmd(v), self._incoming.put, complete=True) for v in VERBS
         ]
@@ -356,6 +359,8 @@ class Arbiter:
     def _apply(self, pending: Pending, ctx: MotionContext) -> None:
         req = pending.request
         try:
+            if self.gate is not None:
+                self.gate(req)
             applied = execute(req, ctx, self.lease)
             pending.reply, pending.ok = ok_reply(req.verb, applied), True
             self.counts["accepted"] += 1

@@ -33,8 +33,11 @@ from schemas.keys import LEASE_FREE_VERBS
 
 if TYPE_CHECKING:
     from config.loader import RobotConfig
+    from robot_daemon.arbiter.lease import Lease
     from robot_daemon.motion.interface import JointFrame
     from robot_daemon.motion.manager import MotionManager
+    from robot_daemon.services import CameraFeed, DaemonInfo
+    from schemas.messages import Message
 
 
 __all__ = ["REGISTRY", "BusCommands", "MotionContext", "Reject", "Request", "verb"]
@@ -67,7 +70,13 @@ class MotionContext:
     settings: dict[str, Any]  # the merged config (all sections)
     frame: JointFrame | None  # latest sensor frame, None before the first tick
     emit: Callable[..., None]  # emit(kind, message, **data) → …/events
-    extras: dict[str, Any] = field(default_factory=dict)  # e.g. "allow_eeprom", "vision"
+    # The narrow views of the daemon a handler may use (None where there is no daemon, e.g.
+    # unit tests, or no such device):
+    lease: Lease | None = None  # the control lease
+    camera: CameraFeed | None = None  # the one camera owner's frames; None without a camera
+    publish: Callable[[str, Message], None] | None = None  # publish(topic, msg), newest only
+    info: DaemonInfo | None = None  # the daemon's name and period
+    extras: dict[str, Any] = field(default_factory=dict)  # options, e.g. "allow_eeprom"
 
 
 Handler = Callable[[Request, MotionContext], dict[str, Any]]

@@ -5,6 +5,15 @@ fore/aft axis, ``JointFrame.accel_raw[0]``) below ``fall_forward_below`` (390)
 means fallen forward, above ``fall_backward_above`` (580) fallen backward ([imu] config). A fall
 stops every module (walking, behaviours), publishes an event, and when ``[fall] recover`` is on,
 plays the matching get-up page (10 front, 11 back).
+
+This is the daemon's one fall detector: ``imu.fall`` is its classification of the present window
+and every ``fall`` event comes from it, always with the same data::
+
+    {"state": "fallen_forward" | "fallen_backward" | "upright",
+     "direction": "forward" | "backward" | "none",
+     "recovering": bool, "page": int | None}
+
+One event when the robot falls, one when it has been upright for ``settle_ticks`` again.
 """
 
 from __future__ import annotations
@@ -15,6 +24,8 @@ from typing import Any
 from robot_daemon.motion.interface import JointFrame, MotionModule
 
 UPRIGHT, FORWARD, BACKWARD = "upright", "fallen_forward", "fallen_backward"
+# The state's word in ``imu.fall`` and the event's ``direction``.
+DIRECTION = {UPRIGHT: "none", FORWARD: "forward", BACKWARD: "backward"}
 
 
 class FallMonitor(MotionModule):
@@ -31,8 +42,14 @@ class FallMonitor(MotionModule):
         self.back_page = int(fall.get("get_up_back_page", 11))
         self.settle_ticks = int(fall.get("settle_ticks", 60))
         self.state = UPRIGHT
+        self.now = UPRIGHT  # the present window's classification (state latches until settled)
         self.falls = 0
         self._upright_ticks = 0
+
+    @property
+    def direction(self) -> str:
+        """The present window's classification as ``imu.fall`` says it."""
+        return DIRECTION[self.now]
 
     def classify(self) -> str:
         if len(self.window) < (self.window.maxlen or 1):
@@ -48,12 +65,12 @@ class FallMonitor(MotionModule):
         # The framework's "accel Y" register is the robot's fore/aft axis, which JointFrame
         # holds first (robot axes x y z; see IMU_ACCEL_AXES in bus/tables.py).
         self.window.append(float(frame.accel_raw[0]))
-        now = self.classify()
+        now = self.now = self.classify()
         if now == UPRIGHT:
             self._upright_ticks += 1
             if self.state != UPRIGHT and self._upright_ticks >= self.settle_ticks:
                 self.state = UPRIGHT
-                self.emit("fall", "upright again", state=UPRIGHT)
+                self._event("upright again", UPRIGHT, recovering=False, page=None)
             return
         self._upright_ticks = 0
         if self.state != UPRIGHT:
@@ -79,14 +96,22 @@ class FallMonitor(MotionModule):
                 recovering = True
             except (KeyError, ValueError):
                 recovering = False
-        direction = "forward" if state == FORWARD else "backward"
-        self.emit(
-            "fall",
-            f"fell {direction}; motion stopped"
+        self._event(
+            f"fell {DIRECTION[state]}; motion stopped"
             + (f", getting up (page {page})" if recovering else ""),
-            state=state,
+            state,
             recovering=recovering,
             page=page if recovering else None,
+        )
+
+    def _event(self, message: str, state: str, *, recovering: bool, page: int | None) -> None:
+        self.emit(
+            "fall",
+            message,
+            state=state,
+            direction=DIRECTION[state],
+            recovering=recovering,
+            page=page,
         )
 
     def status(self) -> dict[str, Any]:

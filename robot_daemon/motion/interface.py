@@ -27,7 +27,7 @@ class JointFrame:
 
     tick: int
     time: float  # s, the loop's clock (monotonic, or simulated)
-    dt: float  # s, nominal tick period
+    dt: float  # s, time since the previous tick (the period when ticks are on time; bounded)
     position: np.ndarray = field(default_factory=empty_slots)  # rad
     velocity: np.ndarray = field(default_factory=empty_slots)  # rad/s
     load: np.ndarray = field(default_factory=empty_slots)  # fraction of max torque

@@ -49,9 +49,6 @@ class MotionManager:
     def owned_by(self, name: str) -> set[int]:
         return {j for j, o in self._owner.items() if o == name}
 
-    def owners(self) -> dict[int, str | None]:
-        return dict(self._owner)
-
     def claim(self, name: str, ids: set[int]) -> None:
         if name not in self._by_name:
             raise KeyError(f"no motion module named {name!r}")
@@ -115,6 +112,12 @@ class MotionManager:
         if frame is not None:
             self._hold = {j: float(frame.position[j]) for j in self._owner if frame.online[j]}
         self.emit("halt", "all motion stopped; holding the present pose")
+
+    def hold_present(self, frame: JointFrame) -> None:
+        """Hold the pose in ``frame`` on every joint nobody owns (the port came back: whatever
+        goal the servos had, the robot stays as it is until someone commands it)."""
+        free = [j for j, o in self._owner.items() if o is None and frame.online[j]]
+        self._hold = {j: float(frame.position[j]) for j in free}
 
     def stop_all(self) -> None:
         """Ask every module to stop gracefully (lease loss, fall)."""

@@ -1,6 +1,7 @@
 """The ball finder's thread in the daemon: vision never runs in the 8 ms motion loop.
 
-While ball play runs, this thread reads frames from its own camera source at the vision rate
+While ball play runs, this thread reads the frames of the daemon's one camera owner (a reader
+from ``CameraThread.consumer``; it never opens a source of its own) at the vision rate
 (absolute deadlines, waiting on an Event between frames), finds the ball, hands each detection
 to the ball play module (its newest-only slot) and publishes it on ``Keys.vision_ball``. It ends
 by itself when ball play ends (done, lost, stopped), after publishing a last detection that
@@ -16,15 +17,11 @@ import time
 from collections.abc import Callable
 from typing import Any, Protocol
 
+from robot_daemon.services import FrameReader
 from robot_daemon.vision.ball_finder import BallFinder
 from schemas.messages import BallDetection
 
 log = logging.getLogger(__name__)
-
-
-class FrameSource(Protocol):
-    def read(self) -> Any: ...
-    def close(self) -> None: ...
 
 
 class BallPlayer(Protocol):
@@ -38,13 +35,13 @@ class BallPlayer(Protocol):
 class BallVision:
     def __init__(
         self,
-        open_source: Callable[[], FrameSource],
+        open_reader: Callable[[], FrameReader],
         finder: BallFinder,
         player: BallPlayer,
         publish: Callable[[BallDetection], None] | None = None,
         hz: float = 30.0,
     ) -> None:
-        self._open = open_source
+        self._open = open_reader
         self.finder = finder
         self.player = player
         self.publish = publish
@@ -70,7 +67,7 @@ class BallVision:
         return self._thread.is_alive()
 
     def _run(self) -> None:
-        source: FrameSource | None = None
+        source: FrameReader | None = None
         next_t = time.monotonic()
         try:
             while not self._stop.is_set():
@@ -93,7 +90,7 @@ class BallVision:
                 with contextlib.suppress(Exception):
                     source.close()
 
-    def _one(self, source: FrameSource) -> None:
+    def _one(self, source: FrameReader) -> None:
         img = source.read()
         if img is None:
             return

@@ -178,3 +178,50 @@ def test_an_overheating_servo_is_protected_and_reported(faulty_system: RunningSy
         with robot.control():  # torque back on only when someone asks
             robot.torque(True, [5])
         robot.wait_for("status", lambda s: 5 not in s.bus["torque_off"], timeout=15)
+
+
+def test_an_outage_halts_refuses_and_never_resumes(faulty_system: RunningSystem) -> None:
+    with faulty_system.robot_client(name="outage") as robot:
+        sim = SimControl(robot.session, faulty_system.robot)
+        robot.wait_for("status", lambda s: s.state in ("running", "degraded"), timeout=30)
+        events = EventLog()
+        sub = robot.subscribe("events", events)
+        with robot.control():
+            robot.walk(x=0.05)
+            events.wait(lambda e: e.kind == "walk" and e.data.get("state") == "started")
+            sim.call("vanish")
+            try:
+                robot.wait_for("status", lambda s: s.state == "port_lost", timeout=15)
+                # Every command that would move the robot is refused now, not run later.
+                for verb, fields in (
+                    ("walk", {"op": "set", "x": 0.05}),
+                    ("joint", {"name": "head_pan", "position": 0.3}),
+                    ("action", {"op": "play", "name": "stand"}),
+                ):
+                    with pytest.raises(CommandError) as info:
+                        robot.command(verb, **fields)
+                    assert info.value.code == "unavailable", (verb, info.value)
+                    assert "port" in info.value.message
+                robot.halt()  # halt, lease and config are still answered
+                assert robot.command("config")["robot"] == faulty_system.robot
+                lost = robot.wait_for("status", lambda s: s.state == "port_lost")
+                assert lost.motion["walking"]["walking"] is False
+            finally:
+                sim.call("reappear")
+            back = robot.wait_for(
+                "status", lambda s: s.state in ("running", "degraded"), timeout=30
+            )
+            assert back.motion["walking"]["walking"] is False
+            first = robot.wait_for("joints", timeout=10)
+            # The robot holds the pose it is in: over a second of status, nothing moves.
+            for _ in range(10):
+                status = robot.wait_for("status")
+                assert status.motion["walking"]["walking"] is False
+                assert set(status.motion["owners"].values()) == {None}
+            last = robot.wait_for("joints")
+        sub.close()
+        moved = [abs(a - b) for a, b in zip(first.position, last.position, strict=True)]
+        assert max(moved) < math.radians(2), moved
+        assert not [
+            e for e in events.items if e.kind == "walk" and e.data.get("state") == "started"
+        ][1:], "walking started again after the outage"

@@ -34,6 +34,11 @@ def test_tipping_over_backward_is_detected_and_the_robot_gets_up(
             assert robot.wait_for("imu", lambda m: m.accel_raw[0] > 580, WAIT)
             status = robot.wait_for("status", lambda s: s.motion["fall"]["falls"] >= 1, WAIT)
             assert status.motion["fall"]["state"] == "fallen_backward"
+            assert robot.wait_for("imu", lambda m: m.fall == "backward", WAIT)
+            # One detector: the fall is one `fall` event, of the one documented shape.
+            falls = [e for e in events.seen if e.kind == "fall"]
+            fell = {"state": "fallen_backward", "direction": "backward", "recovering": True}
+            assert [e.data for e in falls] == [{**fell, "page": 11}]
         finally:
             # Back on its feet for the other tests: the stand pose, then the world told so.
             robot.command("halt")

@@ -9,6 +9,7 @@ import math
 import queue
 import threading
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,7 @@ from config.loader import load_all, load_robot
 from robot_daemon.motion.action.library import load_library
 from robot_daemon.motion.walking.gait import foot_heights
 from schemas.messages import Event, Joints
-from tests.fixtures.system import RunningSystem
+from tests.fixtures.system import RunningSystem, start_system
 
 WAIT = 30.0  # generous deadlines: CI machines are slow, the daemon is real time
 
@@ -132,16 +133,20 @@ def test_walking_alternates_legs_at_the_period_and_stops_within_a_step(robot: Ro
             assert robot_cfg.by_id[j].within(m.position[ids.index(j)])
             assert robot_cfg.by_id[j].within(m.goal[ids.index(j)])
     h = np.array(heights)
-    ticks = np.array([m.tick for m in frames])
+    # Gait time follows the clock, so the period is in seconds (the sampling stamps), whatever
+    # number of ticks a busy machine fits into it.
+    stamps = np.array([m.stamp for m in frames])
     lifted_r, lifted_l = h[:, 0] > 0.015, h[:, 1] > 0.015
     assert not np.any(lifted_r & lifted_l)
-    starts_l = [ticks[i] for i in range(1, len(h)) if lifted_l[i] and not lifted_l[i - 1]]
-    starts_r = [ticks[i] for i in range(1, len(h)) if lifted_r[i] and not lifted_r[i - 1]]
+    starts_l = [stamps[i] for i in range(1, len(h)) if lifted_l[i] and not lifted_l[i - 1]]
+    starts_r = [stamps[i] for i in range(1, len(h)) if lifted_r[i] and not lifted_r[i - 1]]
     assert len(starts_l) >= 3 and len(starts_r) >= 3
-    # Each foot lifts once per period (in daemon ticks), the two half a period apart.
-    assert all(abs(d - period_ticks) <= 2 for d in np.diff(starts_l)), (starts_l, starts_r)
-    assert all(abs(d - period_ticks) <= 2 for d in np.diff(starts_r))
-    assert abs(abs(starts_r[0] - starts_l[0]) % period_ticks - period_ticks / 2) <= 2
+    # Each foot lifts once per period, the two half a period apart (to within a few ticks:
+    # a lift-off is seen at the first tick after it).
+    period_s, slack = params["period_time"] / 1000.0, 3 * 0.008
+    assert all(abs(d - period_s) <= slack for d in np.diff(starts_l)), (starts_l, starts_r)
+    assert all(abs(d - period_s) <= slack for d in np.diff(starts_r))
+    assert abs(abs(starts_r[0] - starts_l[0]) % period_s - period_s / 2) <= slack
     # Stop: the current step and at most one more to bring the feet together.
     assert stopped.data["steps"] >= 3
 
@@ -247,4 +252,46 @@ def test_losing_the_lease_mid_walk_stops_the_robot(robot_system: RunningSystem) 
         observer.wait_for(
             "status", lambda s: not s.motion.get("walking", {}).get("walking", True), WAIT
         )
+        events.close()
+
+
+def test_a_released_lease_stops_the_walk_within_a_step(robot_system: RunningSystem) -> None:
+    with robot_system.robot_client(name="releaser") as walker:
+        walker.wait_for("joints", timeout=WAIT)
+        events = Events(walker)
+        with walker.control():
+            walker.walk(x=0.05)
+            events.wait(_kind("walk", state="started"))
+            walking = walker.wait_for(
+                "status", lambda s: s.motion.get("walking", {}).get("steps", 0) >= 2, WAIT
+            )
+            # The newest count before the release: status is at most one period old.
+            steps = walker.wait_for("status").motion["walking"]["steps"]
+            assert steps >= walking.motion["walking"]["steps"]
+        # Leaving the block released the lease: nobody controls the walk, so it ends.
+        stopped = events.wait(_kind("walk", state="stopped"))
+        events.close()
+        assert stopped.data["steps"] - steps <= 2
+        walker.wait_for(
+            "status", lambda s: not s.motion.get("walking", {}).get("walking", True), WAIT
+        )
+
+
+def test_the_idle_timeout_ends_a_walk_nobody_commands(tmp_path: Path) -> None:
+    config = tmp_path / "idle.toml"
+    config.write_text("[daemon.lease]\nidle_timeout = 1.5\n")
+    with (
+        start_system(gateway=False, extra_args=["--config", str(config)]) as system,
+        system.robot_client(name="idler") as robot,
+    ):
+        robot.wait_for("joints", timeout=WAIT)
+        events = Events(robot)
+        robot.acquire()
+        robot.walk(x=0.05)
+        # No command after this one: walking on its own is idle for the lease.
+        lost = events.wait(
+            lambda e: e.kind == "lease" and str(e.data.get("reason", "")).startswith("idle")
+        )
+        stopped = events.wait(_kind("walk", state="stopped"))
+        assert stopped.seq > lost.seq
         events.close()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from textual.widgets import DataTable, OptionList, TabbedContent
@@ -177,3 +178,58 @@ async def test_imu_series_toggle_and_zoom(scene_app) -> None:
         assert [s.visible for s in plot._series] == [True, False, True]
         await pilot.press("minus")
         assert plot.window_s == 10.0
+
+
+async def test_header_fields_stay_apart_at_every_width(scene_app) -> None:
+    for width in (30, 45, 60, 75, 90, 120):
+        app = scene_app()
+        async with app.run_test(size=(width, 30)) as pilot:
+            await pilot.pause(0.2)
+            header = app.screen.query_one(RobotHeader)
+            top, bottom = RobotHeader.fields(app.model, app.link_info)
+            short = RobotHeader.short_fields(app.model, app.link_info, len(bottom))
+            for y, fields in enumerate((top, bottom)):
+                line = "".join(seg.text for seg in header.render_line(y)).strip()
+                shown = line.split("  ")
+                # Every piece is one whole field (or its short form), in order, none cut or
+                # run into another.
+                for i, piece in enumerate(shown):
+                    forms = {fields[i].plain} | ({short[i].plain} if y and i in short else set())
+                    assert piece in forms, (width, line)
+                assert len(line) <= width
+            assert "connected" in "".join(seg.text for seg in header.render_line(0))
+
+
+async def test_pose_limits_come_from_the_daemon_not_the_local_config(scene_app) -> None:
+    from clients.tui.link import CommandDone
+    from clients.tui.tabs.pose import PoseTab
+    from config.loader import load_all, robot_from_dict
+    from robot_daemon.arbiter.registry import MotionContext, Request
+    from robot_daemon.arbiter.verbs.basic import config
+    from robot_daemon.motion.setup import build_manager
+
+    # The daemon runs with a narrower head pan than this machine's config says.
+    settings = load_all()
+    settings["robot"]["joints"]["head_pan"]["max_deg"] = 20.0
+    robot = robot_from_dict(settings["robot"])
+    ctx = MotionContext(
+        robot=robot,
+        manager=build_manager(robot, settings),
+        bus=None,  # type: ignore[arg-type]
+        settings=settings,
+        frame=None,
+        emit=lambda *a, **k: None,
+    )
+    reply = config(Request("config", "c", "t", {}), ctx)
+    app = scene_app(tab="pose")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.pause(0.2)
+        assert app.robot_config.joint("head_pan").max_deg > 20.0
+        app.post_message(CommandDone("config", "app:config", reply))
+        await pilot.pause(0.2)
+        assert app.robot_config.joint("head_pan").max_deg == 20.0
+        await pilot.press("m")
+        pose = app.screen.query_one(PoseTab)
+        jid = app.robot_config.joint("head_pan").id
+        pose.set_edit(jid, 45.0)
+        assert abs(app.model.edits.pose[jid] - math.radians(20.0)) < 1e-9

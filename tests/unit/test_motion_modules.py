@@ -80,7 +80,9 @@ def test_a_forward_fall_stops_walking_emits_and_plays_get_up_front() -> None:
     rig.run(40)
     assert not rig.m("walking").running
     falls = [d for k, _, d in rig.manager.drain_events() if k == "fall"]
-    assert falls == [{"state": "fallen_forward", "recovering": True, "page": 10}]
+    assert falls == [
+        {"state": "fallen_forward", "direction": "forward", "recovering": True, "page": 10}
+    ]
     assert rig.m("action").status()["page"] == 10
     assert rig.m("fall").falls == 1
     rig.run(100)

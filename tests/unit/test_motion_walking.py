@@ -187,3 +187,29 @@ def test_every_gait_parameter_has_a_unit_unless_it_is_a_ratio_or_gain() -> None:
     assert names - set(GAIT_PARAM_UNITS) == unitless
     assert gait_label("foot_height") == "foot_height (mm)"
     assert gait_label("dsp_ratio") == "dsp_ratio"
+
+
+def test_late_ticks_cost_no_steps_and_skip_no_phase() -> None:
+    """Gait time follows each frame's real dt: ticks arriving irregularly late (as under bus
+    faults) take as many steps per second as steady ones, every step boundary still fires, and
+    a stop still ends at a step's end."""
+    seconds = 12.0
+    counts = []
+    for pattern in ([DT], [DT, 0.021, DT, 0.013, 0.032, DT, 0.017]):
+        rig = Rig()
+        rig.walk.start(x=0.05)
+        t, k = 0.0, 0
+        while t < seconds:
+            dt = pattern[k % len(pattern)]
+            f = JointFrame(k, t, dt, position=rig.pos.copy())
+            f.gyro_raw = rig.gyro.copy()
+            for j, g in rig.manager.step(f).goal.items():
+                rig.pos[j] = g
+            t += dt
+            k += 1
+        counts.append(rig.walk.steps)
+        rig.walk.stop()
+        rig.run_while_walking()
+        assert not rig.walk.running  # the stop found its step boundary
+    steady, late = counts
+    assert abs(late - steady) <= 1, counts

@@ -23,53 +23,106 @@ def link_text(info: LinkInfo) -> tuple[str, str]:
     }[info.state]
 
 
+SEP = "  "
+
+
+def fit(fields: list[Text], width: int, short: dict[int, Text] | None = None) -> Text:
+    """One line of whole fields, two spaces apart, as many as fit in ``width`` cells: a field
+    is shown entire (or in its ``short`` form) or not at all, so two fields never run into
+    each other."""
+    line = Text(no_wrap=True, overflow="ellipsis", end="")
+    for i, f in enumerate(fields):
+        gap = len(SEP) if i else 0
+        if line.cell_len + gap + f.cell_len > width and short and i in short:
+            f = short[i]
+        if line.cell_len + gap + f.cell_len > width:
+            if i == 0:  # even the first does not fit: it is cut, visibly
+                line.append_text(f)
+                line.truncate(width, overflow="ellipsis")
+            break
+        if gap:
+            line.append(SEP)
+        line.append_text(f)
+    return line
+
+
+def _field(*parts: tuple[str, str]) -> Text:
+    out = Text(no_wrap=True, end="")
+    for words, style in parts:
+        out.append(words, style=style)
+    return out
+
+
 class RobotHeader(Static):
     DEFAULT_CSS = """
     RobotHeader { dock: top; height: 2; background: $panel; padding: 0 1; }
     """
 
+    _last: tuple[Model, LinkInfo] | None = None
+
     def update_view(self, model: Model, info: LinkInfo) -> None:
-        self.update(self.compose_text(model, info))
+        self._last = (model, info)
+        self.refresh()
+
+    def render(self) -> Text:
+        # Composed at drawing time, for the width the header has then (resizes included).
+        if self._last is None:
+            return Text("")
+        return self.compose_text(*self._last, self.content_size.width or None)
 
     @staticmethod
-    def compose_text(model: Model, info: LinkInfo) -> Text:
+    def compose_text(model: Model, info: LinkInfo, width: int | None = None) -> Text:
+        """The header's two lines, each cut to ``width`` cells by whole fields."""
+        top, bottom = RobotHeader.fields(model, info)
+        limit = width if width and width > 0 else 10_000
+        short = RobotHeader.short_fields(model, info, len(bottom))
+        return Text("\n").join([fit(top, limit), fit(bottom, limit, short)])
+
+    @staticmethod
+    def short_fields(model: Model, info: LinkInfo, count: int) -> dict[int, Text]:
+        """Shorter forms of bottom fields, by index: the alarm count without its detail."""
+        st = model.status
+        if st is None or not st.alarms or info.state is not LinkState.CONNECTED:
+            return {}
+        return {count - 1: _field((_("alarms") + ": ", "dim"), (str(len(st.alarms)), "bold red"))}
+
+    @staticmethod
+    def fields(model: Model, info: LinkInfo) -> tuple[list[Text], list[Text]]:
         words, style = link_text(info)
-        top = Text(no_wrap=True, overflow="ellipsis")
-        top.append("DARwIn-OP ", style="bold")
-        top.append(info.robot or "—", style="bold cyan")
-        top.append(f" @ {info.endpoint or '—'}  ", style="dim")
-        top.append("● ", style=style)
-        top.append(words, style=style)
+        # Most important first: a narrow terminal drops fields from the end.
+        top = [
+            _field(("DARwIn-OP ", "bold"), (info.robot or "—", "bold cyan")),
+            _field(("● ", style), (words, style)),
+        ]
         st = model.status
         if st is not None and info.state is LinkState.CONNECTED:
-            top.append(f"  [{st.state}]", style="yellow" if st.state != "running" else "dim")
-        bottom = Text(no_wrap=True, overflow="ellipsis")
+            top.append(_field((f"[{st.state}]", "yellow" if st.state != "running" else "dim")))
+        top.append(_field((f"@ {info.endpoint or '—'}", "dim")))
         if info.state in (LinkState.UNREACHABLE, LinkState.NO_DAEMON):
             hint = _("Is `darwin up` running there? Press c to change the robot.")
-            bottom.append(hint, style="red")
-            return Text("\n").join([top, bottom])
+            return top, [_field((hint, "red"))]
+        bottom = []
         holder = model.lease_holder()
-        bottom.append(_("lease") + ": ", style="dim")
         if holder is None:
-            bottom.append(_("free"), style="green")
+            who = (_("free"), "green")
         elif holder[1]:
-            bottom.append(_("you"), style="bold reverse green")
+            who = (_("you"), "bold reverse green")
         else:
-            bottom.append(_("held by {name}").format(name=holder[0]), style="bold yellow")
+            who = (_("held by {name}").format(name=holder[0]), "bold yellow")
+        bottom.append(_field((_("lease") + ": ", "dim"), who))
         loop = model.loop_rate()
         if loop is not None:
             hz, overruns = loop
-            bottom.append("  " + _("loop") + ": ", style="dim")
-            bottom.append(f"{hz:.0f} Hz")
-            bottom.append("  " + _("overruns") + f" {overruns}", style="red" if overruns else "dim")
+            bottom.append(_field((_("loop") + ": ", "dim"), (f"{hz:.0f} Hz", "")))
+            bottom.append(_field((_("overruns") + f" {overruns}", "red" if overruns else "dim")))
         if st is not None:
-            bottom.append("  " + _("battery") + ": ", style="dim")
-            bottom.append(f"{st.voltage:.1f} V", style="red" if st.voltage < LOW_BATTERY_V else "")
-            bottom.append("  " + _("alarms") + ": ", style="dim")
+            volts = (f"{st.voltage:.1f} V", "red" if st.voltage < LOW_BATTERY_V else "")
+            bottom.append(_field((_("battery") + ": ", "dim"), volts))
             if st.alarms:
                 first = st.alarms[0]
                 what = first.get("message") or first.get("kind") or str(first)
-                bottom.append(f"{len(st.alarms)} ({what})", style="bold red")
+                alarms = (f"{len(st.alarms)} ({what})", "bold red")
             else:
-                bottom.append(_("none"), style="green")
-        return Text("\n").join([top, bottom])
+                alarms = (_("none"), "green")
+            bottom.append(_field((_("alarms") + ": ", "dim"), alarms))
+        return top, bottom

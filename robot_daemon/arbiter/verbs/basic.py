@@ -54,7 +54,9 @@ def _check_online(ctx: MotionContext, jid: int, field_name: str) -> None:
 @verb("lease")
 def lease(req: Request, ctx: MotionContext) -> dict[str, Any]:
     op = F.text(req.fields, "op", {o.value for o in LeaseOp}, default=LeaseOp.STATUS.value)
-    state: Lease = ctx.extras["lease"]
+    state: Lease | None = ctx.lease
+    if state is None:
+        raise Reject(ErrorCode.UNAVAILABLE, "this daemon has no control lease")
     if op == LeaseOp.ACQUIRE:
         holder = state.acquire(req.client, req.name, req.token)
         # The token goes to this caller alone: it binds the lease to the session that took it.
@@ -180,11 +182,11 @@ def halt(req: Request, ctx: MotionContext) -> dict[str, Any]:
 
 @verb("config")
 def config(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    daemon = ctx.extras.get("daemon")
+    info = ctx.info
     dcfg = ctx.settings.get("daemon", {})
     return {
-        "robot": daemon.options.robot if daemon is not None else ctx.robot.name,
-        "tick_ms": daemon.options.tick_ms if daemon is not None else dcfg.get("tick_ms", 8.0),
+        "robot": info.robot if info is not None else ctx.robot.name,
+        "tick_ms": info.tick_ms if info is not None else dcfg.get("tick_ms", 8.0),
         "max_speed": ctx.robot.max_speed,
         "allow_eeprom": bool(ctx.extras.get("allow_eeprom")),
         "allow_hardware_writes": _hardware_writes(ctx),

@@ -123,7 +123,6 @@ class ActionModule(MotionModule):
         self._pending: Page | None = None
         self._stopping = False
         self._braking = False
-        self._started_page: int | None = None
 
     # -- commands (motion thread, between ticks) ------------------------------------------------
     def play(self, ref: int | str) -> Page:
@@ -200,7 +199,6 @@ class ActionModule(MotionModule):
         self._frames = page_targets(page, ids, start)
         self._step, self._repeat = 0, 0
         self.claim(ids)
-        self._started_page = page.number
         self.emit(
             "action",
             f"page {page.number} ({page.name}) started",

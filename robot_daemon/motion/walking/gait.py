@@ -63,7 +63,7 @@ class WalkingModule(MotionModule):
         self.skipped = 0
         self._ready_t: float | None = None  # s left in the blend into the stance
         self._ready_from: dict[int, float] = {}
-        self._phase_flags: set[str] = set()
+        self._next_phase = 1  # the phase point (1, 2, 3) this period has not reached yet
         self._last: dict[int, float] = {}
         self._gyro_f = [0.0, 0.0]  # low-passed gyro counts (right/left, front/back)
         self._update_time()
@@ -185,15 +185,23 @@ class WalkingModule(MotionModule):
         return goals
 
     def _clock(self, tick_ms: float) -> None:
+        """Fire each phase point of the period once, at the first tick that reaches its window
+        (± half a tick): with a steady period that is the tick nearest to it, as the framework
+        does; after a late tick (time follows the clock) it is the next one, never skipped."""
         t, half = self.time_ms, tick_ms / 2
         if t == 0.0:
+            self._next_phase = 1
             self._boundary()
-        elif self.phase1 - half <= t < self.phase1 + half:
+        elif self._next_phase == 1 and t >= self.phase1 - half:
+            self._next_phase = 2
             self._update_move()
-        elif self.phase2 - half <= t < self.phase2 + half:
-            self.time_ms = self.phase2
+        elif self._next_phase == 2 and t >= self.phase2 - half:
+            self._next_phase = 3
+            if t < self.phase2 + half:
+                self.time_ms = self.phase2
             self._boundary()
-        elif self.phase3 - half <= t < self.phase3 + half:
+        elif self._next_phase == 3 and t >= self.phase3 - half:
+            self._next_phase = 4
             self._update_move()
 
     def _blend(self, frame: JointFrame) -> dict[int, float]:
