@@ -20,6 +20,7 @@ than ``max_number_length`` is still a well-delimited frame: it comes out as a fr
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
@@ -172,6 +173,21 @@ def _deeper_than(text: str, value: Any, limit: int) -> bool:
     return True
 
 
+_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
+_JSON_SPACE = " \t\r\n"
+
+
+def _may_balance(text: str) -> bool:
+    """Whether ``text`` could be one JSON list or object: its brackets balance (strings aside)."""
+    bare = _STRING.sub('""', text).strip(_JSON_SPACE)
+    return (
+        bare[:1] in ("[", "{")
+        and bare[-1:] in ("]", "}")
+        and bare.count("[") == bare.count("]")
+        and bare.count("{") == bare.count("}")
+    )
+
+
 def parse_body(body: bytes, limits: BodyLimits = BodyLimits()) -> Any:
     """The JSON value of a body: ``FramingError`` when it is not UTF-8 JSON (the frame itself
     is wrong), ``MessageError`` when it is JSON beyond ``limits`` (the frame is fine)."""
@@ -196,7 +212,14 @@ def parse_body(body: bytes, limits: BodyLimits = BodyLimits()) -> Any:
             f"{snippet!r}",
         ) from None
     except RecursionError:
-        # Far deeper than any allowed limit (MAX_DEPTH_LIMIT): the decoder gave up first.
+        # Far deeper than any allowed limit (MAX_DEPTH_LIMIT): the decoder gave up before it
+        # could tell whether the body is JSON at all. Brackets that cannot balance say it is not
+        # (that also keeps a wrong reading of the first header from passing for deep JSON).
+        if not _may_balance(text):
+            raise FramingError(
+                ErrorCode.INVALID,
+                "message body is not valid JSON (its lists and objects are not closed)",
+            ) from None
         too_deep = True
     else:
         too_deep = _deeper_than(text, value, limits.max_depth)
