@@ -173,7 +173,9 @@ def _deeper_than(text: str, value: Any, limit: int) -> bool:
     return True
 
 
-_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
+# A string literal, or what is left of an unterminated one: every quote that starts a match
+# ends it, so the scan is linear (a pattern that can fail would rescan from every later quote).
+_STRING = re.compile(r'"(?:[^"\\]++|\\[\s\S]?)*+"?')
 _JSON_SPACE = " \t\r\n"
 
 

@@ -179,10 +179,11 @@ def nested(depth: int) -> bytes:
     [
         b"[" * 5000 + b"]" * 5000,  # json would recurse until Python stops it
         b'{"x":' + b'{"y":' * 40 + b"1" + b"}" * 41,
+        b"[" * 2000 + b'"]]}\\"["' + b"]" * 2000,  # brackets in a string are no nesting
         b'{"operate":{"all":0,"id":3,"position":' + b"1" * 5000 + b"}}",  # int() refuses
         b'{"walk":{"a":0,"stop":0,"x":1.' + b"5" * 5000 + b',"y":0}}',
     ],
-    ids=["5000-levels", "42-levels", "5000-digit-int", "5000-digit-float"],
+    ids=["5000-levels", "42-levels", "string-brackets", "5000-digit-int", "5000-digit-float"],
 )
 @pytest.mark.parametrize("first", [True, False], ids=["first-message", "later-message"])
 def test_a_body_beyond_the_limits_is_a_refused_frame_and_the_stream_goes_on(
@@ -212,8 +213,13 @@ def test_the_limits_are_exact() -> None:
 
 @pytest.mark.parametrize(
     "body",
-    [b'{"x":' + b"1" * 100 + b",}", b"[" * 5000, b"[" * 5000 + b"]" * 4999 + b"}"],
-    ids=["long-number", "5000-open", "5000-mismatched"],
+    [
+        b'{"x":' + b"1" * 100 + b",}",
+        b"[" * 5000,
+        b"[" * 5000 + b"]" * 4999 + b"}",
+        b"[" * 2000 + b'"' + b'\\"' * 20000,  # one string that never ends
+    ],
+    ids=["long-number", "5000-open", "5000-mismatched", "escaped-quotes"],
 )
 @pytest.mark.parametrize("first", [True, False], ids=["first-message", "later-message"])
 def test_an_invalid_body_is_still_a_framing_error_however_deep_or_long(
