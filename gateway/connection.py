@@ -150,6 +150,8 @@ class Connection:
 
     async def _say_goodbye(self, message: dict[str, Any]) -> None:
         """Send a last error reply before the connection is closed (bounded wait)."""
+        if self._watchdog is not None:
+            self._watchdog.cancel()  # the connection ends anyway: no second farewell
         self.send(message)
         await self.outbox.flush(timeout=1.0)
 

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from gateway.messages import MessageError, Request, parse_message
-from schemas.errors import ErrorCode, ProtocolError
+from gateway.messages import LegacyError, MessageError, Request, parse_message
+from schemas.errors import ErrorCode
 
 HEADER_SIZE = 4
 DEFAULT_MAX_MESSAGE = 1 << 20  # bytes of body
@@ -68,13 +68,8 @@ CANDIDATES: tuple[Convention, ...] = tuple(
 )
 
 
-class FramingError(ProtocolError):
+class FramingError(LegacyError):
     """The byte stream cannot be framed: the connection must be closed after the error reply."""
-
-    def __init__(self, code: ErrorCode, message: str) -> None:
-        super().__init__(message)
-        self.code = code
-        self.message = message
 
 
 @dataclass(frozen=True)
