@@ -13,8 +13,39 @@ import logging
 import signal
 
 from gateway.server import Gateway
-from gateway.settings import load_settings
+from gateway.settings import check_settings, load_settings
 from schemas.session import resolve
+
+# The limits a client cannot push past; each one a [gateway] setting of the same name.
+LIMIT_OPTIONS: tuple[tuple[str, type, str, str], ...] = (
+    ("--max-connections", int, "N", "clients at once; one more gets an error and is closed"),
+    (
+        "--idle-timeout",
+        float,
+        "S",
+        "close a client that completes no message for S seconds (0 = never); one with monitor "
+        "streams on may stay quiet, but must finish a message it starts within S",
+    ),
+    (
+        "--max-partial-frame",
+        int,
+        "BYTES",
+        "the most a client's message may announce, so the most held while it is incomplete",
+    ),
+    ("--max-depth", int, "N", "lists and objects nested in one message"),
+    ("--max-number-length", int, "N", "characters of one number in a message"),
+    (
+        "--lease-idle-timeout",
+        float,
+        "S",
+        "a client holding the control lease without a command for S seconds releases it",
+    ),
+)
+
+
+def _limit_overrides(args: argparse.Namespace) -> dict[str, object]:
+    names = (flag[2:].replace("-", "_") for flag, *_ in LIMIT_OPTIONS)
+    return {name: getattr(args, name) for name in names}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,12 +67,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--monitor-period", type=float, metavar="S", help="default monitoring period in seconds"
     )
+    limits = parser.add_argument_group("limits (defaults from [gateway] in config/gateway.toml)")
+    for flag, kind, metavar, text in LIMIT_OPTIONS:
+        limits.add_argument(flag, type=kind, metavar=metavar, help=text)
 
 
 async def serve(args: argparse.Namespace) -> int:
     settings = load_settings(args.config).with_overrides(
-        listen=args.listen, monitor_period=args.monitor_period
+        listen=args.listen, monitor_period=args.monitor_period, **_limit_overrides(args)
     )
+    check_settings(settings)
     target = resolve(args.connect, args.robot)
     gateway = Gateway(settings, target)
     stop = asyncio.Event()

@@ -10,31 +10,21 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from clients.robot import Commander
-from gateway.framing import FrameDecoder, FramingError, encode_frame
+from gateway.framing import Frame, FrameDecoder, FramingError, encode_frame, parse_frame
 from gateway.limits import TokenBucket
 from gateway.messages import (
-    Led,
     MessageError,
     Monitor,
-    Operate,
     Orchestrate,
     OrchestrateStop,
     Playball,
     Request,
-    Walk,
     error_message,
-    parse_message,
     status_message,
 )
 from gateway.monitor import MonitorView
 from gateway.outbox import Outbox, SlowReaderError
-from gateway.translate import (
-    Command,
-    led_command,
-    operate_command,
-    playball_command,
-    walk_command,
-)
+from gateway.translate import Command, request_command
 from schemas.errors import (
     ClientError,
     CommandError,
@@ -62,7 +52,7 @@ class Connection:
         self.writer = writer
         peer = writer.get_extra_info("peername") or ("?", 0)
         self.peer = f"{peer[0]}:{peer[1]}"
-        self.decoder = FrameDecoder(self.settings.max_message)
+        self.decoder = FrameDecoder(self.settings.max_incoming, self.settings.body_limits)
         self.view = MonitorView()
         self.period = self.settings.monitor_period
         self.bucket = TokenBucket(self.settings.max_rate, self.settings.burst)
@@ -75,15 +65,29 @@ class Connection:
         self._camera = False
         self._camera_fits = True
         self.closed = asyncio.Event()
+        # The idle watchdog (idle_timeout): armed at connect and at every message completed.
+        self._reading: asyncio.Task[None] | None = None
+        self._watchdog: asyncio.TimerHandle | None = None
+        self._handling = False  # messages are being handled: the client waits for us
+        self._farewell: dict[str, Any] | None = None  # the error to send when the watchdog closes
 
     # -- life ----------------------------------------------------------------------------------
     async def serve(self) -> None:
         transport = self.writer.transport
         transport.set_write_buffer_limits(high=self.settings.write_buffer)
         writer_task = asyncio.create_task(self._write(), name=f"write {self.peer}")
+        self._reading = asyncio.create_task(self._read(), name=f"read {self.peer}")
+        self._arm_watchdog()
         try:
-            await self._read()
+            await asyncio.wait([self._reading])
+            if self._reading.cancelled() and self._farewell is not None:
+                await self._say_goodbye(self._farewell)
+            else:
+                self._reading.result()  # a bug in reading: the gateway logs it
         finally:
+            self._reading.cancel()
+            if self._watchdog is not None:
+                self._watchdog.cancel()
             writer_task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await writer_task
@@ -107,11 +111,18 @@ class Connection:
                 return
             if not data:
                 return
+            started = self.decoder.buffered == 0
             try:
                 frames = self.decoder.feed(data)
             except FramingError as exc:
                 await self._framing_failed(exc)
                 return
+            if not frames:
+                if started and self.decoder.buffered and self._served():
+                    # A client served while quiet starts a message: it has the whole timeout.
+                    self._arm_watchdog()
+                continue
+            self._handling = True
             for frame in frames:
                 wait = self.bucket.take()
                 if wait > 0:
@@ -123,9 +134,11 @@ class Connection:
                         self.settings.max_rate,
                     )
                     await asyncio.sleep(wait)
-                await self.handle(frame.value)
+                await self.handle(frame)
                 if self.writer.transport.is_closing():
                     return
+            self._handling = False
+            self._arm_watchdog()  # progress: a message completed (and was handled)
             if self.decoder.error is not None:
                 # Good frames before the break were handled; now the break itself.
                 await self._framing_failed(self.decoder.error)
@@ -133,8 +146,48 @@ class Connection:
 
     async def _framing_failed(self, exc: FramingError) -> None:
         self.gw.ratelog("reject", logging.WARNING, "%s: %s (closing)", self.peer, exc.message)
-        self.send(error_message(exc.code, f"{exc.message}; closing the connection"))
+        await self._say_goodbye(error_message(exc.code, f"{exc.message}; closing the connection"))
+
+    async def _say_goodbye(self, message: dict[str, Any]) -> None:
+        """Send a last error reply before the connection is closed (bounded wait)."""
+        if self._watchdog is not None:
+            self._watchdog.cancel()  # the connection ends anyway: no second farewell
+        self.send(message)
         await self.outbox.flush(timeout=1.0)
+
+    # -- idle watchdog -------------------------------------------------------------------------
+    # Progress is a completed message, never a byte: a client that dribbles a message a byte at
+    # a time (slow loris) or connects and says nothing is closed after idle_timeout. A client
+    # that is being served (monitor streams on, an orchestrate list of its own playing) may
+    # stay quiet for ever, but once it starts a message it has idle_timeout to finish it.
+    def _served(self) -> bool:
+        return self.view.active or self in self.gw.orchestrator.runs
+
+    def _arm_watchdog(self) -> None:
+        timeout = self.settings.idle_timeout
+        if timeout <= 0:
+            return
+        if self._watchdog is not None:
+            self._watchdog.cancel()
+        self._watchdog = asyncio.get_running_loop().call_later(timeout, self._watchdog_due)
+
+    def _watchdog_due(self) -> None:
+        self._watchdog = None
+        partial = self.decoder.buffered
+        if self._handling or (not partial and self._served()):
+            self._arm_watchdog()  # look again later: the service may end
+            return
+        timeout = self.settings.idle_timeout
+        if partial:
+            code = ErrorCode.INVALID
+            reason = f"message incomplete after {timeout:g} s ({partial} bytes of it arrived)"
+        else:
+            code = ErrorCode.REFUSED
+            reason = f"no message for {timeout:g} s and no monitor stream on"
+        self.gw.ratelog("idle", logging.INFO, "%s: %s (idle_timeout): closing", self.peer, reason)
+        self._farewell = error_message(code, f"{reason}: closing the connection (idle_timeout)")
+        if self._reading is not None:
+            self._reading.cancel()
 
     async def _close(self) -> None:
         self._stop_ticker()
@@ -236,9 +289,9 @@ class Connection:
             self._stop_ticker()
 
     # -- messages ------------------------------------------------------------------------------
-    async def handle(self, value: Any) -> None:
+    async def handle(self, frame: Frame) -> None:
         try:
-            req = parse_message(value)
+            req = parse_frame(frame)
         except MessageError as exc:
             self.error(exc.code, exc.message)
             return
@@ -251,19 +304,16 @@ class Connection:
     async def _dispatch(self, req: Request) -> None:
         if isinstance(req, Monitor):
             self.monitor(req)
-        elif isinstance(req, Operate):
-            await self.run(operate_command(req, self.settings.operate_all_duration))
-        elif isinstance(req, Led):
-            await self.run(led_command(req))
-        elif isinstance(req, Walk):
-            await self.run(walk_command(req, self.settings.walk))
-        elif isinstance(req, Playball):
-            if await self.run(playball_command(req)) is not None:
-                self.send(status_message("playball", 1 if req.start else 0))
         elif isinstance(req, OrchestrateStop):
             await self.gw.orchestrator.stop(self)
         elif isinstance(req, Orchestrate):
             await self.gw.orchestrator.play(self, req)
+        else:
+            cmd = request_command(req, self.settings)
+            assert cmd is not None, req
+            applied = await self.run(cmd)
+            if isinstance(req, Playball) and applied is not None:
+                self.send(status_message("playball", 1 if req.start else 0))
 
     # -- commands ------------------------------------------------------------------------------
     async def _commander(self) -> Commander:

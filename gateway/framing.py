@@ -10,20 +10,34 @@ the message", so each connection's convention is detected from its first message
 A binary reading is plausible only up to the configured maximum; among the plausible readings the
 one whose body is a complete JSON value wins, ties going to the defaults (big-endian, body only).
 Replies are framed in the convention the client used.
+
+A body that is valid JSON but nests deeper than ``max_depth`` or holds a number literal longer
+than ``max_number_length`` is still a well-delimited frame: it comes out as a frame carrying a
+:class:`MessageError` (answered, connection kept), never as Python's own ``RecursionError`` or
+``ValueError``.
 """
 
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from schemas.errors import ErrorCode, ProtocolError
+from gateway.messages import LegacyError, MessageError, Request, parse_message
+from schemas.errors import ErrorCode
 
 HEADER_SIZE = 4
 DEFAULT_MAX_MESSAGE = 1 << 20  # bytes of body
 ASCII_MAX = 9999  # what four decimal digits can say
+# A legacy message nests 3 deep (orchestrate list of objects) and its numbers are short.
+DEFAULT_MAX_DEPTH = 32
+DEFAULT_MAX_NUMBER_LENGTH = 32
+# Bounds on those settings: json's decoder recurses once per level (and Python stops it near
+# 1000), and int() refuses literals above 4300 digits.
+MAX_DEPTH_LIMIT = 256
+MAX_NUMBER_LENGTH_LIMIT = 4300
 
 
 class ByteOrder(StrEnum):
@@ -54,19 +68,30 @@ CANDIDATES: tuple[Convention, ...] = tuple(
 )
 
 
-class FramingError(ProtocolError):
+class FramingError(LegacyError):
     """The byte stream cannot be framed: the connection must be closed after the error reply."""
 
-    def __init__(self, code: ErrorCode, message: str) -> None:
-        super().__init__(message)
-        self.code = code
-        self.message = message
+
+@dataclass(frozen=True)
+class BodyLimits:
+    """What a well-framed JSON body may hold."""
+
+    max_depth: int = DEFAULT_MAX_DEPTH  # nested lists and objects
+    max_number_length: int = DEFAULT_MAX_NUMBER_LENGTH  # characters of one number literal
 
 
 @dataclass(frozen=True)
 class Frame:
     body: bytes
-    value: Any  # the parsed JSON value
+    value: Any  # the parsed JSON value (None when refused)
+    error: MessageError | None = None  # a well-framed body refused by a limit
+
+
+def parse_frame(frame: Frame) -> Request:
+    """The typed request of a frame; ``MessageError`` when its body or message is refused."""
+    if frame.error is not None:
+        raise frame.error
+    return parse_message(frame.value)
 
 
 def header_size(header: bytes, convention: Convention) -> int | None:
@@ -112,16 +137,70 @@ def frame_body(
     return header + body
 
 
-def parse_body(body: bytes) -> Any:
-    """The JSON value of a body; ``FramingError`` naming what is wrong otherwise."""
+_CONTAINERS = (dict, list)
+
+
+def _number_hook(parse: type, limit: int, too_long: list[int]) -> Any:
+    def hook(literal: str) -> Any:
+        if len(literal) > limit:
+            too_long.append(len(literal))
+            return None  # parsing goes on, so an invalid body is still reported as such
+        return parse(literal)
+
+    return hook
+
+
+def _deeper_than(text: str, value: Any, limit: int) -> bool:
+    # Brackets inside strings count too, so this bound only over-counts: most bodies stop here.
+    if text.count("[") + text.count("{") <= limit:
+        return False
+    # Level by level (json gives exact dicts and lists): no recursion, C-speed comprehensions.
+    level = [value] if type(value) in _CONTAINERS else []
+    for _ in range(limit):
+        level = [
+            child
+            for node in level
+            for child in (node.values() if type(node) is dict else node)
+            if type(child) in _CONTAINERS
+        ]
+        if not level:
+            return False
+    return True
+
+
+# A string literal, or what is left of an unterminated one: every quote that starts a match
+# ends it, so the scan is linear (a pattern that can fail would rescan from every later quote).
+_STRING = re.compile(r'"(?:[^"\\]++|\\[\s\S]?)*+"?')
+_JSON_SPACE = " \t\r\n"
+
+
+def _may_balance(text: str) -> bool:
+    """Whether ``text`` could be one JSON list or object: its brackets balance (strings aside)."""
+    bare = _STRING.sub('""', text).strip(_JSON_SPACE)
+    return (
+        bare[:1] in ("[", "{")
+        and bare[-1:] in ("]", "}")
+        and bare.count("[") == bare.count("]")
+        and bare.count("{") == bare.count("}")
+    )
+
+
+def parse_body(body: bytes, limits: BodyLimits = BodyLimits()) -> Any:
+    """The JSON value of a body: ``FramingError`` when it is not UTF-8 JSON (the frame itself
+    is wrong), ``MessageError`` when it is JSON beyond ``limits`` (the frame is fine)."""
     try:
         text = body.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise FramingError(
             ErrorCode.INVALID, f"message body is not valid UTF-8 (byte {exc.start}): {exc.reason}"
         ) from None
+    too_long: list[int] = []
     try:
-        return json.loads(text)
+        value = json.loads(
+            text,
+            parse_int=_number_hook(int, limits.max_number_length, too_long),
+            parse_float=_number_hook(float, limits.max_number_length, too_long),
+        )
     except json.JSONDecodeError as exc:
         snippet = text[:60] + ("…" if len(text) > 60 else "")
         raise FramingError(
@@ -129,27 +208,52 @@ def parse_body(body: bytes) -> Any:
             f"message body is not valid JSON ({exc.msg} at line {exc.lineno} column {exc.colno}): "
             f"{snippet!r}",
         ) from None
-
-
-def _try_parse(body: bytes) -> tuple[bool, Any]:
-    try:
-        return True, parse_body(body)
-    except FramingError:
-        return False, None
+    except RecursionError:
+        # Far deeper than any allowed limit (MAX_DEPTH_LIMIT): the decoder gave up before it
+        # could tell whether the body is JSON at all. Brackets that cannot balance say it is not
+        # (that also keeps a wrong reading of the first header from passing for deep JSON).
+        if not _may_balance(text):
+            raise FramingError(
+                ErrorCode.INVALID,
+                "message body is not valid JSON (its lists and objects are not closed)",
+            ) from None
+        too_deep = True
+    else:
+        too_deep = _deeper_than(text, value, limits.max_depth)
+    if too_deep:
+        raise MessageError(
+            ErrorCode.OUT_OF_RANGE,
+            f"message nests lists and objects deeper than {limits.max_depth} levels",
+        )
+    if too_long:
+        raise MessageError(
+            ErrorCode.OUT_OF_RANGE,
+            f"message has a number of {max(too_long)} characters, above the maximum of "
+            f"{limits.max_number_length}",
+        )
+    return value
 
 
 class FrameDecoder:
     """Turns the bytes of one connection into frames; detects the convention on the first one.
 
     ``feed(data)`` returns the complete frames so far; it raises ``FramingError`` on input that
-    cannot be framed (the caller answers the error and closes the connection).
+    cannot be framed (the caller answers the error and closes the connection). A header may
+    announce at most ``max_message`` bytes, so no more than that is ever held for a message
+    still incomplete.
     """
 
-    def __init__(self, max_message: int = DEFAULT_MAX_MESSAGE) -> None:
+    def __init__(
+        self, max_message: int = DEFAULT_MAX_MESSAGE, limits: BodyLimits = BodyLimits()
+    ) -> None:
         self.max_message = max_message
+        self.limits = limits
         self.convention: Convention | None = None
         self.error: FramingError | None = None  # set once the stream cannot be framed
         self._buf = bytearray()
+        # Readings of the first message found complete and not JSON: while the others wait for
+        # their bytes they are not parsed again (the buffer only grows until one is taken).
+        self._not_json: set[Convention] = set()
 
     @property
     def buffered(self) -> int:
@@ -178,6 +282,15 @@ class FrameDecoder:
                 return frames
             frames.append(frame)
 
+    def _take(self, end: int) -> Frame:
+        """The frame whose body ends at ``end``, removed from the buffer."""
+        body = bytes(self._buf[HEADER_SIZE:end])
+        del self._buf[:end]
+        try:
+            return Frame(body, parse_body(body, self.limits))
+        except MessageError as exc:
+            return Frame(body, None, exc)
+
     def _next(self) -> Frame | None:
         if len(self._buf) < HEADER_SIZE:
             return None
@@ -188,9 +301,7 @@ class FrameDecoder:
         end = HEADER_SIZE + size
         if len(self._buf) < end:
             return None
-        body = bytes(self._buf[HEADER_SIZE:end])
-        del self._buf[:end]
-        return Frame(body, parse_body(body))
+        return self._take(end)
 
     def _checked_size(self, header: bytes, convention: Convention) -> int:
         size = header_size(header, convention)
@@ -217,6 +328,19 @@ class FrameDecoder:
                 found.append((conv, size))
         return found
 
+    def _is_json(self, conv: Convention, end: int) -> bool:
+        """Whether the first message read in ``conv`` is JSON (a body beyond the limits is)."""
+        if conv in self._not_json:
+            return False
+        try:
+            parse_body(bytes(self._buf[HEADER_SIZE:end]), self.limits)
+        except FramingError:
+            self._not_json.add(conv)
+            return False
+        except MessageError:
+            pass
+        return True
+
     def _detect(self) -> Frame | None:
         header = bytes(self._buf[:HEADER_SIZE])
         plausible = self._plausible(header)
@@ -232,16 +356,12 @@ class FrameDecoder:
             end = HEADER_SIZE + size
             if len(self._buf) < end:
                 pending = True
-                continue
-            ok, value = _try_parse(bytes(self._buf[HEADER_SIZE:end]))
-            if ok:
+            elif self._is_json(conv, end):
                 self.convention = conv
-                body = bytes(self._buf[HEADER_SIZE:end])
-                del self._buf[:end]
-                return Frame(body, value)
+                return self._take(end)
         if pending:
             return None
         # Every plausible reading is complete and none is JSON: report it as the default would.
         conv, size = plausible[0]
-        parse_body(bytes(self._buf[HEADER_SIZE : HEADER_SIZE + size]))
+        parse_body(bytes(self._buf[HEADER_SIZE : HEADER_SIZE + size]), self.limits)
         raise FramingError(ErrorCode.INVALID, f"first message fits no framing ({header!r})")

@@ -46,7 +46,9 @@ class RateLimitedLog:
         self._window: dict[str, tuple[float, int]] = {}  # key → (window start, lines logged)
         self._held: dict[str, int] = {}
 
-    def __call__(self, key: str, level: int, msg: str, *args: object) -> bool:
+    def __call__(
+        self, key: str, level: int, msg: str, *args: object, exc_info: bool = False
+    ) -> bool:
         now = self._clock()
         start, count = self._window.get(key, (now, 0))
         if now - start >= self.interval:
@@ -58,5 +60,5 @@ class RateLimitedLog:
         held = self._held.pop(key, 0)
         if held:
             msg += f" ({held} similar lines held back)"
-        self._log.log(level, msg, *args)
+        self._log.log(level, msg, *args, exc_info=exc_info)
         return True

@@ -24,13 +24,17 @@ MAX_ORCHESTRATE_ITEMS = 100
 TAGS = ("monitor", "operate", "led", "orchestrate", "walk", "playball")
 
 
-class MessageError(ProtocolError):
-    """A well-framed message that cannot be applied: answered with an error, connection kept."""
+class LegacyError(ProtocolError):
+    """Bad legacy input, with the code and message of its error reply."""
 
     def __init__(self, code: ErrorCode, message: str) -> None:
         super().__init__(message)
         self.code = code
         self.message = message
+
+
+class MessageError(LegacyError):
+    """A well-framed message that cannot be applied: answered with an error, connection kept."""
 
 
 @dataclass(frozen=True)

@@ -18,11 +18,13 @@ import zenoh
 
 from clients.robot import Robot
 from gateway.connection import Connection
+from gateway.framing import DEFAULT_CONVENTION, encode_frame
 from gateway.hub import Hub
 from gateway.limits import RateLimitedLog
+from gateway.messages import error_message
 from gateway.orchestrate import Orchestrator
 from gateway.settings import GatewaySettings
-from schemas.errors import RobotUnreachableError
+from schemas.errors import ErrorCode, RobotUnreachableError
 from schemas.session import Target, open_client
 
 log = logging.getLogger(__name__)
@@ -75,6 +77,9 @@ class Gateway:
         return sock[0], sock[1]
 
     async def _accept(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        if len(self.connections) >= self.settings.max_connections:
+            await self._refuse(writer)
+            return
         sock = writer.get_extra_info("socket")
         if sock is not None:
             with contextlib.suppress(OSError):
@@ -90,9 +95,11 @@ class Gateway:
         )
         try:
             await conn.serve()
-        except Exception:
-            # A bug must cost one connection, never the gateway.
-            log.exception("connection %s failed", conn.peer)
+        except Exception as exc:
+            # A bug must cost one connection, never the gateway, nor fill the disk with logs.
+            self.ratelog(
+                "failed", logging.ERROR, "connection %s failed: %r", conn.peer, exc, exc_info=True
+            )
         finally:
             self.connections.discard(conn)
             self.connlog(
@@ -104,6 +111,30 @@ class Gateway:
                 conn.outbox.sent_monitor,
                 conn.outbox.dropped_monitor,
             )
+
+    async def _refuse(self, writer: asyncio.StreamWriter) -> None:
+        """One error reply (in the default framing: the client has said nothing yet), then
+        close: the gateway is full."""
+        peer = writer.get_extra_info("peername") or ("?", 0)
+        limit = self.settings.max_connections
+        self.ratelog(
+            "full",
+            logging.WARNING,
+            "%s:%s refused: %d clients connected (max_connections)",
+            peer[0],
+            peer[1],
+            limit,
+        )
+        message = error_message(
+            ErrorCode.BUSY,
+            f"the gateway serves at most {limit} clients at once (max_connections): "
+            "try again later",
+        )
+        with contextlib.suppress(Exception):
+            writer.write(encode_frame(message, DEFAULT_CONVENTION))
+            writer.close()
+            await asyncio.wait_for(writer.wait_closed(), 1.0)
+        writer.transport.abort()
 
     async def serve_forever(self) -> None:
         assert self._server is not None

@@ -9,8 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from gateway.messages import JOINT_IDS, Led, Operate, Playball, Walk
-from gateway.settings import WalkMapping
+from gateway.messages import JOINT_IDS, Led, Operate, Playball, Request, Walk
+from gateway.settings import GatewaySettings, WalkMapping
 from schemas import units
 from schemas.commands import OPS_WITHOUT_LEASE
 from schemas.keys import LEASE_FREE_VERBS
@@ -66,3 +66,17 @@ def playball_command(req: Playball) -> Command:
 
 def orchestrate_stop_command() -> Command:
     return Command("choreography", {"op": "stop"})
+
+
+def request_command(req: Request, settings: GatewaySettings) -> Command | None:
+    """The one arbiter command a request stands for; None for monitor (served by the gateway)
+    and orchestrate (the orchestrator's, which needs the daemon's behaviour table)."""
+    if isinstance(req, Operate):
+        return operate_command(req, settings.operate_all_duration)
+    if isinstance(req, Led):
+        return led_command(req)
+    if isinstance(req, Walk):
+        return walk_command(req, settings.walk)
+    if isinstance(req, Playball):
+        return playball_command(req)
+    return None

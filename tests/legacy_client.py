@@ -39,6 +39,41 @@ APPENDIX_A_CLIENT_EXAMPLES = (
     '{"playball":{ "status":1 }}',
 )
 
+# Vocabulary for generated messages: the protocol's tags and fields, and some that are not.
+FUZZ_TAGS = ("monitor", "operate", "led", "orchestrate", "walk", "playball", "error", "")
+FUZZ_FIELDS = (
+    "all",
+    "id",
+    "position",
+    "ledcolor",
+    "status",
+    "page",
+    "type",
+    "time",
+    "a",
+    "x",
+    "y",
+    "stop",
+    "accelerometer",
+    "camera",
+    "gyroscope",
+    "motors",
+    "period",
+)
+
+
+def header(body_len: int, order: str = "big", counted: bool = False) -> bytes:
+    """A size header as the spec says, in one of its conventions."""
+    size = body_len + (4 if counted else 0)
+    if order == "ascii":
+        return b"%04d" % size
+    return struct.pack(">I" if order == "big" else "<I", size)
+
+
+def frame(body: str | bytes, order: str = "big", counted: bool = False) -> bytes:
+    data = body.encode("utf-8") if isinstance(body, str) else body
+    return header(len(data), order, counted) + data
+
 
 class LegacyClient:
     def __init__(
@@ -78,10 +113,7 @@ class LegacyClient:
 
     # -- framing, from the spec ----------------------------------------------------------------
     def header(self, body_len: int) -> bytes:
-        size = body_len + (4 if self.counted else 0)
-        if self.order == "ascii":
-            return b"%04d" % size
-        return struct.pack(">I" if self.order == "big" else "<I", size)
+        return header(body_len, self.order, self.counted)
 
     def size_of(self, header: bytes) -> int:
         if self.order == "ascii":
@@ -91,8 +123,7 @@ class LegacyClient:
         return size - (4 if self.counted else 0)
 
     def frame(self, body: str | bytes) -> bytes:
-        data = body.encode("utf-8") if isinstance(body, str) else body
-        return self.header(len(data)) + data
+        return frame(body, self.order, self.counted)
 
     def send(self, message: dict[str, Any] | str | bytes) -> None:
         body = message if isinstance(message, str | bytes) else json.dumps(message)

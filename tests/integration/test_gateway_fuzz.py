@@ -16,32 +16,11 @@ from hypothesis import strategies as st
 
 from clients.robot import Robot
 from tests.fixtures.system import RunningSystem, start_system
-from tests.legacy_client import CONVENTIONS, LegacyClient
+from tests.legacy_client import CONVENTIONS, FUZZ_FIELDS, FUZZ_TAGS, LegacyClient
 
 FUZZ = settings(
     max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow], database=None
 )
-TAGS = ["monitor", "operate", "led", "orchestrate", "walk", "playball", "error", ""]
-FIELDS = [
-    "all",
-    "id",
-    "position",
-    "ledcolor",
-    "status",
-    "page",
-    "type",
-    "time",
-    "a",
-    "x",
-    "y",
-    "stop",
-    "accelerometer",
-    "camera",
-    "gyroscope",
-    "motors",
-    "period",
-]
-
 leaf = (
     st.none()
     | st.booleans()
@@ -54,11 +33,11 @@ values = st.recursive(
     leaf,
     lambda inner: (
         st.lists(inner, max_size=4)
-        | st.dictionaries(st.sampled_from(FIELDS) | st.text(max_size=6), inner, max_size=5)
+        | st.dictionaries(st.sampled_from(FUZZ_FIELDS) | st.text(max_size=6), inner, max_size=5)
     ),
     max_leaves=12,
 )
-messages = st.dictionaries(st.sampled_from(TAGS) | st.text(max_size=8), values, max_size=2)
+messages = st.dictionaries(st.sampled_from(FUZZ_TAGS) | st.text(max_size=8), values, max_size=2)
 
 
 @dataclass

@@ -9,25 +9,21 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gateway import framing
 from gateway.framing import (
+    BodyLimits,
     ByteOrder,
     Convention,
     FrameDecoder,
     FramingError,
     encode_frame,
+    parse_frame,
 )
+from gateway.messages import MessageError, Monitor
 from schemas.errors import ErrorCode
-from tests.legacy_client import APPENDIX_A_CLIENT_EXAMPLES, CONVENTIONS
+from tests.legacy_client import APPENDIX_A_CLIENT_EXAMPLES, CONVENTIONS, frame, header
 
 ORDER = {"big": ByteOrder.BIG, "little": ByteOrder.LITTLE, "ascii": ByteOrder.ASCII}
-
-
-def frame(body: bytes, order: str, counted: bool) -> bytes:
-    """Framing as the spec says, written independently of the gateway."""
-    size = len(body) + (4 if counted else 0)
-    if order == "ascii":
-        return b"%04d" % size + body
-    return struct.pack(">I" if order == "big" else "<I", size) + body
 
 
 @pytest.mark.parametrize(("order", "counted"), CONVENTIONS)
@@ -168,3 +164,104 @@ def test_good_frames_before_a_break_are_kept_and_the_break_reported_next() -> No
     assert decoder.error is not None and "above the maximum" in decoder.error.message
     with pytest.raises(FramingError):
         decoder.feed(b"")
+
+
+MONITOR = b'{"monitor":{"motors":1}}'
+
+
+def nested(depth: int) -> bytes:
+    """A walk message whose value nests lists ``depth`` levels deep (the message adds one)."""
+    return b'{"walk":' + b"[" * (depth - 1) + b"]" * (depth - 1) + b"}"
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        b"[" * 5000 + b"]" * 5000,  # json would recurse until Python stops it
+        b'{"x":' + b'{"y":' * 40 + b"1" + b"}" * 41,
+        b"[" * 2000 + b'"]]}\\"["' + b"]" * 2000,  # brackets in a string are no nesting
+        b'{"operate":{"all":0,"id":3,"position":' + b"1" * 5000 + b"}}",  # int() refuses
+        b'{"walk":{"a":0,"stop":0,"x":1.' + b"5" * 5000 + b',"y":0}}',
+    ],
+    ids=["5000-levels", "42-levels", "string-brackets", "5000-digit-int", "5000-digit-float"],
+)
+@pytest.mark.parametrize("first", [True, False], ids=["first-message", "later-message"])
+def test_a_body_beyond_the_limits_is_a_refused_frame_and_the_stream_goes_on(
+    body: bytes, first: bool
+) -> None:
+    decoder = FrameDecoder()
+    if not first:
+        decoder.feed(frame(MONITOR, "little", True))
+    frames = decoder.feed(frame(body, "little", True) + frame(MONITOR, "little", True))
+    assert len(frames) == 2
+    with pytest.raises(MessageError, match=r"deeper than 32|number of 50\d\d characters") as e:
+        parse_frame(frames[0])
+    assert e.value.code == ErrorCode.OUT_OF_RANGE
+    assert parse_frame(frames[1]) == Monitor({"motors": True})
+    assert decoder.convention == Convention(ByteOrder.LITTLE, True)
+
+
+def test_the_limits_are_exact() -> None:
+    decoder = FrameDecoder(limits=BodyLimits(max_depth=6, max_number_length=5))
+    accepted = [nested(6), b'{"x":12345}', b'{"x":-1234}', b'{"x":1e-10}']
+    refused = [nested(7), b'{"x":123456}', b'{"x":-12345}', b'{"x":1.5e-10}']
+    frames = decoder.feed(b"".join(frame(b) for b in accepted + refused))
+    assert [f.error is None for f in frames] == [True] * 4 + [False] * 4
+    # Brackets inside strings are text, not nesting.
+    assert decoder.feed(frame(b'{"x":"' + b"[" * 100 + b'"}'))[0].error is None
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        b'{"x":' + b"1" * 100 + b",}",
+        b"[" * 5000,
+        b"[" * 5000 + b"]" * 4999 + b"}",
+        b"[" * 2000 + b'"' + b'\\"' * 20000,  # one string that never ends
+    ],
+    ids=["long-number", "5000-open", "5000-mismatched", "escaped-quotes"],
+)
+@pytest.mark.parametrize("first", [True, False], ids=["first-message", "later-message"])
+def test_an_invalid_body_is_still_a_framing_error_however_deep_or_long(
+    body: bytes, first: bool
+) -> None:
+    # Limits do not hide that the body is no JSON: the connection is closed.
+    decoder = FrameDecoder()
+    if not first:
+        decoder.feed(frame(MONITOR))
+    with pytest.raises(FramingError, match="not valid JSON"):
+        decoder.feed(frame(body))
+
+
+def test_a_header_above_the_incoming_maximum_is_refused_before_its_body_arrives() -> None:
+    decoder = FrameDecoder(max_message=1024)
+    decoder.feed(frame(MONITOR))
+    with pytest.raises(FramingError, match="2000 bytes, above the maximum message size of 1024"):
+        decoder.feed(header(2000))  # nothing of the body parked
+    assert decoder.buffered == 4
+
+
+def test_a_first_message_dribbled_in_is_parsed_once_per_reading(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # 00 00 01 00 is 256 bytes big-endian and 65536 little-endian: while the longer reading
+    # waits for its bytes, the shorter (complete, not JSON) is not parsed again on every read.
+    body = json.dumps({"monitor": {"motors": 1, "pad": ""}}).encode()
+    body = body.replace(b'""', b'"' + b"x" * (65536 - len(body)) + b'"')
+    assert len(body) == 65536
+    data = frame(body, "little", False)
+    parsed: list[int] = []
+    real = framing.parse_body
+
+    def counted(body: bytes, limits: BodyLimits) -> object:
+        parsed.append(len(body))
+        return real(body, limits)
+
+    monkeypatch.setattr(framing, "parse_body", counted)
+    decoder = FrameDecoder(max_message=65536)
+    reads = range(0, len(data) - 1, 997)
+    for i in reads:
+        assert decoder.feed(data[i : min(i + 997, len(data) - 1)]) == []
+    assert decoder.feed(data[-1:])[0].value["monitor"]["motors"] == 1
+    # Four readings (big/little, header counted or not), each parsed once, and the frame itself.
+    assert len(parsed) <= 5 < len(reads)
