@@ -43,13 +43,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    notices: list[str] = []
     try:
-        rec = read_recording(args.file)
+        rec = read_recording(args.file, on_notice=notices.append)
     except (OSError, ProtocolError) as exc:
         print(f"darwin replay: cannot read {args.file}: {exc}", file=sys.stderr)
         return 2
     if not rec.messages:
-        print(f"darwin replay: {args.file} holds no replayable messages", file=sys.stderr)
+        hint = f" ({notices[0]})" if notices else ""
+        print(f"darwin replay: {args.file} holds no replayable messages{hint}", file=sys.stderr)
         return 2
     topics = [t for item in args.topics for t in item.split(",") if t] if args.topics else None
     unknown = [t for t in topics or () if t not in TOPICS]
@@ -83,6 +85,8 @@ def run(args: argparse.Namespace) -> int:
             replayer.seek(args.start)
         replayer.start(paused=args.paused)
         trunc = " (truncated file)" if rec.truncated else ""
+        for line in notices:
+            print(f"darwin replay: {line}", file=sys.stderr, flush=True)
         print(
             f"replaying {rec.path}{trunc}: {len(rec.messages)} messages, {rec.duration:.1f} s, "
             f"as robot {robot} at {args.rate:g}x, {where}; control on "
