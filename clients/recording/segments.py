@@ -129,3 +129,37 @@ class SegmentedSink:
 
     def close(self) -> None:
         self._sink.close()
+
+
+_UNITS = {"s": 1.0, "m": 60.0, "min": 60.0, "h": 3600.0}
+_SIZES = {
+    "b": 1,
+    "kb": 1000,
+    "mb": 1000**2,
+    "gb": 1000**3,
+    "kib": 1024,
+    "mib": 1024**2,
+    "gib": 1024**3,
+}
+
+
+def parse_split(text: str) -> tuple[float | None, int | None]:
+    """``"60s"``, ``"10m"``, ``"50MB"``, ``"1h 2GB"`` → (seconds, bytes); "" → (None, None).
+
+    What the TUI's split field takes. Raises ValueError naming the part it cannot read.
+    """
+    seconds: float | None = None
+    size: int | None = None
+    for part in text.replace(",", " ").split():
+        m = re.fullmatch(r"(\d+(?:\.\d+)?)\s*([a-zA-Z]+)", part)
+        unit = m.group(2).lower() if m else ""
+        if m and unit in _UNITS:
+            seconds = float(m.group(1)) * _UNITS[unit]
+        elif m and unit in _SIZES:
+            size = int(float(m.group(1)) * _SIZES[unit])
+        else:
+            raise ValueError(
+                f"cannot read the split {part!r}: use a time (60s, 10m, 1h) and/or a size "
+                "(50MB, 1GB)"
+            )
+    return seconds, size
