@@ -55,7 +55,10 @@ class McapSink:
         chunk_bytes: int = CHUNK_BYTES,
         metadata: dict[str, str] | None = None,
     ) -> None:
-        self._file: IO[bytes] = open(path, "wb")  # noqa: SIM115 — closed in close()
+        # Written as PATH.part until the header and metadata are on disk, then renamed (the open
+        # file follows): a kill never leaves a file at PATH too short to recover.
+        part = f"{path}.part"
+        self._file: IO[bytes] = open(part, "wb")  # noqa: SIM115 — closed in close()
         self._writer = Writer(self._file, compression=CompressionType.ZSTD, chunk_size=chunk_bytes)
         self._writer.start(profile=profile.mcap_profile, library=LIBRARY)
         self._profile = profile
@@ -77,6 +80,7 @@ class McapSink:
             },
         )
         self.flush()
+        os.replace(part, path)
 
     @property
     def size(self) -> int:

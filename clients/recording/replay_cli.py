@@ -85,8 +85,6 @@ def run(args: argparse.Namespace) -> int:
             replayer.seek(args.start)
         replayer.start(paused=args.paused)
         trunc = " (truncated file)" if rec.truncated else ""
-        for line in notices:
-            print(f"darwin replay: {line}", file=sys.stderr, flush=True)
         print(
             f"replaying {rec.path}{trunc}: {len(rec.messages)} messages, {rec.duration:.1f} s, "
             f"as robot {robot} at {args.rate:g}x, {where}; control on "
@@ -94,6 +92,8 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
             flush=True,
         )
+        for line in notices:
+            print(f"darwin replay: {line}", file=sys.stderr, flush=True)
         finished = threading.Thread(
             target=lambda: (replayer.wait(), None if args.stay else stop.set()), daemon=True
         )
