@@ -134,10 +134,12 @@ class ScanReport:
         if not self.damaged:
             return ""
         fix = f"run `darwin record recover {self.path}`"
+        drops = f"unreadable parts ({'; '.join(self.drops())})" if self.drops() else ""
         if self.truncated:
             at = self.size if self.cut_at is None else self.cut_at
-            return f"{self.path} is truncated at byte {at}: {fix}"
-        return f"{self.path} has unreadable parts ({'; '.join(self.drops())}): {fix}"
+            also = f" and has {drops}" if drops else ""
+            return f"{self.path} is truncated at byte {at}{also}: {fix}"
+        return f"{self.path} has {drops}: {fix}"
 
 
 class RecordScanner:
