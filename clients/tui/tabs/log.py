@@ -52,11 +52,18 @@ class LogTab(TabView):
             path: str | None,
             split_seconds: float | None = None,
             split_bytes: int | None = None,
+            tab: LogTab | None = None,
         ) -> None:
             super().__init__()
             self.path = path
             self.split_seconds = split_seconds
             self.split_bytes = split_bytes
+            self._tab = tab
+
+        @property
+        def control(self) -> LogTab | None:
+            # The app answers with set_recording() on the tab that asked.
+            return self._tab
 
     def __init__(self, model: Model) -> None:
         super().__init__(model)
@@ -94,7 +101,7 @@ class LogTab(TabView):
     def action_record(self) -> None:
         path = self.query_one("#record-path", Input).value.strip()
         if self.recording:
-            self.post_message(self.Record(None))
+            self.post_message(self.Record(None, tab=self))
             return
         if not path:
             self.notify_error(_("Type the file to record to, e.g. session.mcap"))
@@ -106,7 +113,7 @@ class LogTab(TabView):
         except ValueError as exc:
             self.notify_error(str(exc))
             return
-        self.post_message(self.Record(path, seconds, size))
+        self.post_message(self.Record(path, seconds, size, tab=self))
 
     def on_button_pressed(self, event: Button.Pressed) -> None:
         self.action_record()
