@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import mmap
 import os
+import struct
 import zlib
 from collections import Counter
 from collections.abc import Iterator
@@ -44,7 +45,16 @@ from mcap.records import (
 
 MAGIC = b"\x89MCAP0\r\n"
 RECORD_HEAD = 9  # opcode (1) + length (8)
-_PARSE_ERRORS = (McapError, EOFError, ValueError, IndexError, UnicodeDecodeError, MemoryError)
+_PARSE_ERRORS = (
+    McapError,
+    EOFError,
+    ValueError,
+    IndexError,
+    UnicodeDecodeError,
+    MemoryError,
+    OverflowError,
+    struct.error,
+)
 _READERS: dict[int, Any] = {
     Opcode.HEADER: Header.read,
     Opcode.FOOTER: Footer.read,
@@ -56,6 +66,9 @@ _READERS: dict[int, Any] = {
     Opcode.ATTACHMENT: Attachment.read,
     Opcode.DATA_END: DataEnd.read,
 }
+
+
+_CONTENT = (Schema, Channel, Message, Metadata, Attachment)
 
 
 class NotMcapError(Exception):
@@ -175,8 +188,11 @@ class RecordScanner:
             raise NotMcapError(f"{self.path} is not an MCAP file (starts with {data[:8]!r})")
         pos = len(MAGIC)
         opcode, length, record = self._read(data, pos, size)
-        if opcode != Opcode.HEADER or record is None or isinstance(record, str):
+        if length < 0:
             raise NotMcapError(f"{self.path} is cut inside the MCAP header ({size} bytes)")
+        if opcode != Opcode.HEADER or not isinstance(record, Header):
+            why = record if isinstance(record, str) else f"opcode 0x{opcode:02x}"
+            raise NotMcapError(f"{self.path} has no readable MCAP header ({why})")
         rep.header = record
         yield record
         last = ("Header", pos)
@@ -244,14 +260,22 @@ class RecordScanner:
             import zstandard
 
             try:
+                # A damaged frame header could claim any size: trust it only if it agrees.
+                declared = zstandard.frame_content_size(chunk.data)
+                if declared not in (-1, chunk.uncompressed_size):
+                    raise ValueError(
+                        f"zstd frame of {declared} bytes, chunk says {chunk.uncompressed_size}"
+                    )
                 raw = zstandard.ZstdDecompressor().decompress(
                     chunk.data, max_output_size=chunk.uncompressed_size
                 )
             except zstandard.ZstdError as exc:
                 raise ValueError(f"zstd: {exc}") from exc
         elif chunk.compression == "lz4":
-            import lz4.frame  # type: ignore[import-not-found]
-
+            try:
+                import lz4.frame  # type: ignore[import-not-found]
+            except ImportError as exc:
+                raise ValueError("lz4-compressed chunk: install the lz4 package") from exc
             raw = lz4.frame.decompress(chunk.data)
         elif chunk.compression == "":
             raw = chunk.data
@@ -292,7 +316,7 @@ class RecordScanner:
         if isinstance(record, DataEnd):
             rep.data_end = True
             return
-        if rep.data_end or record is None:
+        if rep.data_end or not isinstance(record, (list, *_CONTENT)):
             return  # the summary repeats schemas and channels: already seen
         for item in record if isinstance(record, list) else [record]:
             if isinstance(item, Channel):

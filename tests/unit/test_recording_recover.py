@@ -9,6 +9,7 @@ import sys
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
@@ -265,3 +266,26 @@ def test_bad_record_options_are_one_line(tmp_path: Path) -> None:
     proc = darwin("record", "-o", "x.mcap", "--split-seconds", "0", cwd=tmp_path)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert proc.stderr.strip() == "darwin record: split seconds 0 is outside [1, 604800]"
+
+
+def test_random_damage_never_breaks_recover(tmp_path: Path) -> None:
+    write_flushed(tmp_path / "a.mcap")
+    data = (tmp_path / "a.mcap").read_bytes()  # complete: summary, footer and all
+    rng = np.random.default_rng(19)
+    bad, out = tmp_path / "bad.mcap", tmp_path / "out.mcap"
+    for _ in range(80):
+        damaged = bytearray(data)
+        at = int(rng.integers(0, len(data)))
+        n = int(rng.integers(1, 9))
+        damaged[at : at + n] = rng.bytes(n)
+        if rng.random() < 0.3:
+            damaged = damaged[: int(rng.integers(at, len(data) + 1))]
+        bad.write_bytes(bytes(damaged))
+        try:
+            result = recover(bad, out, overwrite=True, always=True)
+        except RecoverError:
+            assert at < 300  # the magic or the header itself was hit
+            continue
+        assert stock(out) == Counter(result.counts), at
+        kept = ticks(out)
+        assert kept == sorted(set(kept))  # what is kept is in order, never duplicated
