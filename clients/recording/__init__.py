@@ -8,7 +8,7 @@ them on the key space. See README, "Notebooks, recording and replay".
 """
 
 from clients.recording.control import ReplayControl
-from clients.recording.reader import RecordedMessage, Recording, read_recording
+from clients.recording.reader import RecordedMessage, Recording, read_recording, read_session
 from clients.recording.recorder import Recorder, RecorderStats
 from clients.recording.recover import RecoverError, Recovery, recover
 from clients.recording.replay import Replayer
@@ -23,5 +23,6 @@ __all__ = [
     "ReplayControl",
     "Replayer",
     "read_recording",
+    "read_session",
     "recover",
 ]

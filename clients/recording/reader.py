@@ -14,7 +14,7 @@ import json
 import logging
 import os
 from collections import Counter
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -131,6 +131,30 @@ def read_recording(
     rec.messages.sort(key=lambda m: m.log_ns)
     if not rec.robot and "darwin" in rec.metadata:
         rec.robot = rec.metadata["darwin"].get("robot", "")
+    return rec
+
+
+def read_session(
+    paths: Iterable[str | os.PathLike[str]], *, on_notice: Callable[[str], object] | None = None
+) -> Recording:
+    """Several files (the segments of a split session, in any order) as one recording: messages
+    merged in log-time order, the first file's metadata and robot, ``truncated`` and ``notice``
+    from any file that has them."""
+    parts = [read_recording(p, on_notice=on_notice) for p in paths]
+    if not parts:
+        raise ValueError("no recording files given")
+    if len(parts) == 1:
+        return parts[0]
+    first = parts[0]
+    rec = Recording(f"{first.path} (+{len(parts) - 1} more)", first.robot, dict(first.metadata))
+    for part in parts:
+        rec.messages.extend(part.messages)
+        rec.robot = rec.robot or part.robot
+        if part.notice:
+            rec.truncated = rec.truncated or part.truncated
+            rec.problem = "; ".join(filter(None, [rec.problem, part.problem]))
+            rec.notice = rec.notice or part.notice
+    rec.messages.sort(key=lambda m: m.log_ns)
     return rec
 
 

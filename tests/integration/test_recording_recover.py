@@ -263,6 +263,30 @@ def test_killed_while_splitting_loses_only_the_open_segment_tail(
     ]
     assert_no_gap(ticks)
 
+    # `darwin replay` takes the segments as one session.
+    replay = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "robot_daemon.cli",
+            "replay",
+            *map(str, closed),
+            str(tmp_path / "last.mcap"),
+            "--listen",
+            f"tcp/127.0.0.1:{free_tcp_port()}",
+            "--paused",
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert replay.stderr is not None
+        line = replay.stderr.readline()
+    finally:
+        replay.send_signal(signal.SIGTERM)
+        replay.communicate(timeout=20)
+    assert line.startswith(f"replaying {closed[0]} (+{len(closed)} more): {sum(kept.values())} ")
+
     # A new session keeps every segment and continues the numbering after the cut one.
     before = cut.read_bytes()
     again = darwin(

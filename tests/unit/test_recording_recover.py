@@ -15,7 +15,7 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from clients.recording.mcap_sink import McapSink
-from clients.recording.reader import read_recording
+from clients.recording.reader import read_recording, read_session
 from clients.recording.recorder import check_options
 from clients.recording.recover import RecoverError, default_output, recover
 from clients.recording.scan import RecordScanner
@@ -245,6 +245,9 @@ def test_segments_are_closed_indexed_and_numbered(tmp_path: Path) -> None:
         seen += [decode(m.payload, Imu).tick for m in rec.topic("imu")]
     assert seen == list(range(400))
     assert not list(tmp_path.glob("*.part"))
+    whole = read_session(reversed(sink.paths))  # one session again, whatever the order given
+    assert [decode(m.payload, Imu).tick for m in whole.topic("imu")] == list(range(400))
+    assert whole.robot == "op1" and not whole.truncated
 
 
 def test_split_and_flush_options_are_checked() -> None:
