@@ -32,6 +32,10 @@ from schemas.session import open_client, resolve
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.usage = (
+        "%(prog)s -o FILE.mcap [options]\n"
+        "       %(prog)s recover FILE [-o OUT] [--force | --in-place]"
+    )
     parser.add_argument("-o", "--output", help="file to write (.mcap or .txt)")
     parser.add_argument(
         "--topics",

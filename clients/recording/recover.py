@@ -13,6 +13,8 @@ import os
 from collections import Counter
 from dataclasses import dataclass, field
 
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
 from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
@@ -68,6 +70,19 @@ class Recovery:
         drops = self.dropped()
         out.append("dropped: " + ("; ".join(drops) if drops else "nothing"))
         return out
+
+
+def recovered_copy(path: str) -> str | None:
+    """The default recovered file of ``path`` when it was made from ``path`` as it is now."""
+    copy = default_output(path)
+    try:
+        with open(copy, "rb") as f:
+            meta = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+        info = meta.get("darwin.recovery", {})
+        same = info.get("source") == os.path.basename(path)
+        return copy if same and info.get("source_bytes") == str(os.path.getsize(path)) else None
+    except (OSError, McapError, ValueError, EOFError):
+        return None
 
 
 def _check_output(source: str, output: str, overwrite: bool) -> None:

@@ -60,7 +60,12 @@ def existing_segments(path: str) -> list[tuple[int, str]]:
 
 
 def truncation_notice(path: str) -> str:
-    """One line when ``path`` is an MCAP file that needs ``darwin record recover``; else ""."""
+    """One line when ``path`` is an MCAP file that needs ``darwin record recover``; else ""
+    (also when its recovered copy, made from it as it is now, is already there)."""
+    from clients.recording.recover import recovered_copy
+
+    if recovered_copy(path):
+        return ""
     try:
         scanner = RecordScanner(path, light=True)
         for _ in scanner:

@@ -187,6 +187,16 @@ def test_killed_recorder_recovers_into_a_file_every_reader_opens(
         stock_counts(path)
     held = stream_counts(path)
 
+    # A new recorder on the same name keeps the cut file and says how to recover it.
+    before = path.read_bytes()
+    again = darwin("record", "-o", str(path), "--connect", source.endpoint, "--robot", ROBOT)
+    assert again.returncode == 2
+    lines = again.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in again.stderr
+    assert f"{path} is truncated at byte" in lines[0]
+    assert f"run `darwin record recover {path}`" in lines[0]
+    assert path.read_bytes() == before
+
     out = darwin("record", "recover", str(path))
     assert out.returncode == 0, out.stderr
     recovered = tmp_path / "killed.recovered.mcap"
@@ -209,15 +219,20 @@ def test_killed_recorder_recovers_into_a_file_every_reader_opens(
     assert summary is not None and summary.chunk_indexes
     assert all(ci.message_index_offsets for ci in summary.chunk_indexes)
 
-    # A new recorder on the same name keeps the cut file and says how to recover it.
-    before = path.read_bytes()
-    again = darwin("record", "-o", str(path), "--connect", source.endpoint, "--robot", ROBOT)
-    assert again.returncode == 2
-    lines = again.stderr.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in again.stderr
-    assert f"{path} is truncated at byte" in lines[0]
-    assert f"run `darwin record recover {path}`" in lines[0]
-    assert path.read_bytes() == before
+    # Once recovered next to it, the cut file may be recorded over.
+    again = darwin(
+        "record",
+        "-o",
+        str(path),
+        "--connect",
+        source.endpoint,
+        "--robot",
+        ROBOT,
+        "--duration",
+        "0.3",
+    )
+    assert again.returncode == 0 and "truncated" not in again.stderr, again.stderr
+    assert not read_recording(path).truncated
 
 
 def test_killed_while_splitting_loses_only_the_open_segment_tail(
