@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from clients.recording.jsonify import json_schema, schema_name, to_json
+from clients.robot import TOPICS
 from schemas.errors import ProtocolError
 from schemas.keys import Keys
 from schemas.messages import decode_dict
@@ -83,9 +84,7 @@ class DarwinProfile:
     mcap_profile = ""
 
     def __init__(self) -> None:
-        from clients.robot import TOPICS  # the one topic → message type table
-
-        self._types = TOPICS
+        self._types = TOPICS  # the one topic → message type table
         self.topics = tuple(TOPICS)
         self.default_topics = tuple(Keys().topics())
 
