@@ -11,7 +11,9 @@ Figures (milliseconds):
 * replay timing error: arrival offset of each replayed message vs. its recorded ``log_time``
   (scaled by the rate), after removing the constant start offset;
 and the ratio replay error / live jitter at p50 and p99. Content is checked too (payloads equal,
-per topic). Run: ``.venv/bin/python benchmarks/replay_benchmark.py [--seconds 5] [--rates 1 2]``
+per topic). Last, the recording cut at 90 % is rewritten by ``darwin record recover``'s
+``recover()``, timed against ``read_recording`` of the same cut file.
+Run: ``.venv/bin/python benchmarks/replay_benchmark.py [--seconds 5] [--rates 1 2]``
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for tests.integration
 
 from clients.recording import Recorder, Replayer, read_recording
+from clients.recording.recover import recover
 from schemas.keys import Keys
 from schemas.messages import CameraFrame, Joints, Status, decode, encode
 from schemas.session import free_tcp_port, open_client, open_server
@@ -197,7 +200,28 @@ def main() -> int:
                 f"p99 {p99 / lp99:5.2f}; wall {wall:.2f} s for {rec.duration / rate:.2f} s; "
                 f"content {'identical' if same else 'DIFFERS'}"
             )
+        recover_figures(path, tmp)
     return 0
+
+
+def recover_figures(path: str, tmp: str) -> None:
+    """Cut the recording at 90 % (a killed recorder) and time ``recover`` against reading the
+    same cut file with ``read_recording`` (the baseline: the same walk, no writing)."""
+    data = Path(path).read_bytes()
+    cut = os.path.join(tmp, "cut.mcap")
+    Path(cut).write_bytes(data[: len(data) * 9 // 10])
+    t0 = time.perf_counter()
+    read = read_recording(cut, on_notice=lambda line: None)
+    t_read = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    result = recover(cut, os.path.join(tmp, "cut.recovered.mcap"))
+    t_recover = time.perf_counter() - t0
+    mb = len(data) * 0.9 / 1e6
+    print(
+        f"recover of a file cut at 90 % ({mb:.2f} MB): {t_recover:.3f} s ({mb / t_recover:.1f} "
+        f"MB/s), {result.total} messages kept; read_recording of it (baseline) {t_read:.3f} s "
+        f"for {len(read.messages)} msgpack messages; ratio {t_recover / t_read:.2f}"
+    )
 
 
 if __name__ == "__main__":

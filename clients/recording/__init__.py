@@ -4,11 +4,13 @@ them on the key space. See README, "Notebooks, recording and replay".
     >>> from clients.recording import Recorder, read_recording
     >>> with Recorder(robot, "walk.mcap"):
     ...     robot.walk(x=0.05)
+    >>> recover("killed.mcap").lines()      # a killed recorder's file → killed.recovered.mcap
 """
 
 from clients.recording.control import ReplayControl
-from clients.recording.reader import RecordedMessage, Recording, read_recording
+from clients.recording.reader import RecordedMessage, Recording, read_recording, read_session
 from clients.recording.recorder import Recorder, RecorderStats
+from clients.recording.recover import RecoverError, Recovery, recover
 from clients.recording.replay import Replayer
 
 __all__ = [
@@ -16,7 +18,11 @@ __all__ = [
     "Recorder",
     "RecorderStats",
     "Recording",
+    "RecoverError",
+    "Recovery",
     "ReplayControl",
     "Replayer",
     "read_recording",
+    "read_session",
+    "recover",
 ]

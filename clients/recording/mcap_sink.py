@@ -1,54 +1,72 @@
-"""The MCAP file a recording writes.
+"""The MCAP file a recording (or one segment of it) writes.
 
-Layout (one file per recording):
+Layout (one file per recording, or per segment with splitting):
 
-* a metadata record ``darwin`` — robot, start time, topics, layout version;
-* per topic, a **JSON channel** ``/darwin/<robot>/<topic key>`` with a JSON Schema derived from
-  the message dataclass (camera: ``foxglove.CompressedImage``) — what Foxglove, PlotJuggler and
-  ``mcap`` readers show;
-* per topic, a **msgpack channel** ``/darwin/<robot>/<topic key>/msgpack`` (no schema, message
-  encoding ``msgpack``) holding the publisher's bytes unchanged — what ``darwin replay`` sends,
-  so a replayed session decodes exactly as the live one did, and undecodable payloads are kept.
+* a metadata record ``darwin`` — robot, session start, topics, layout version, profile, and for
+  a segment its number and the session it belongs to;
+* per topic, the channels its profile names (:mod:`clients.recording.profile`). The default
+  ``darwin`` profile writes a **JSON channel** ``/darwin/<robot>/<topic key>`` with a JSON Schema
+  derived from the message dataclass (camera: ``foxglove.CompressedImage``) — what Foxglove,
+  PlotJuggler and ``mcap`` readers show — and a **msgpack channel**
+  ``/darwin/<robot>/<topic key>/msgpack`` (no schema, message encoding ``msgpack``) holding the
+  publisher's bytes unchanged — what ``darwin replay`` sends, so a replayed session decodes
+  exactly as the live one did, and undecodable payloads are kept.
 
 Both channels carry ``darwin_topic`` (``joints``, ``imu``…) and ``kind`` (``json`` | ``msgpack``)
 in their channel metadata. ``log_time`` is the receive time, ``publish_time`` the message's own
-``stamp``. Chunks are closed and flushed every ``flush_interval``: a killed recorder loses at most
-that much, and the rest reads back with a streaming reader (see :mod:`clients.recording.reader`).
+``stamp``. The open chunk is closed, written and fsynced on every ``flush()`` (the recorder's
+flush interval) and whenever it reaches ``chunk_bytes``: a killed recorder loses at most that
+tail, and ``darwin record recover`` makes the rest a complete file.
 """
 
 from __future__ import annotations
 
 import json
+import os
 from datetime import UTC, datetime
 from typing import IO, Any
 
 from mcap.writer import CompressionType, Writer
 
-from clients.recording.jsonify import json_schema, schema_name, to_json
-from schemas.messages import Message
+from clients.recording.profile import (
+    DARWIN,
+    LAYOUT_VERSION,
+    RAW_ENCODING,
+    ChannelSpec,
+    Profile,
+    json_topic,
+    raw_topic,
+)
 
-LAYOUT_VERSION = "1"
 LIBRARY = "darwin-zenoh recorder"
-RAW_ENCODING = "msgpack"
+CHUNK_BYTES = 256 * 1024  # uncompressed; a chunk also closes at every flush
 
-
-def json_topic(key: str) -> str:
-    return f"/{key}"
-
-
-def raw_topic(key: str) -> str:
-    return f"/{key}/{RAW_ENCODING}"
+__all__ = ["CHUNK_BYTES", "RAW_ENCODING", "McapSink", "json_topic", "raw_topic"]
 
 
 class McapSink:
-    def __init__(self, path: str, robot: str, topics: dict[str, str]) -> None:
-        self._file: IO[bytes] = open(path, "wb")  # noqa: SIM115 — closed in close()
-        self._writer = Writer(self._file, compression=CompressionType.ZSTD, chunk_size=512 * 1024)
-        self._writer.start(profile="", library=LIBRARY)
+    def __init__(
+        self,
+        path: str,
+        robot: str,
+        topics: dict[str, str],
+        *,
+        profile: Profile = DARWIN,
+        chunk_bytes: int = CHUNK_BYTES,
+        metadata: dict[str, str] | None = None,
+    ) -> None:
+        # Written as PATH.part until the header and metadata are on disk, then renamed (the open
+        # file follows): a kill never leaves a file at PATH too short to recover.
+        part = f"{path}.part"
+        self._file: IO[bytes] = open(part, "wb")  # noqa: SIM115 — closed in close()
+        self._writer = Writer(self._file, compression=CompressionType.ZSTD, chunk_size=chunk_bytes)
+        self._writer.start(profile=profile.mcap_profile, library=LIBRARY)
+        self._profile = profile
         self._robot = robot
         self._keys = topics
+        self._specs: dict[str, tuple[ChannelSpec, ...]] = {}
         self._schemas: dict[str, int] = {}
-        self._channels: dict[tuple[str, str], int] = {}
+        self._channels: dict[tuple[str, int], int] = {}
         self._seq: dict[int, int] = {}
         self._writer.add_metadata(
             "darwin",
@@ -57,57 +75,61 @@ class McapSink:
                 "started": datetime.now(UTC).isoformat(),
                 "topics": json.dumps(topics),
                 "layout": LAYOUT_VERSION,
+                "profile": profile.name,
+                **(metadata or {}),
             },
         )
-        self._writer.flush()
+        self.flush()
+        os.replace(part, path)
 
-    def _schema_id(self, cls: type[Message]) -> int:
-        name = schema_name(cls)
-        if name not in self._schemas:
-            data = json.dumps(json_schema(cls)).encode()
-            self._schemas[name] = self._writer.register_schema(name, "jsonschema", data)
-        return self._schemas[name]
+    @property
+    def size(self) -> int:
+        """Bytes on disk so far (the open chunk is not counted until it is written)."""
+        return self._file.tell()
 
-    def _channel(self, topic: str, kind: str, cls: type[Message]) -> int:
-        cid = self._channels.get((topic, kind))
+    def _channel(self, topic: str, index: int, spec: ChannelSpec) -> int:
+        cid = self._channels.get((topic, index))
         if cid is None:
-            key = self._keys[topic]
-            meta = {"darwin_topic": topic, "kind": kind, "robot": self._robot, "key": key}
-            if kind == RAW_ENCODING:
-                cid = self._writer.register_channel(raw_topic(key), RAW_ENCODING, 0, meta)
-            else:
-                cid = self._writer.register_channel(
-                    json_topic(key), "json", self._schema_id(cls), meta
-                )
-            self._channels[(topic, kind)] = cid
+            sid = 0
+            if spec.schema is not None:
+                sid = self._schemas.get(spec.schema.name, 0)
+                if not sid:
+                    s = spec.schema
+                    sid = self._writer.register_schema(s.name, s.encoding, s.data)
+                    self._schemas[s.name] = sid
+            cid = self._writer.register_channel(
+                spec.topic, spec.message_encoding, sid, spec.metadata
+            )
+            self._channels[(topic, index)] = cid
         return cid
 
-    def _add(self, cid: int, log_ns: int, pub_ns: int, data: bytes) -> None:
-        seq = self._seq.get(cid, 0)
-        self._seq[cid] = seq + 1
-        self._writer.add_message(cid, log_ns, data, pub_ns, seq)
-
     def write(
-        self,
-        topic: str,
-        cls: type[Message],
-        log_ns: int,
-        payload: bytes,
-        decoded: dict[str, Any] | None,
+        self, topic: str, log_ns: int, payload: bytes, decoded: dict[str, Any] | None
     ) -> None:
-        pub_ns = log_ns
-        if decoded is not None:
-            stamp = decoded.get("stamp")
-            if isinstance(stamp, int | float):
-                pub_ns = int(stamp * 1e9)
-            self._add(self._channel(topic, "json", cls), log_ns, pub_ns, to_json(decoded, cls))
-        self._add(self._channel(topic, RAW_ENCODING, cls), log_ns, pub_ns, payload)
+        specs = self._specs.get(topic)
+        if specs is None:
+            specs = self._specs[topic] = self._profile.channels(
+                topic, self._keys[topic], self._robot
+            )
+        pub_ns = self._profile.publish_ns(decoded, log_ns)
+        for index, spec in enumerate(specs):
+            data = spec.encode(payload, decoded)
+            if data is None:
+                continue
+            cid = self._channel(topic, index, spec)
+            seq = self._seq.get(cid, 0)
+            self._seq[cid] = seq + 1
+            self._writer.add_message(cid, log_ns, data, pub_ns, seq)
 
     def flush(self) -> None:
         self._writer.flush()
+        # fsync: what was flushed survives a power cut too, not only a killed process.
+        os.fsync(self._file.fileno())
 
     def close(self) -> None:
         try:
             self._writer.finish()
+            self._file.flush()
+            os.fsync(self._file.fileno())
         finally:
             self._file.close()

@@ -1,26 +1,27 @@
 """Read a recording back: ``read_recording(path)`` → :class:`Recording`.
 
-The file is read as a stream, record by record, so a recording whose recorder was killed (no
-summary, a half-written last chunk) still yields every message up to the last flush;
-``Recording.truncated`` says so. Messages come from the msgpack channels (the exact bytes the
-robot published) and decode with :mod:`schemas.messages` like live ones.
+The file is walked record by record (:mod:`clients.recording.scan`), so a recording whose
+recorder was killed (no summary, a half-written last chunk) still yields every message up to the
+last flush, and a damaged chunk costs only its own messages; ``Recording.truncated`` and
+``Recording.notice`` say so, and ``darwin record recover`` makes such a file whole for every other
+tool. Messages come from the msgpack channels (the exact bytes the robot published) and decode
+with :mod:`schemas.messages` like live ones.
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import os
-import struct
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from mcap.exceptions import McapError
 from mcap.records import Channel, Message, Metadata
-from mcap.stream_reader import StreamReader
 
 from clients.recording.mcap_sink import RAW_ENCODING
+from clients.recording.scan import NotMcapError, RecordScanner
 from clients.robot import TOPICS
 from schemas.errors import ProtocolError
 from schemas.messages import Message as DarwinMessage
@@ -45,7 +46,8 @@ class Recording:
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     messages: list[RecordedMessage] = field(default_factory=list)
     truncated: bool = False  # the file ended early (recorder killed); messages are still valid
-    problem: str = ""  # what ended the read early
+    problem: str = ""  # what ended the read early, or what was skipped
+    notice: str = ""  # one line: what is wrong with the file and how to recover it
 
     def __repr__(self) -> str:
         span = f"{self.duration:.1f} s" if self.messages else "empty"
@@ -87,20 +89,23 @@ class Recording:
         return to_frame(name, self.decoded(name))
 
 
-def iter_records(path: str) -> Iterator[Any]:
-    """Every MCAP record of ``path`` in file order; raises at a truncated or corrupt tail."""
-    with open(path, "rb") as f:
-        yield from StreamReader(f, validate_crcs=False).records
+log = logging.getLogger(__name__)
 
 
-def read_recording(path: str | os.PathLike[str]) -> Recording:
+def read_recording(
+    path: str | os.PathLike[str], *, on_notice: Callable[[str], object] | None = None
+) -> Recording:
     """Load a recording made by :class:`clients.recording.Recorder` (or any MCAP file with
-    ``msgpack`` channels carrying ``darwin_topic`` metadata)."""
+    ``msgpack`` channels carrying ``darwin_topic`` metadata).
+
+    A truncated or damaged file is read as far as it is sound; its one-line ``notice`` (how to
+    recover it) goes to ``on_notice`` (default: logged as a warning)."""
     path = os.fspath(path)
     rec = Recording(path)
     channels: dict[int, str] = {}
+    scanner = RecordScanner(path)
     try:
-        for record in iter_records(path):
+        for record in scanner:
             if isinstance(record, Channel):
                 topic = record.metadata.get("darwin_topic", "")
                 if record.message_encoding == RAW_ENCODING and topic in TOPICS:
@@ -115,17 +120,41 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
             elif isinstance(record, Metadata):
                 rec.metadata[record.name] = dict(record.metadata)
                 rec.robot = rec.robot or record.metadata.get("robot", "")
-    except (McapError, EOFError, struct.error, ValueError) as exc:
-        # A killed recorder leaves a partial chunk: keep everything before it.
-        if not rec.metadata and not rec.messages:
-            raise ProtocolError(
-                f"{path} is not a readable MCAP recording ({type(exc).__name__}: {exc})"
-            ) from exc
-        rec.truncated = True
-        rec.problem = f"{type(exc).__name__}: {exc}"
+    except NotMcapError as exc:
+        raise ProtocolError(f"{path} is not a readable MCAP recording ({exc})") from exc
+    report = scanner.report
+    if report.damaged:
+        rec.truncated = report.truncated
+        rec.problem = "; ".join([report.where(), *report.drops()])
+        rec.notice = report.notice()
+        (on_notice or log.warning)(rec.notice)
     rec.messages.sort(key=lambda m: m.log_ns)
     if not rec.robot and "darwin" in rec.metadata:
         rec.robot = rec.metadata["darwin"].get("robot", "")
+    return rec
+
+
+def read_session(
+    paths: Iterable[str | os.PathLike[str]], *, on_notice: Callable[[str], object] | None = None
+) -> Recording:
+    """Several files (the segments of a split session, in any order) as one recording: messages
+    merged in log-time order, the first file's metadata and robot, ``truncated`` and ``notice``
+    from any file that has them."""
+    parts = [read_recording(p, on_notice=on_notice) for p in paths]
+    if not parts:
+        raise ValueError("no recording files given")
+    if len(parts) == 1:
+        return parts[0]
+    first = parts[0]
+    rec = Recording(f"{first.path} (+{len(parts) - 1} more)", first.robot, dict(first.metadata))
+    for part in parts:
+        rec.messages.extend(part.messages)
+        rec.robot = rec.robot or part.robot
+        if part.notice:
+            rec.truncated = rec.truncated or part.truncated
+            rec.problem = "; ".join(filter(None, [rec.problem, part.problem]))
+            rec.notice = rec.notice or part.notice
+    rec.messages.sort(key=lambda m: m.log_ns)
     return rec
 
 

@@ -1,5 +1,10 @@
-"""``darwin record -o FILE.mcap [--topics …]``: record the robot's publications until Ctrl-C,
-SIGTERM or ``--duration``; the file is closed complete and valid in every case."""
+"""``darwin record -o FILE.mcap [--topics …] [--split-seconds N] [--split-bytes N]``: record the
+robot's publications until Ctrl-C, SIGTERM or ``--duration``; the file (or every segment) is
+closed complete and valid in every case but SIGKILL, which loses at most the last flush interval.
+
+``darwin record recover FILE [-o OUT]``: rewrite a truncated or damaged recording as a complete,
+indexed MCAP (:mod:`clients.recording.recover`).
+"""
 
 from __future__ import annotations
 
@@ -12,14 +17,26 @@ from types import FrameType
 
 import zenoh
 
-from clients.recording.recorder import DEFAULT_TOPICS, FORMATS, Recorder, check_topics
+from clients.recording.mcap_sink import CHUNK_BYTES
+from clients.recording.profile import PROFILES, get_profile
+from clients.recording.recorder import (
+    DEFAULT_TOPICS,
+    FORMATS,
+    Recorder,
+    check_options,
+    check_topics,
+)
 from clients.robot import TOPICS
-from schemas.errors import RobotUnreachableError
+from schemas.errors import ClientError, RobotUnreachableError
 from schemas.session import open_client, resolve
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("-o", "--output", required=True, help="file to write (.mcap or .txt)")
+    parser.usage = (
+        "%(prog)s -o FILE.mcap [options]\n"
+        "       %(prog)s recover FILE [-o OUT] [--force | --in-place]"
+    )
+    parser.add_argument("-o", "--output", help="file to write (.mcap or .txt)")
     parser.add_argument(
         "--topics",
         nargs="+",
@@ -31,33 +48,114 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=FORMATS,
         help="mcap (default; .txt/.log files default to text) or the original's plain-text log",
     )
+    parser.add_argument(
+        "--profile",
+        choices=sorted(PROFILES),
+        default="darwin",
+        help="what to record and how to encode it (darwin: JSON + msgpack channels)",
+    )
     parser.add_argument("--connect", metavar="ENDPOINT", help="Zenoh endpoint (DARWIN_ENDPOINT)")
     parser.add_argument("--robot", metavar="NAME", help="robot name (DARWIN_ROBOT, default op1)")
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     parser.add_argument(
-        "--flush", type=float, default=0.5, metavar="S", help="flush to disk every S s (0.5)"
+        "--flush",
+        type=float,
+        default=0.5,
+        metavar="S",
+        help="write and fsync what is buffered every S s: the most a kill loses (0.5)",
+    )
+    parser.add_argument(
+        "--chunk-bytes",
+        type=int,
+        default=CHUNK_BYTES,
+        metavar="N",
+        help=f"close an MCAP chunk at N uncompressed bytes even between flushes ({CHUNK_BYTES})",
+    )
+    parser.add_argument(
+        "--split-seconds",
+        type=float,
+        metavar="N",
+        help="write segments FILE-0001.mcap, FILE-0002.mcap… of N seconds each",
+    )
+    parser.add_argument(
+        "--split-bytes",
+        type=int,
+        metavar="N",
+        help="write segments of about N bytes each (with --split-seconds: whichever comes first)",
+    )
+    sub = parser.add_subparsers(dest="action", metavar="recover", title="actions")
+    fix = sub.add_parser(
+        "recover",
+        help="rewrite a truncated recording as a complete, indexed MCAP",
+        description="Rewrite a truncated or damaged recording (a killed recorder) as a complete, "
+        "indexed MCAP with every message that reached the disk; report what was kept and where "
+        "the file was cut.",
+    )
+    fix.add_argument("file", help="the truncated recording")
+    fix.add_argument(
+        "-o",
+        "--output",
+        dest="recovered",
+        metavar="OUT",
+        help="where to write (default: FILE with .recovered.mcap)",
+    )
+    fix.add_argument("--force", action="store_true", help="overwrite OUT if it exists")
+    fix.add_argument(
+        "--in-place", action="store_true", help="replace FILE itself with the recovered file"
     )
 
 
 def run(args: argparse.Namespace) -> int:
-    topics = [t for item in args.topics for t in item.split(",") if t] if args.topics else None
+    if args.action == "recover":
+        return run_recover(args)
+    return run_record(args)
+
+
+def run_recover(args: argparse.Namespace) -> int:
+    from clients.recording.recover import RecoverError, recover
+
+    output = args.file if args.in_place else args.recovered
     try:
-        topics = check_topics(topics)
-    except ValueError as exc:
-        print(f"darwin record: {exc}", file=sys.stderr)
+        result = recover(args.file, output, overwrite=args.force or args.in_place)
+    except RecoverError as exc:
+        print(f"darwin record recover: {exc}", file=sys.stderr)
         return 2
+    print("\n".join(result.lines()), flush=True)
+    return 0
+
+
+def _check(args: argparse.Namespace) -> str:
+    """The first thing wrong with the options, or ""."""
+    if not args.output:
+        return "give the file to write with -o FILE.mcap (or: darwin record recover FILE)"
     if args.duration is not None and args.duration <= 0:
-        print(f"darwin record: --duration {args.duration} must be > 0", file=sys.stderr)
-        return 2
+        return f"--duration {args.duration} must be > 0"
     folder = os.path.dirname(os.path.abspath(args.output))
     if not os.path.isdir(folder):
-        print(f"darwin record: cannot write {args.output}: no folder {folder}", file=sys.stderr)
+        return f"cannot write {args.output}: no folder {folder}"
+    return ""
+
+
+def run_record(args: argparse.Namespace) -> int:
+    topics = [t for item in args.topics for t in item.split(",") if t] if args.topics else None
+    problem = _check(args)
+    try:
+        profile = get_profile(args.profile)
+        topics = check_topics(topics, profile)
+        check_options(args.flush, args.chunk_bytes, args.split_seconds, args.split_bytes)
+    except ValueError as exc:
+        problem = problem or str(exc)
+    if problem:
+        print(f"darwin record: {problem}", file=sys.stderr)
         return 2
     target = resolve(args.connect, args.robot)
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
+
+    def notice(line: str) -> None:
+        print(f"darwin record: {line}", file=sys.stderr, flush=True)
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
@@ -76,6 +174,11 @@ def run(args: argparse.Namespace) -> int:
             robot=target.robot,
             format=args.format,
             flush_interval=args.flush,
+            chunk_bytes=args.chunk_bytes,
+            split_seconds=args.split_seconds,
+            split_bytes=args.split_bytes,
+            profile=profile,
+            on_notice=notice,
         )
         try:
             rec.start()
@@ -84,8 +187,14 @@ def run(args: argparse.Namespace) -> int:
                 f"darwin record: cannot write {args.output}: {exc.strerror or exc}", file=sys.stderr
             )
             return 2
+        except ClientError as exc:
+            print(f"darwin record: {exc}", file=sys.stderr)
+            return 2
+        where = rec.path
+        if rec.splitting:
+            where = f"{rec.stats.segments[0]} and on"
         print(
-            f"recording {target.robot} at {target.endpoint} → {rec.path} ({rec.format}: "
+            f"recording {target.robot} at {target.endpoint} → {where} ({rec.format}: "
             f"{' '.join(rec.topics)}); Ctrl-C to stop",
             file=sys.stderr,
             flush=True,

@@ -6,49 +6,51 @@
 
 Zenoh callbacks only stamp the sample and queue it (never blocking: a full queue counts a drop);
 one writer thread encodes and writes, and flushes every ``flush_interval`` seconds so a killed
-recorder leaves a readable file.
+recorder loses at most that tail. ``split_seconds`` / ``split_bytes`` write the session as
+numbered segments, each a closed, indexed file (:mod:`clients.recording.segments`). What is
+subscribed and how it is encoded comes from a profile (:mod:`clients.recording.profile`).
+
+Before writing, the recorder looks at its output place: a truncated MCAP file there (from a
+killed recorder) is never overwritten, and ``notices`` holds one line per such file saying how to
+recover it.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import os
 import queue
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any, Protocol, Self
+from datetime import UTC, datetime
+from typing import Any, Self
 
 import zenoh
 
-from clients.recording.mcap_sink import McapSink
+from clients.recording.mcap_sink import CHUNK_BYTES, McapSink
+from clients.recording.profile import DARWIN, Profile, check_topics
+from clients.recording.segments import (
+    SegmentedSink,
+    Sink,
+    existing_segments,
+    truncation_notice,
+)
 from clients.recording.text_sink import TextSink
-from clients.robot import TOPICS, Commander
-from schemas.errors import ClientError, ProtocolError
+from clients.robot import Commander
+from schemas.errors import ClientError
 from schemas.keys import Keys
-from schemas.messages import Message, decode_dict
 from schemas.session import resolve
 
 log = logging.getLogger(__name__)
 
 FORMATS = ("mcap", "text")
-DEFAULT_TOPICS: tuple[str, ...] = tuple(Keys().topics())
-
-
-class Sink(Protocol):
-    def write(
-        self,
-        topic: str,
-        cls: type[Message],
-        log_ns: int,
-        payload: bytes,
-        decoded: dict[str, Any] | None,
-    ) -> None: ...
-
-    def flush(self) -> None: ...
-
-    def close(self) -> None: ...
+DEFAULT_TOPICS: tuple[str, ...] = DARWIN.default_topics
+FLUSH_RANGE = (0.02, 60.0)  # seconds: below, chunks get tiny; above, a kill loses too much
+CHUNK_RANGE = (4 * 1024, 64 * 1024 * 1024)
+MIN_SPLIT_BYTES = 64 * 1024
 
 
 @dataclass
@@ -57,6 +59,7 @@ class RecorderStats:
     format: str
     robot: str
     counts: dict[str, int] = field(default_factory=dict)
+    segments: list[str] = field(default_factory=list)  # the files written, when splitting
     dropped: int = 0  # samples lost because the writer fell behind (queue full)
     undecodable: int = 0  # kept in the msgpack channel, missing from the JSON one
     duration: float = 0.0
@@ -69,22 +72,39 @@ class RecorderStats:
         per = ", ".join(f"{t} {n}" for t, n in self.counts.items()) or "nothing"
         extra = f"; {self.dropped} dropped" if self.dropped else ""
         extra += f"; {self.undecodable} undecodable" if self.undecodable else ""
-        return f"{self.path}: {self.total} messages in {self.duration:.1f} s ({per}){extra}"
+        where = self.path
+        if self.segments:
+            n = len(self.segments)
+            where = f"{self.segments[0]}" + (
+                f" … {self.segments[-1]} ({n} segments)" if n > 1 else " (1 segment)"
+            )
+        return f"{where}: {self.total} messages in {self.duration:.1f} s ({per}){extra}"
 
 
 def guess_format(path: str) -> str:
     return "text" if os.path.splitext(path)[1].lower() in {".txt", ".log", ".tsv"} else "mcap"
 
 
-def check_topics(topics: Iterable[str] | None) -> list[str]:
-    chosen = list(DEFAULT_TOPICS if topics is None else topics)
-    unknown = [t for t in chosen if t not in TOPICS]
-    if unknown or not chosen:
-        raise ValueError(
-            f"cannot record topic(s) {', '.join(map(repr, unknown)) or 'none'}; "
-            f"choose among {', '.join(TOPICS)}"
-        )
-    return list(dict.fromkeys(chosen))
+def _check_number(name: str, value: float | None, low: float, high: float) -> None:
+    if value is None:
+        return
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValueError(f"{name} {value!r} is not a number")
+    if not low <= value <= high:
+        raise ValueError(f"{name} {value:g} is outside [{low:g}, {high:g}]")
+
+
+def check_options(
+    flush_interval: float,
+    chunk_bytes: int,
+    split_seconds: float | None = None,
+    split_bytes: int | None = None,
+) -> None:
+    """Raise ValueError naming the first option out of its range."""
+    _check_number("flush interval", flush_interval, *FLUSH_RANGE)
+    _check_number("chunk size", chunk_bytes, *CHUNK_RANGE)
+    _check_number("split seconds", split_seconds, 1.0, 7 * 24 * 3600.0)
+    _check_number("split bytes", split_bytes, MIN_SPLIT_BYTES, 2**50)
 
 
 class Recorder:
@@ -92,6 +112,10 @@ class Recorder:
 
     ``source`` is a :class:`clients.robot.Robot` / ``Commander`` (its session and robot name are
     used) or a bare ``zenoh.Session`` (then pass ``robot``, else ``DARWIN_ROBOT`` or ``op1``).
+    ``split_seconds`` / ``split_bytes`` write numbered segments (``NAME-0001.mcap``…) instead
+    of one file; ``flush_interval`` (s) and ``chunk_bytes`` bound what a kill can lose.
+    ``on_notice`` gets each one-line notice about a truncated file found in the output place
+    (default: logged as a warning); they are also kept in ``notices``.
     """
 
     def __init__(
@@ -103,7 +127,12 @@ class Recorder:
         robot: str | None = None,
         format: str | None = None,
         flush_interval: float = 0.5,
+        chunk_bytes: int = CHUNK_BYTES,
+        split_seconds: float | None = None,
+        split_bytes: int | None = None,
+        profile: Profile = DARWIN,
         queue_size: int = 20_000,
+        on_notice: Callable[[str], object] | None = None,
     ) -> None:
         if isinstance(source, Commander):
             self._session = source.session
@@ -113,11 +142,19 @@ class Recorder:
             name = resolve(None, robot).robot
         self.keys = Keys(name)
         self.path = os.fspath(path)
-        self.topics = check_topics(topics)
+        self.profile = profile
+        self.topics = check_topics(topics, profile)
         self.format = format or guess_format(self.path)
         if self.format not in FORMATS:
             raise ValueError(f"unknown recording format {self.format!r}; use one of {FORMATS}")
+        check_options(flush_interval, chunk_bytes, split_seconds, split_bytes)
         self.flush_interval = flush_interval
+        # A segment closes at the first chunk written past its size: keep chunks well below it.
+        self.chunk_bytes = min(chunk_bytes, split_bytes // 4) if split_bytes else chunk_bytes
+        self.split_seconds = split_seconds
+        self.split_bytes = split_bytes
+        self.notices: list[str] = []
+        self._on_notice = on_notice or log.warning
         self._queue: queue.Queue[tuple[str, int, bytes] | None] = queue.Queue(queue_size)
         self._clock = threading.Lock()
         self._subs: list[Any] = []
@@ -135,21 +172,76 @@ class Recorder:
     def running(self) -> bool:
         return self._state == "running"
 
+    @property
+    def splitting(self) -> bool:
+        return self.split_seconds is not None or self.split_bytes is not None
+
+    def _notice(self, line: str) -> None:
+        self.notices.append(line)
+        self._on_notice(line)
+
+    def _check_output_place(self) -> int:
+        """Report truncated files where this recording goes; return the first segment number.
+
+        The single file is refused when it is truncated (recording there would destroy what it
+        holds); segments continue after the highest one on disk, so none is ever overwritten.
+        """
+        segments = existing_segments(self.path)
+        for _, seg in segments:
+            if line := truncation_notice(seg):
+                self._notice(line)
+        single = truncation_notice(self.path)
+        if single and not self.splitting:
+            raise ClientError(f"{single}; it is kept: recover it or record to another name")
+        if single:
+            self._notice(single)
+        if not self.splitting:
+            return 0
+        return (segments[-1][0] + 1) if segments else 1
+
+    def _open_sink(self) -> Sink:
+        all_keys = {t: self.profile.key(self.keys, t) for t in self.topics}
+        session = datetime.now(UTC).isoformat()
+        robot = self.keys.robot
+
+        def factory(path: str, metadata: dict[str, str]) -> Sink:
+            if self.format == "text":
+                return TextSink(path, robot, all_keys, metadata=metadata)
+            return McapSink(
+                path,
+                robot,
+                all_keys,
+                profile=self.profile,
+                chunk_bytes=self.chunk_bytes,
+                metadata=metadata,
+            )
+
+        first = self._check_output_place()
+        if not self.splitting:
+            return factory(self.path, {})
+        sink = SegmentedSink(
+            self.path,
+            factory,
+            seconds=self.split_seconds,
+            max_bytes=self.split_bytes,
+            first=first,
+            metadata={"session": session},
+        )
+        self.stats.segments = sink.paths  # grows as segments open
+        return sink
+
     def start(self) -> Self:
         if self._state != "new":
             raise ClientError(f"this Recorder is {self._state}; create a new one to record again")
-        all_keys = self.keys.topics()
-        keys = {t: all_keys[t] for t in self.topics}
-        sink: Sink = (McapSink if self.format == "mcap" else TextSink)(
-            self.path, self.keys.robot, keys
-        )
+        sink = self._open_sink()
         self._thread = threading.Thread(
             target=self._write_loop, args=(sink,), name="darwin-recorder", daemon=True
         )
         self._started = time.monotonic()
         self._state = "running"
         self._thread.start()
-        for topic, key in keys.items():
+        for topic in self.topics:
+            key = self.profile.key(self.keys, topic)
             self._subs.append(
                 self._session.declare_subscriber(key, lambda s, t=topic: self._on_sample(t, s))
             )
@@ -186,16 +278,10 @@ class Recorder:
             sink.close()
 
     def _write(self, sink: Sink, topic: str, log_ns: int, payload: bytes) -> None:
-        cls = TOPICS[topic]
-        decoded: dict[str, Any] | None
-        try:
-            decoded = decode_dict(payload)
-            if decoded.get("type") != cls.TYPE:
-                raise ProtocolError(f"expected {cls.TYPE!r}, got {decoded.get('type')!r}")
-        except ProtocolError:
-            decoded = None
+        decoded = self.profile.decode(topic, payload)
+        if decoded is None:
             self.stats.undecodable += 1
-        sink.write(topic, cls, log_ns, payload, decoded)
+        sink.write(topic, log_ns, payload, decoded)
         self.stats.counts[topic] += 1
 
     def stop(self) -> RecorderStats:

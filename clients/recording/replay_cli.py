@@ -1,5 +1,6 @@
-"""``darwin replay FILE.mcap [--robot NAME] [--rate 2.0] [--loop]``: republish a recording on
-the key space under a robot name of its own, controllable on ``…/replay/control``."""
+"""``darwin replay FILE.mcap… [--robot NAME] [--rate 2.0] [--loop]``: republish a recording (or
+the segments of a split one, as one) on the key space under a robot name of its own, controllable
+on ``…/replay/control``."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from types import FrameType
 
 import zenoh
 
-from clients.recording.reader import read_recording
+from clients.recording.reader import read_session
 from clients.recording.replay import Replayer, default_robot_name
 from clients.robot import TOPICS
 from schemas.errors import ProtocolError, RobotUnreachableError
@@ -19,7 +20,11 @@ from schemas.session import DEFAULT_ENDPOINT, ENV_ENDPOINT, open_client, open_se
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", help="an MCAP recording made by `darwin record`")
+    parser.add_argument(
+        "file",
+        nargs="+",
+        help="an MCAP recording made by `darwin record` (or all the segments of a split one)",
+    )
     parser.add_argument(
         "--robot", metavar="NAME", help="robot name to publish as (default: <recorded>-replay)"
     )
@@ -43,13 +48,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    notices: list[str] = []
     try:
-        rec = read_recording(args.file)
+        rec = read_session(args.file, on_notice=notices.append)
     except (OSError, ProtocolError) as exc:
-        print(f"darwin replay: cannot read {args.file}: {exc}", file=sys.stderr)
+        name = getattr(exc, "filename", None) or " ".join(args.file)
+        print(f"darwin replay: cannot read {name}: {exc}", file=sys.stderr)
         return 2
     if not rec.messages:
-        print(f"darwin replay: {args.file} holds no replayable messages", file=sys.stderr)
+        hint = f" ({notices[0]})" if notices else ""
+        print(f"darwin replay: {rec.path} holds no replayable messages{hint}", file=sys.stderr)
         return 2
     topics = [t for item in args.topics for t in item.split(",") if t] if args.topics else None
     unknown = [t for t in topics or () if t not in TOPICS]
@@ -90,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
             flush=True,
         )
+        for line in notices:
+            print(f"darwin replay: {line}", file=sys.stderr, flush=True)
         finished = threading.Thread(
             target=lambda: (replayer.wait(), None if args.stay else stop.set()), daemon=True
         )

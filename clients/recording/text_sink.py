@@ -9,8 +9,6 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from typing import IO, Any
 
-from schemas.messages import Message
-
 _AXES = ("x", "y", "z")
 
 
@@ -51,21 +49,29 @@ def _fields(topic: str, d: dict[str, Any]) -> list[tuple[str, Any]]:
 
 
 class TextSink:
-    def __init__(self, path: str, robot: str, topics: dict[str, str]) -> None:
+    def __init__(
+        self,
+        path: str,
+        robot: str,
+        topics: dict[str, str],
+        *,
+        metadata: dict[str, str] | None = None,
+    ) -> None:
         self._file: IO[str] = open(path, "w", encoding="utf-8")  # noqa: SIM115 — close()
         started = datetime.now(UTC).isoformat()
         self._file.write(f"# darwin-zenoh log of robot {robot}, started {started}\n")
+        if metadata:
+            self._file.write(f"# {' '.join(f'{k}={v}' for k, v in metadata.items())}\n")
         self._file.write(f"# topics: {' '.join(topics)}\n")
         self._file.write("# time_s\ttopic\tfields (joint positions in degrees, IMU in SI units)\n")
         self._file.flush()
 
+    @property
+    def size(self) -> int:
+        return self._file.tell()
+
     def write(
-        self,
-        topic: str,
-        cls: type[Message],
-        log_ns: int,
-        payload: bytes,
-        decoded: dict[str, Any] | None,
+        self, topic: str, log_ns: int, payload: bytes, decoded: dict[str, Any] | None
     ) -> None:
         if decoded is None:
             body = f"undecodable payload of {len(payload)} bytes"

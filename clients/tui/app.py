@@ -47,7 +47,7 @@ from clients.tui.tabs.walk import WalkTab
 from clients.tui.widgets.header import RobotHeader
 from clients.tui.widgets.keybar import KeyBar
 from config.loader import RobotConfig, load_robot, robot_from_dict
-from schemas.errors import ConfigError
+from schemas.errors import ClientError, ConfigError
 from schemas.messages import Event
 
 RENDER_HZ = 15.0
@@ -396,13 +396,21 @@ class DarwinApp(App[None]):
         from clients.recording import Recorder  # only when asked: mcap is a heavy import
 
         try:
-            self._recorder = Recorder(self.link.robot, message.path).start()
-        except (OSError, ValueError) as exc:
-            self.notify(str(exc), severity="error", timeout=8)
+            self._recorder = Recorder(
+                self.link.robot,
+                message.path,
+                split_seconds=message.split_seconds,
+                split_bytes=message.split_bytes,
+                on_notice=lambda line: self.notify(line, severity="warning", timeout=12),
+            ).start()
+        except (OSError, ValueError, ClientError) as exc:
+            self.notify(str(exc), severity="error", timeout=12)
             return
-        self.local_event("record", _("recording to {path}").format(path=message.path))
+        segments = self._recorder.stats.segments
+        where = f"{segments[0]} …" if segments else message.path
+        self.local_event("record", _("recording to {path}").format(path=where))
         if tab is not None:
-            tab.set_recording(True, _("recording to {path}").format(path=message.path))
+            tab.set_recording(True, _("recording to {path}").format(path=where))
 
     def stop_recording(self) -> str:
         if self._recorder is None:

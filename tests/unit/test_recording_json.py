@@ -81,10 +81,10 @@ def test_text_log_lines(tmp_path) -> None:
         accel_raw=[4, 5, 6],
         tick=42,
     )
-    sink.write("imu", Imu, 1_500_000_000, encode(imu), decode_dict(encode(imu)))
+    sink.write("imu", 1_500_000_000, encode(imu), decode_dict(encode(imu)))
     ev = Event(kind="lease", message="taken by notebook")
-    sink.write("events", Event, 2_000_000_000, encode(ev), decode_dict(encode(ev)))
-    sink.write("events", Event, 2_500_000_000, b"\xc1", None)
+    sink.write("events", 2_000_000_000, encode(ev), decode_dict(encode(ev)))
+    sink.write("events", 2_500_000_000, b"\xc1", None)
     sink.close()
     lines = path.read_text().splitlines()
     assert lines[0].startswith("# darwin-zenoh log of robot op1")

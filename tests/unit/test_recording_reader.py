@@ -11,7 +11,7 @@ from clients.recording.mcap_sink import McapSink
 from clients.recording.reader import read_recording
 from clients.recording.replay import check_rate, default_robot_name
 from schemas.errors import InvalidCommandError, ProtocolError
-from schemas.messages import Event, Imu, decode_dict, encode
+from schemas.messages import Imu, decode_dict, encode
 
 KEYS = {"imu": "darwin/op1/imu", "events": "darwin/op1/events"}
 
@@ -34,10 +34,10 @@ def write(path: Path, n: int) -> bytes:
     sink = McapSink(str(path), "op1", KEYS)
     for i in range(n):
         p = imu(i)
-        sink.write("imu", Imu, 1_000 + i, p, decode_dict(p))
+        sink.write("imu", 1_000 + i, p, decode_dict(p))
         if i == n // 2:
             sink.flush()
-    sink.write("events", Event, 5_000, b"not msgpack \xc1", None)
+    sink.write("events", 5_000, b"not msgpack \xc1", None)
     sink.flush()
     flushed = path.read_bytes()
     sink.close()

@@ -1,5 +1,6 @@
 """Log: the robot's events as they come, and recording the session to a file (MCAP, or the
-original's plain text for ``.txt``/``.log``) with :class:`clients.recording.Recorder`."""
+original's plain text for ``.txt``/``.log``) with :class:`clients.recording.Recorder`, in one
+file or in segments (the split field: ``60s``, ``10m``, ``50MB``, ``10m 1GB``)."""
 
 from __future__ import annotations
 
@@ -36,17 +37,33 @@ class LogTab(TabView):
     DEFAULT_CSS = """
     LogTab RichLog { height: 1fr; border: round $primary-darken-2; }
     LogTab #record-path { width: 1fr; }
+    LogTab #record-split { width: 14; margin-left: 1; }
     LogTab Button { min-width: 0; margin-left: 1; }
     LogTab #record-state { width: auto; margin-left: 1; }
     """
     BINDINGS = [Binding("r", "record", N_("Record on/off"))]
 
     class Record(Message):
-        """Start recording to ``path``, or stop when ``path`` is None."""
+        """Start recording to ``path`` (in segments of ``split_seconds`` / ``split_bytes`` when
+        given), or stop when ``path`` is None."""
 
-        def __init__(self, path: str | None) -> None:
+        def __init__(
+            self,
+            path: str | None,
+            split_seconds: float | None = None,
+            split_bytes: int | None = None,
+            tab: LogTab | None = None,
+        ) -> None:
             super().__init__()
             self.path = path
+            self.split_seconds = split_seconds
+            self.split_bytes = split_bytes
+            self._tab = tab
+
+        @property
+        def control(self) -> LogTab | None:
+            # The app answers with set_recording() on the tab that asked.
+            return self._tab
 
     def __init__(self, model: Model) -> None:
         super().__init__(model)
@@ -57,6 +74,7 @@ class LogTab(TabView):
         with Horizontal(classes="bar"):
             yield self.stream_box()
             yield Input("session.mcap", id="record-path", compact=True)
+            yield Input(placeholder=_("split: 10m 1GB"), id="record-split", compact=True)
             yield Button(_("Record"), id="record-button", compact=True)
             yield Static("", id="record-state")
         yield RichLog(id="events", wrap=True, markup=False, max_lines=2000)
@@ -83,11 +101,19 @@ class LogTab(TabView):
     def action_record(self) -> None:
         path = self.query_one("#record-path", Input).value.strip()
         if self.recording:
-            self.post_message(self.Record(None))
-        elif not path:
+            self.post_message(self.Record(None, tab=self))
+            return
+        if not path:
             self.notify_error(_("Type the file to record to, e.g. session.mcap"))
-        else:
-            self.post_message(self.Record(path))
+            return
+        from clients.recording.segments import parse_split
+
+        try:
+            seconds, size = parse_split(self.query_one("#record-split", Input).value)
+        except ValueError as exc:
+            self.notify_error(str(exc))
+            return
+        self.post_message(self.Record(path, seconds, size, tab=self))
 
     def on_button_pressed(self, event: Button.Pressed) -> None:
         self.action_record()

@@ -1,0 +1,89 @@
+"""The TUI's Log tab records in segments (the real Textual app under Pilot, connected over real
+Zenoh to a loopback peer publishing like the daemon), and refuses to overwrite a cut file."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from pathlib import Path
+
+import numpy as np
+from textual.pilot import Pilot
+from textual.widgets import Input
+
+from clients.recording import read_recording
+from clients.recording.segments import existing_segments
+from clients.tui.app import TABS, DarwinApp, create_app
+from clients.tui.tabs.log import LogTab
+from schemas.messages import CameraFrame, encode
+from tests.integration.test_recording_mcap import ROBOT, Source
+from tests.integration.test_recording_mcap import source as source  # the fixture
+
+DEADLINE_S = 30.0
+
+
+async def until(pilot: Pilot, condition: object, what: str) -> None:
+    deadline = time.monotonic() + DEADLINE_S
+    while not condition():  # type: ignore[operator]
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        await pilot.pause(0.05)
+
+
+def frames(count: int, start: int = 0) -> list[bytes]:
+    rng = np.random.default_rng(start)
+    return [
+        encode(CameraFrame(jpeg=rng.bytes(20_000), width=320, height=240, seq=start + i))
+        for i in range(count)
+    ]
+
+
+def test_log_tab_records_in_segments(source: Source, tmp_path: Path) -> None:
+    base = tmp_path / "tui.mcap"
+    settings = tmp_path / "tui.toml"
+
+    async def run() -> None:
+        app: DarwinApp = create_app(
+            endpoint=source.endpoint, robot=ROBOT, name="tui-rec", settings_path=settings
+        )
+        async with app.run_test(size=(120, 40)) as pilot:
+            await until(pilot, lambda: app.link.robot is not None, "the link")
+            await pilot.press(str([t for t, _ in TABS].index("log") + 1))
+            tab = app.screen.query_one(LogTab)
+            tab.query_one("#record-path", Input).value = str(base)
+            tab.query_one("#record-split", Input).value = "5 GB"  # a typo: one clear error
+            tab.action_record()
+            await pilot.pause(0.1)
+            assert app._recorder is None
+            tab.query_one("#record-split", Input).value = "64KiB"
+            tab.action_record()
+            await until(pilot, lambda: tab.recording, "recording on")
+            pub = source.pubs["camera"]  # the TUI itself does not watch the camera
+            await until(pilot, lambda: pub.matching_status.matching, "the recorder's subscriber")
+            sent = frames(12)
+            for payload in sent:
+                source.put("camera", payload)
+            stats = app._recorder.stats  # type: ignore[union-attr]
+            await until(pilot, lambda: stats.counts["camera"] == len(sent), "every frame")
+            tab.action_record()
+            await until(pilot, lambda: not tab.recording, "recording off")
+            segments = [p for _, p in existing_segments(str(base))]
+            assert len(segments) >= 2 and stats.segments == segments
+            got = [m.payload for p in segments for m in read_recording(p).topic("camera")]
+            assert got == sent
+
+            # A cut file at the path is kept, and the notification says how to recover it.
+            cut = tmp_path / "cut.mcap"
+            whole = Path(segments[0]).read_bytes()
+            cut.write_bytes(whole[: len(whole) // 2])
+            tab.query_one("#record-path", Input).value = str(cut)
+            tab.query_one("#record-split", Input).value = ""
+            tab.action_record()
+            await pilot.pause(0.2)
+            assert not tab.recording and app._recorder is None
+            assert cut.read_bytes() == whole[: len(whole) // 2]
+            shown = [n.message for n in app._notifications]
+            assert any("is truncated at byte" in m and "darwin record recover" in m for m in shown)
+            assert any("cannot read the split '5'" in m for m in shown)
+
+    asyncio.run(run())
