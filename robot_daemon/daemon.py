@@ -148,7 +148,11 @@ class Daemon:
     # -- lifecycle ---------------------------------------------------------------------------
     def start_network(self) -> None:
         zcfg = self.settings.get("zenoh", {})
-        conf = server_config(self.options.listen, int(zcfg.get("link_lease_ms", 3000)))
+        conf = server_config(
+            self.options.listen,
+            int(zcfg.get("link_lease_ms", 3000)),
+            str(zcfg.get("mode", "peer")),
+        )
         if self.options.connect:
             conf.insert_json5("connect/endpoints", json.dumps(self.options.connect))
         self.session = zenoh.open(conf)

@@ -58,11 +58,19 @@ def _config(mode: str, listen: list[str], connect: list[str], lease_ms: int | No
     return conf
 
 
-def server_config(listen: list[str], lease_ms: int | None = 3000) -> zenoh.Config:
-    """A peer that listens (daemon, simulator world, replay)."""
+SERVER_MODES = ("peer", "router")
+
+
+def server_config(
+    listen: list[str], lease_ms: int | None = 3000, mode: str = "peer"
+) -> zenoh.Config:
+    """A session that listens (daemon, simulator world, replay): a peer, or a Zenoh router
+    (``mode="router"``) that other machines' sessions, ROS 2 nodes included, join as clients."""
+    if mode not in SERVER_MODES:
+        raise ValueError(f"zenoh mode {mode!r} is not one of {', '.join(SERVER_MODES)}")
     for ep in listen:
         check_endpoint(ep)
-    return _config("peer", listen, [], lease_ms)
+    return _config(mode, listen, [], lease_ms)
 
 
 def client_config(endpoint: str, lease_ms: int | None = 3000) -> zenoh.Config:

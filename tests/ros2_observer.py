@@ -23,6 +23,8 @@ STORE = get_typestore(Stores.ROS2_JAZZY)
 # Request/response bodies of std_srvs/Trigger (only the CDR layout matters here, not the name).
 STORE.register(get_types_from_msg("uint8 structure_needs_at_least_one_member", "std_srvs/msg/Trigger_Request"))
 STORE.register(get_types_from_msg("bool success\nstring message", "std_srvs/msg/Trigger_Response"))
+STORE.register(get_types_from_msg("bool data", "std_srvs/msg/SetBool_Request"))
+STORE.register(get_types_from_msg("bool success\nstring message", "std_srvs/msg/SetBool_Response"))
 
 # Literals from the reference's table and rosidl-generated headers (not computed here).
 HASH = {
@@ -32,6 +34,10 @@ HASH = {
     "geometry_msgs/msg/Twist": "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
     "std_msgs/msg/String": "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18",
     "std_srvs/srv/Trigger": "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f",
+    "trajectory_msgs/msg/JointTrajectory": "RIHS01_179b33eba59d676f6d967ac71fe35e7ca2f64b2f3928f4a018cec115e213796e",
+    # Derived as rosidl does (request/response/event, ServiceEventInfo's char[16] as uint8[16]);
+    # the same derivation reproduces the Trigger literal above.
+    "std_srvs/srv/SetBool": "RIHS01_abe9e4bb6b41b40e6789712c00ec8871923e089af3f667a79992a428cff2da0a",
 }
 
 
