@@ -192,14 +192,34 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
     missing = sorted(set(range(1, 21)) - set(by_id))
     if missing:
         raise ValueError(f"the robot config has no joints with ids {missing}: all 20 are needed")
-    links: list[Link] = [Link("base_link", _MASS["base_link"], Box((0.102, 0.109, 0.106), (-0.0235, 0.0, -0.03525)))]
+    links: list[Link] = [
+        Link("base_link", _MASS["base_link"], Box((0.102, 0.109, 0.106), (-0.0235, 0.0, -0.03525)))
+    ]
     joints: list[Joint] = []
 
-    def servo(jid: int, parent: str, child: Link, xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0)):
+    def servo(
+        jid: int,
+        parent: str,
+        child: Link,
+        xyz=(0.0, 0.0, 0.0),
+        rpy=(0.0, 0.0, 0.0),
+        axis=(0.0, 0.0, 1.0),
+    ):
         jl = by_id[jid]
         links.append(child)
         joints.append(
-            Joint(jl.urdf, parent, child.name, tuple(map(float, xyz)), tuple(map(float, rpy)), tuple(map(float, axis)), jid, jl.lower, jl.upper, max_speed)
+            Joint(
+                jl.urdf,
+                parent,
+                child.name,
+                tuple(map(float, xyz)),
+                tuple(map(float, rpy)),
+                tuple(map(float, axis)),
+                jid,
+                jl.lower,
+                jl.upper,
+                max_speed,
+            )
         )
 
     def frame(jname: str, parent: str, child: str, xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)):
@@ -207,8 +227,18 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
         joints.append(Joint(jname, parent, child, tuple(map(float, xyz)), tuple(map(float, rpy))))
 
     # Head: pan about z, tilt about -y (positive tilt looks up), camera pitched by the eye offset.
-    servo(kin.HEAD_PAN_ID, "base_link", Link("neck", _MASS["neck"], Box((0.022, 0.045, 0.0325), (0.0, 0.0, -0.016))), (0, 0, kin.NECK_HEIGHT))
-    servo(kin.HEAD_TILT_ID, "neck", Link("head", _MASS["head"], Box((0.0634, 0.061, 0.065), (0.0, 0.0, 0.03))), axis=(0, -1, 0))
+    servo(
+        kin.HEAD_PAN_ID,
+        "base_link",
+        Link("neck", _MASS["neck"], Box((0.022, 0.045, 0.0325), (0.0, 0.0, -0.016))),
+        (0, 0, kin.NECK_HEIGHT),
+    )
+    servo(
+        kin.HEAD_TILT_ID,
+        "neck",
+        Link("head", _MASS["head"], Box((0.0634, 0.061, 0.065), (0.0, 0.0, 0.03))),
+        axis=(0, -1, 0),
+    )
     cam = kin._CAMERA_IN_HEAD
     frame("camera_joint", "head", "camera", tuple(cam[:3, 3]), (0.0, kin.EYE_TILT_OFFSET, 0.0))
     frame("camera_optical_joint", "camera", "camera_optical", rpy=(-math.pi / 2, 0.0, -math.pi / 2))
@@ -219,26 +249,97 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
         p = side[0]
         # Arms: the 45° shoulder, 45° abduction and 90° elbow origins of schemas.kinematics.
         pitch_id, roll_id, elbow_id = kin.ARM_IDS[side]
-        servo(pitch_id, "base_link", Link(f"{p}_shoulder", _MASS["shoulder"], Box((0.016, 0.033, 0.02165))),
-              (0, s * kin.SHOULDER_SIDE_OFFSET, kin.SHOULDER_HEIGHT), (0, -kin.SHOULDER_PITCH_ORIGIN, 0), (0, s, 0))
-        servo(roll_id, f"{p}_shoulder", Link(f"{p}_upper_arm", _MASS["upper_arm"], Box((0.035, 0.032, kin.UPPER_ARM_LENGTH), (kin.UPPER_ARM_FORWARD / 2, 0, -kin.UPPER_ARM_LENGTH / 2))),
-              rpy=(s * kin.SHOULDER_ROLL_ORIGIN, 0, 0), axis=(-1, 0, 0))
-        servo(elbow_id, f"{p}_upper_arm", Link(f"{p}_forearm", _MASS["forearm"], Box((0.032, 0.032, kin.FOREARM_LENGTH), (0, 0, -kin.FOREARM_LENGTH / 2))),
-              (kin.UPPER_ARM_FORWARD, 0, -kin.UPPER_ARM_LENGTH), (0, -kin.ELBOW_ORIGIN, 0), (0, -s, 0))
+        servo(
+            pitch_id,
+            "base_link",
+            Link(f"{p}_shoulder", _MASS["shoulder"], Box((0.016, 0.033, 0.02165))),
+            (0, s * kin.SHOULDER_SIDE_OFFSET, kin.SHOULDER_HEIGHT),
+            (0, -kin.SHOULDER_PITCH_ORIGIN, 0),
+            (0, s, 0),
+        )
+        servo(
+            roll_id,
+            f"{p}_shoulder",
+            Link(
+                f"{p}_upper_arm",
+                _MASS["upper_arm"],
+                Box(
+                    (0.035, 0.032, kin.UPPER_ARM_LENGTH),
+                    (kin.UPPER_ARM_FORWARD / 2, 0, -kin.UPPER_ARM_LENGTH / 2),
+                ),
+            ),
+            rpy=(s * kin.SHOULDER_ROLL_ORIGIN, 0, 0),
+            axis=(-1, 0, 0),
+        )
+        servo(
+            elbow_id,
+            f"{p}_upper_arm",
+            Link(
+                f"{p}_forearm",
+                _MASS["forearm"],
+                Box((0.032, 0.032, kin.FOREARM_LENGTH), (0, 0, -kin.FOREARM_LENGTH / 2)),
+            ),
+            (kin.UPPER_ARM_FORWARD, 0, -kin.UPPER_ARM_LENGTH),
+            (0, -kin.ELBOW_ORIGIN, 0),
+            (0, -s, 0),
+        )
         frame(f"{p}_hand_joint", f"{p}_forearm", f"{p}_hand", (0, 0, -kin.FOREARM_LENGTH))
 
         # Legs: Rz(yaw)·Rx(roll)·Ry(pitch) at the hip point, knee, ankle pitch and roll; the
         # servo direction is the axis sign (servo angle = direction · leg angle).
         yaw_id, roll_id, hpitch_id, knee_id, apitch_id, aroll_id = kin.LEG_IDS[side]
         d = kin.LEG_DIRECTION[side]
-        servo(yaw_id, "base_link", Link(f"{p}_hip_yaw", _MASS["hip_yaw"], Box((0.045, 0.03, 0.028), (0, 0, 0.014))),
-              tuple(kin.hip_point(side)), axis=(0, 0, d[0]))
-        servo(roll_id, f"{p}_hip_yaw", Link(f"{p}_hip_roll", _MASS["hip_roll"], Box((0.045, 0.035, 0.03))), axis=(d[1], 0, 0))
-        servo(hpitch_id, f"{p}_hip_roll", Link(f"{p}_thigh", _MASS["thigh"], Box((0.035, 0.045, kin.THIGH_LENGTH), (0, 0, -kin.THIGH_LENGTH / 2))), axis=(0, d[2], 0))
-        servo(knee_id, f"{p}_thigh", Link(f"{p}_shin", _MASS["shin"], Box((0.035, 0.045, kin.CALF_LENGTH), (0, 0, -kin.CALF_LENGTH / 2))),
-              (0, 0, -kin.THIGH_LENGTH), axis=(0, d[3], 0))
-        servo(apitch_id, f"{p}_shin", Link(f"{p}_ankle", _MASS["ankle"], Box((0.045, 0.035, 0.03))), (0, 0, -kin.CALF_LENGTH), axis=(0, d[4], 0))
-        servo(aroll_id, f"{p}_ankle", Link(f"{p}_foot", _MASS["foot"], Box(_FOOT_BOX, (0, 0, -kin.ANKLE_LENGTH + _FOOT_BOX[2] / 2))), axis=(d[5], 0, 0))
+        servo(
+            yaw_id,
+            "base_link",
+            Link(f"{p}_hip_yaw", _MASS["hip_yaw"], Box((0.045, 0.03, 0.028), (0, 0, 0.014))),
+            tuple(kin.hip_point(side)),
+            axis=(0, 0, d[0]),
+        )
+        servo(
+            roll_id,
+            f"{p}_hip_yaw",
+            Link(f"{p}_hip_roll", _MASS["hip_roll"], Box((0.045, 0.035, 0.03))),
+            axis=(d[1], 0, 0),
+        )
+        servo(
+            hpitch_id,
+            f"{p}_hip_roll",
+            Link(
+                f"{p}_thigh",
+                _MASS["thigh"],
+                Box((0.035, 0.045, kin.THIGH_LENGTH), (0, 0, -kin.THIGH_LENGTH / 2)),
+            ),
+            axis=(0, d[2], 0),
+        )
+        servo(
+            knee_id,
+            f"{p}_thigh",
+            Link(
+                f"{p}_shin",
+                _MASS["shin"],
+                Box((0.035, 0.045, kin.CALF_LENGTH), (0, 0, -kin.CALF_LENGTH / 2)),
+            ),
+            (0, 0, -kin.THIGH_LENGTH),
+            axis=(0, d[3], 0),
+        )
+        servo(
+            apitch_id,
+            f"{p}_shin",
+            Link(f"{p}_ankle", _MASS["ankle"], Box((0.045, 0.035, 0.03))),
+            (0, 0, -kin.CALF_LENGTH),
+            axis=(0, d[4], 0),
+        )
+        servo(
+            aroll_id,
+            f"{p}_ankle",
+            Link(
+                f"{p}_foot",
+                _MASS["foot"],
+                Box(_FOOT_BOX, (0, 0, -kin.ANKLE_LENGTH + _FOOT_BOX[2] / 2)),
+            ),
+            axis=(d[5], 0, 0),
+        )
         frame(f"{p}_sole_joint", f"{p}_foot", f"{p}_sole", (0, 0, -kin.ANKLE_LENGTH))
     return Body(name, links, joints)
 

@@ -21,23 +21,33 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 # Request/response bodies of std_srvs/Trigger (only the CDR layout matters here, not the name).
-STORE.register(get_types_from_msg("uint8 structure_needs_at_least_one_member", "std_srvs/msg/Trigger_Request"))
+STORE.register(
+    get_types_from_msg("uint8 structure_needs_at_least_one_member", "std_srvs/msg/Trigger_Request")
+)
 STORE.register(get_types_from_msg("bool success\nstring message", "std_srvs/msg/Trigger_Response"))
 STORE.register(get_types_from_msg("bool data", "std_srvs/msg/SetBool_Request"))
 STORE.register(get_types_from_msg("bool success\nstring message", "std_srvs/msg/SetBool_Response"))
 
 # Literals from the reference's table and rosidl-generated headers (not computed here).
 HASH = {
-    "sensor_msgs/msg/JointState": "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e",
-    "sensor_msgs/msg/Imu": "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b",
-    "sensor_msgs/msg/CompressedImage": "RIHS01_15640771531571185e2efc8a100baf923961a4d15d5569652e6cb6691e8e371a",
-    "geometry_msgs/msg/Twist": "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
-    "std_msgs/msg/String": "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18",
-    "std_srvs/srv/Trigger": "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f",
-    "trajectory_msgs/msg/JointTrajectory": "RIHS01_179b33eba59d676f6d967ac71fe35e7ca2f64b2f3928f4a018cec115e213796e",
+    "sensor_msgs/msg/JointState": "RIHS01_a13ee3a330e346c9d87b5aa18d24e116"
+    "90752bd33a0350f11c5882bc9179260e",
+    "sensor_msgs/msg/Imu": "RIHS01_7d9a00ff131080897a5ec7e26e315954"
+    "b8eae3353c3f995c55faf71574000b5b",
+    "sensor_msgs/msg/CompressedImage": "RIHS01_15640771531571185e2efc8a100baf92"
+    "3961a4d15d5569652e6cb6691e8e371a",
+    "geometry_msgs/msg/Twist": "RIHS01_9c45bf16fe0983d80e3cfe750d683584"
+    "3d265a9a6c46bd2e609fcddde6fb8d2a",
+    "std_msgs/msg/String": "RIHS01_df668c740482bbd48fb39d76a70dfd4b"
+    "d59db1288021743503259e948f6b1a18",
+    "std_srvs/srv/Trigger": "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317"
+    "839b62f212a91e6b5304b634b2062c5f",
+    "trajectory_msgs/msg/JointTrajectory": "RIHS01_179b33eba59d676f6d967ac71fe35e7c"
+    "a2f64b2f3928f4a018cec115e213796e",
     # Derived as rosidl does (request/response/event, ServiceEventInfo's char[16] as uint8[16]);
     # the same derivation reproduces the Trigger literal above.
-    "std_srvs/srv/SetBool": "RIHS01_abe9e4bb6b41b40e6789712c00ec8871923e089af3f667a79992a428cff2da0a",
+    "std_srvs/srv/SetBool": "RIHS01_abe9e4bb6b41b40e6789712c00ec8871"
+    "923e089af3f667a79992a428cff2da0a",
 }
 
 
@@ -64,7 +74,9 @@ def read_attachment(raw: bytes) -> tuple[int, int, bytes]:
 class RmwObserver:
     """Graph discovery, subscriptions, a Twist publisher and a service client."""
 
-    def __init__(self, session: zenoh.Session, domain: int = 0, namespace: str = "/", name: str = "observer") -> None:
+    def __init__(
+        self, session: zenoh.Session, domain: int = 0, namespace: str = "/", name: str = "observer"
+    ) -> None:
         self.s = session
         self.domain = domain
         self.zid = str(session.zid())
@@ -72,10 +84,14 @@ class RmwObserver:
         self.prefix = f"@ros2_lv/{domain}/{self.zid}/0"
         self.node_tail = f"%/{ns}/{name}"
         self._next_id = 1
-        self._tokens: list[Any] = [session.liveliness().declare_token(f"{self.prefix}/0/NN/{self.node_tail}")]
+        self._tokens: list[Any] = [
+            session.liveliness().declare_token(f"{self.prefix}/0/NN/{self.node_tail}")
+        ]
         self._cond = threading.Condition()
         self.graph: dict[str, dict[str, str]] = {}
-        self._lv = session.liveliness().declare_subscriber(f"@ros2_lv/{domain}/**", self._on_token, history=True)
+        self._lv = session.liveliness().declare_subscriber(
+            f"@ros2_lv/{domain}/**", self._on_token, history=True
+        )
         self._subs: list[Any] = []
 
     # -- graph -----------------------------------------------------------------------------
@@ -86,14 +102,27 @@ class RmwObserver:
             if sample.kind == zenoh.SampleKind.DELETE:
                 self.graph.pop(key, None)
             else:
-                e = {"zid": parts[2], "nid": parts[3], "id": parts[4], "kind": parts[5],
-                     "namespace": parts[7].replace("%", "/"), "node": parts[8]}
+                e = {
+                    "zid": parts[2],
+                    "nid": parts[3],
+                    "id": parts[4],
+                    "kind": parts[5],
+                    "namespace": parts[7].replace("%", "/"),
+                    "node": parts[8],
+                }
                 if len(parts) >= 13:
-                    e.update(topic=parts[9].replace("%", "/"), type=parts[10], hash=parts[11], qos=parts[12])
+                    e.update(
+                        topic=parts[9].replace("%", "/"),
+                        type=parts[10],
+                        hash=parts[11],
+                        qos=parts[12],
+                    )
                 self.graph[key] = e
             self._cond.notify_all()
 
-    def wait_for(self, predicate: Callable[[dict[str, dict[str, str]]], bool], timeout: float = 20.0) -> None:
+    def wait_for(
+        self, predicate: Callable[[dict[str, dict[str, str]]], bool], timeout: float = 20.0
+    ) -> None:
         with self._cond:
             assert self._cond.wait_for(lambda: predicate(self.graph), timeout), self.graph
 
@@ -107,13 +136,19 @@ class RmwObserver:
     def _entity_token(self, kind: str, topic: str, ros_type: str, qos: str) -> str:
         eid = self._next_id
         self._next_id += 1
-        return f"{self.prefix}/{eid}/{kind}/{self.node_tail}/{topic.replace('/', '%')}/{dds(ros_type)}/{HASH[ros_type]}/{qos}"
+        topic_chunk = topic.replace("/", "%")
+        return (
+            f"{self.prefix}/{eid}/{kind}/{self.node_tail}/{topic_chunk}/"
+            f"{dds(ros_type)}/{HASH[ros_type]}/{qos}"
+        )
 
     def key(self, topic: str, ros_type: str) -> str:
         return f"{self.domain}/{topic.strip('/')}/{dds(ros_type)}/{HASH[ros_type]}"
 
     # -- subscriptions ---------------------------------------------------------------------
-    def subscribe(self, topic: str, ros_type: str, qos: str = "::,10:,:,:,,", transient_local: bool = False):
+    def subscribe(
+        self, topic: str, ros_type: str, qos: str = "::,10:,:,:,,", transient_local: bool = False
+    ):
         """Returns (list of (msg, attachment tuple), condition, closer)."""
         got: list[tuple[Any, tuple[int, int, bytes]]] = []
         cond = threading.Condition()
@@ -127,7 +162,9 @@ class RmwObserver:
 
         if transient_local:  # what rmw_zenoh's SubscriptionData::init does for TRANSIENT_LOCAL
             sub = zx.declare_advanced_subscriber(
-                self.s, self.key(topic, ros_type), on_sample,
+                self.s,
+                self.key(topic, ros_type),
+                on_sample,
                 history=zx.HistoryConfig(detect_late_publishers=True, max_samples=1),
                 recovery=zx.RecoveryConfig(periodic_queries=None, heartbeat=True),
                 subscriber_detection=True,
@@ -151,7 +188,7 @@ class RmwObserver:
         g = gid(tok)
         seq = [0]
 
-        def put(msg: Any = None, raw: bytes | None = None, att: bytes | None | bool = True) -> None:
+        def put(msg: Any = None, raw: bytes | None = None, att: bytes | bool | None = True) -> None:
             seq[0] += 1
             payload = raw if raw is not None else bytes(STORE.serialize_cdr(msg, ros_type))
             if att is True:
@@ -164,19 +201,27 @@ class RmwObserver:
         return put
 
     # -- services --------------------------------------------------------------------------
-    def call(self, service: str, srv_type: str, request: Any, timeout: float = 10.0) -> tuple[Any, tuple[int, int, bytes], bytes, int]:
+    def call(
+        self, service: str, srv_type: str, request: Any, timeout: float = 10.0
+    ) -> tuple[Any, tuple[int, int, bytes], bytes, int]:
         tok = self._entity_token("SC", service, srv_type, "::,10:,:,:,,")
         token = self.s.liveliness().declare_token(tok)
         try:
             g = gid(tok)
             seq = 7
-            replies = list(self.s.get(
-                self.key(service, srv_type),
-                payload=bytes(STORE.serialize_cdr(request, srv_type.replace("/srv/", "/msg/") + "_Request")),
-                attachment=attachment(seq, g),
-                target=zenoh.QueryTarget.ALL_COMPLETE,
-                timeout=timeout,
-            ))
+            replies = list(
+                self.s.get(
+                    self.key(service, srv_type),
+                    payload=bytes(
+                        STORE.serialize_cdr(
+                            request, srv_type.replace("/srv/", "/msg/") + "_Request"
+                        )
+                    ),
+                    attachment=attachment(seq, g),
+                    target=zenoh.QueryTarget.ALL_COMPLETE,
+                    timeout=timeout,
+                )
+            )
         finally:
             token.undeclare()
         assert replies, f"no reply from {service}"

@@ -48,7 +48,9 @@ class Adapter:
         self.options = options
         self.session = ros_session
         cfg = robot.config()
-        self.body: Body = build_body(limits_from_config_reply(cfg), float(cfg.get("max_speed", 5.65)))
+        self.body: Body = build_body(
+            limits_from_config_reply(cfg), float(cfg.get("max_speed", 5.65))
+        )
         self.names_by_id = {j.servo_id: j.name for j in self.body.servo_joints()}
         self.limits = {
             j.name: convert.Limit(j.servo_id, j.lower, j.upper) for j in self.body.servo_joints()
@@ -93,13 +95,21 @@ class Adapter:
     # -- ROS entities ----------------------------------------------------------------------
     def _make_publishers(self) -> None:
         n = self.node
-        self.pub_joints = n.publisher("joint_states", "sensor_msgs/msg/JointState", graph.DEFAULT_QOS)
+        self.pub_joints = n.publisher(
+            "joint_states", "sensor_msgs/msg/JointState", graph.DEFAULT_QOS
+        )
         self.pub_imu = n.publisher("imu/data", "sensor_msgs/msg/Imu", graph.SENSOR_QOS)
-        self.pub_camera = n.publisher(CAMERA_TOPIC, "sensor_msgs/msg/CompressedImage", graph.SENSOR_QOS)
-        self.pub_description = n.publisher("robot_description", "std_msgs/msg/String", graph.LATCHED_QOS)
+        self.pub_camera = n.publisher(
+            CAMERA_TOPIC, "sensor_msgs/msg/CompressedImage", graph.SENSOR_QOS
+        )
+        self.pub_description = n.publisher(
+            "robot_description", "std_msgs/msg/String", graph.LATCHED_QOS
+        )
         self.pub_tf = n.publisher("tf", "tf2_msgs/msg/TFMessage", graph.QoS(depth=100))
         self.pub_tf_static = n.publisher("tf_static", "tf2_msgs/msg/TFMessage", graph.LATCHED_QOS)
-        self.pub_diag = n.publisher("diagnostics", "diagnostic_msgs/msg/DiagnosticArray", graph.DEFAULT_QOS)
+        self.pub_diag = n.publisher(
+            "diagnostics", "diagnostic_msgs/msg/DiagnosticArray", graph.DEFAULT_QOS
+        )
         self.pub_description.publish(msg_class("std_msgs/msg/String")(data=to_urdf(self.body)))
         self.pub_tf_static.publish(convert.tf_joints(self.body, {}, time.time(), moving=False))
 
@@ -243,7 +253,9 @@ class Adapter:
         try:
             return fn(*args, **kw)
         except NoLeaseError:
-            self._holding = False  # lost it (idle timeout, someone's halt…): take it again next time
+            self._holding = (
+                False  # lost it (idle timeout, someone's halt…): take it again next time
+            )
             raise
 
     def _on_twist(self, ros_type: str, msg: Any) -> None:
@@ -394,4 +406,3 @@ class Adapter:
                 self._camera_sub = None
         self.graph.close()
         self.node.close()
-

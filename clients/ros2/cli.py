@@ -15,9 +15,7 @@ log = logging.getLogger("darwin.ros2")
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--connect", metavar="ENDPOINT", help="Zenoh endpoint of the robot daemon")
     parser.add_argument("--robot", help="robot name (default DARWIN_ROBOT or op1)")
-    parser.add_argument(
-        "--domain", type=int, help="ROS domain id (default ROS_DOMAIN_ID, else 0)"
-    )
+    parser.add_argument("--domain", type=int, help="ROS domain id (default ROS_DOMAIN_ID, else 0)")
     parser.add_argument("--namespace", help="ROS namespace of every topic (default /<robot>)")
     parser.add_argument("--node-name", default="darwin", help="ROS node name (default darwin)")
     parser.add_argument(
@@ -45,7 +43,9 @@ def _domain(value: int | None) -> int:
         try:
             domain = int(raw)
         except ValueError:
-            raise SystemExit(f"darwin ros2: ROS_DOMAIN_ID={raw!r} is not a number; unset it or fix it") from None
+            raise SystemExit(
+                f"darwin ros2: ROS_DOMAIN_ID={raw!r} is not a number; unset it or fix it"
+            ) from None
     if not 0 <= domain <= 232:
         raise SystemExit(f"darwin ros2: domain {domain} is outside ROS's 0..232; pass --domain")
     return domain

@@ -157,7 +157,9 @@ def compressed_image(jpeg: bytes, t: float, frame_id: str = "camera_optical") ->
     )
 
 
-def diagnostics(joints: Joints | None, status: Status | None, names_by_id: Mapping[int, str], t: float):
+def diagnostics(
+    joints: Joints | None, status: Status | None, names_by_id: Mapping[int, str], t: float
+):
     ds = msg_class("diagnostic_msgs/msg/DiagnosticStatus")
     kv = msg_class("diagnostic_msgs/msg/KeyValue")
     out = []
@@ -188,7 +190,10 @@ def diagnostics(joints: Joints | None, status: Status | None, names_by_id: Mappi
             )
     if status is not None:
         healthy = status.state == "running"
-        values = [kv(key="state", value=status.state), kv(key="battery_v", value=f"{status.voltage:.1f}")]
+        values = [
+            kv(key="state", value=status.state),
+            kv(key="battery_v", value=f"{status.voltage:.1f}"),
+        ]
         for section in ("bus", "loop"):
             for key, value in sorted(getattr(status, section).items()):
                 if isinstance(value, (int, float, str, bool)):
@@ -237,7 +242,9 @@ class Limit:
     upper: float
 
 
-def trajectory_points(msg: Any, limits: Mapping[str, Limit]) -> list[tuple[float, dict[int, float]]]:
+def trajectory_points(
+    msg: Any, limits: Mapping[str, Limit]
+) -> list[tuple[float, dict[int, float]]]:
     """(duration from the previous point in s, {servo id: rad}) per point, all checked first:
     a bad point rejects the whole trajectory before any servo moves."""
     names = list(msg.joint_names)
@@ -257,12 +264,14 @@ def trajectory_points(msg: Any, limits: Mapping[str, Limit]) -> list[tuple[float
     for k, p in enumerate(msg.points):
         if len(p.positions) != len(names):
             raise CommandRejected(
-                f"joint_trajectory point {k} has {len(p.positions)} positions for {len(names)} joints"
+                f"joint_trajectory point {k} has {len(p.positions)} positions "
+                f"for {len(names)} joints"
             )
         t = p.time_from_start.sec + p.time_from_start.nanosec * 1e-9
         if not t > prev:
             raise CommandRejected(
-                f"joint_trajectory point {k}: time_from_start {t:.3f} s must increase (after {prev:.3f} s)"
+                f"joint_trajectory point {k}: time_from_start {t:.3f} s must increase "
+                f"(after {prev:.3f} s)"
             )
         pose = {}
         for n, v in zip(names, p.positions, strict=True):

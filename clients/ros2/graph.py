@@ -4,7 +4,8 @@ Written from rmw_zenoh_cpp ``src/detail/liveliness_utils.cpp`` (``TopicInfo``, `
 ``qos_to_keyexpr``, ``mangle_name``) and ``docs/design.md``:
 
 * data key ``<domain>/<topic without leading/trailing '/'>/<dds type>/<type hash>``;
-* token ``@ros2_lv/<domain>/<zid>/<nid>/<id>/<KIND>/<enclave>/<ns>/<node>[/<topic>/<type>/<hash>/<qos>]``
+* token ``@ros2_lv/<domain>/<zid>/<nid>/<id>/<KIND>/<enclave>/<ns>/<node>``, endpoints adding
+  ``/<topic>/<type>/<hash>/<qos>``,
   with every ``/`` inside a chunk replaced by ``%`` (an empty namespace "/" becomes ``%``);
 * QoS ``REL:DUR:HIST,DEPTH:DL_S,DL_NS:LS_S,LS_NS:LIV,LEASE_S,LEASE_NS``, a field empty when it
   equals rmw_zenoh's default profile (reliable, volatile, keep-last 42, infinite, automatic).
@@ -14,12 +15,12 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 ADMIN_SPACE = "@ros2_lv"
 
 
-class Kind(str, Enum):
+class Kind(StrEnum):
     NODE = "NN"
     PUBLISHER = "MP"
     SUBSCRIPTION = "MS"

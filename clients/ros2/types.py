@@ -14,12 +14,15 @@ from functools import cache
 from typing import Any
 
 from rosbags.typesys import Stores, get_types_from_msg
-from rosbags.typesys.base import Nodetype
 from rosbags.typesys import get_typestore as _get_typestore
+from rosbags.typesys.base import Nodetype
 
 # ros type name -> (request fields, response fields) in .msg syntax
 SERVICES: dict[str, tuple[str, str]] = {
-    "std_srvs/srv/Trigger": ("uint8 structure_needs_at_least_one_member", "bool success\nstring message"),
+    "std_srvs/srv/Trigger": (
+        "uint8 structure_needs_at_least_one_member",
+        "bool success\nstring message",
+    ),
     "std_srvs/srv/SetBool": ("bool data", "bool success\nstring message"),
 }
 

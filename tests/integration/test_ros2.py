@@ -22,12 +22,12 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from clients.recording import Recorder, read_recording  # noqa: E402
-from config.loader import load_robot  # noqa: E402
-from schemas.session import free_tcp_port, open_client, server_config  # noqa: E402
-from tests.fixtures.system import REPO, RunningSystem, darwin_command, start_system  # noqa: E402
-from tests.legacy_client import LegacyClient  # noqa: E402
-from tests.ros2_observer import STORE, RmwObserver, gid  # noqa: E402
+from clients.recording import Recorder, read_recording
+from config.loader import load_robot
+from schemas.session import free_tcp_port, open_client, server_config
+from tests.fixtures.system import REPO, RunningSystem, darwin_command, start_system
+from tests.legacy_client import LegacyClient
+from tests.ros2_observer import STORE, RmwObserver, gid
 
 SENSOR_QOS = "2::,5:,:,:,,"
 LATCHED_QOS = ":1:,1:,:,:,,"
@@ -100,7 +100,9 @@ def walking(status) -> bool:
 
 def twist(x: float = 0.0, turn: float = 0.0, y: float = 0.0):
     v3 = STORE.types["geometry_msgs/msg/Vector3"]
-    return STORE.types["geometry_msgs/msg/Twist"](linear=v3(x=x, y=y, z=0.0), angular=v3(x=0.0, y=0.0, z=turn))
+    return STORE.types["geometry_msgs/msg/Twist"](
+        linear=v3(x=x, y=y, z=0.0), angular=v3(x=0.0, y=0.0, z=turn)
+    )
 
 
 def test_ros_sees_and_drives_the_robot_beside_every_other_client(tmp_path: Path) -> None:
@@ -123,7 +125,9 @@ def test_ros_sees_and_drives_the_robot_beside_every_other_client(tmp_path: Path)
         try:
             # The graph, from tokens alone: node, publishers, subscriptions, services.
             def has(kind: str, topic: str):
-                return lambda g: any(e["kind"] == kind and e.get("topic") == topic for e in g.values())
+                return lambda g: any(
+                    e["kind"] == kind and e.get("topic") == topic for e in g.values()
+                )
 
             for kind, topic in [
                 ("MP", f"{ns}/joint_states"),
@@ -137,7 +141,7 @@ def test_ros_sees_and_drives_the_robot_beside_every_other_client(tmp_path: Path)
                 obs.wait_for(has(kind, topic))
             nodes = [e for e in obs.graph.values() if e["kind"] == "NN" and e["node"] == "darwin"]
             assert [n["namespace"] for n in nodes] == [ns]
-            desc_token, desc = obs.endpoint("MP", f"{ns}/robot_description")
+            _, desc = obs.endpoint("MP", f"{ns}/robot_description")
             assert desc["qos"] == LATCHED_QOS
 
             # joint_states: URDF names, radians, and attachments as rmw_zenoh writes them.
@@ -145,7 +149,7 @@ def test_ros_sees_and_drives_the_robot_beside_every_other_client(tmp_path: Path)
             got, cond, close = obs.subscribe(f"{ns}/joint_states", "sensor_msgs/msg/JointState")
             wait(cond, lambda: len(got) >= 20)
             close()
-            msg, (seq, ts, g) = got[-1]
+            msg, (_, ts, g) = got[-1]
             assert list(msg.name) == urdf_names
             live = watcher.state.joints
             assert np.allclose(msg.position, live.position, atol=0.05)
@@ -231,7 +235,9 @@ def _bad_twist_payloads() -> list[tuple[str, bytes, object]]:
     ]
 
 
-def test_bad_ros_input_moves_nothing_and_the_adapter_keeps_running(robot_system: RunningSystem) -> None:
+def test_bad_ros_input_moves_nothing_and_the_adapter_keeps_running(
+    robot_system: RunningSystem,
+) -> None:
     sys_ = robot_system
     with (
         adapter("--connect", sys_.endpoint, "--robot", sys_.robot, "--domain", "7") as ad,
@@ -244,8 +250,12 @@ def test_bad_ros_input_moves_nothing_and_the_adapter_keeps_running(robot_system:
             obs.wait_for(lambda g: any(e.get("topic") == f"{ns}/cmd_vel" for e in g.values()))
             before = watcher.wait_for("joints", timeout=10)
             put = obs.publisher(f"{ns}/cmd_vel", "geometry_msgs/msg/Twist")
-            obs.wait_for(lambda g: any(e["kind"] == "MP" and e.get("topic") == f"{ns}/cmd_vel" for e in g.values()))
-            for what, raw, att in _bad_twist_payloads():
+            obs.wait_for(
+                lambda g: any(
+                    e["kind"] == "MP" and e.get("topic") == f"{ns}/cmd_vel" for e in g.values()
+                )
+            )
+            for _what, raw, att in _bad_twist_payloads():
                 put(raw=raw, att=att)
             ad.wait_line("dropped a sample: no attachment")
             ad.wait_line("attachment is 20 bytes")
@@ -262,7 +272,13 @@ def test_bad_ros_input_moves_nothing_and_the_adapter_keeps_running(robot_system:
             empty = np.array([], dtype=np.float64)
 
             def point(pan: float, t: int):
-                return JTP(positions=np.array([pan]), velocities=empty, accelerations=empty, effort=empty, time_from_start=Dur(sec=t, nanosec=0))
+                return JTP(
+                    positions=np.array([pan]),
+                    velocities=empty,
+                    accelerations=empty,
+                    effort=empty,
+                    time_from_start=Dur(sec=t, nanosec=0),
+                )
 
             traj = JT(
                 header=Header(stamp=Time(sec=0, nanosec=0), frame_id=""),
@@ -270,7 +286,10 @@ def test_bad_ros_input_moves_nothing_and_the_adapter_keeps_running(robot_system:
                 points=[point(0.2, 1), point(3.0, 2)],
             )
             obs.wait_for(
-                lambda g: any(e["kind"] == "MS" and e.get("topic") == f"{ns}/joint_trajectory" for e in g.values())
+                lambda g: any(
+                    e["kind"] == "MS" and e.get("topic") == f"{ns}/joint_trajectory"
+                    for e in g.values()
+                )
             )
             tput = obs.publisher(f"{ns}/joint_trajectory", "trajectory_msgs/msg/JointTrajectory")
             tput(traj)
@@ -294,24 +313,28 @@ def test_darwin_up_ros2_with_a_router_endpoint(tmp_path: Path) -> None:
     router in client mode, as rmw_zenoh documents for remote routers."""
     cfg = tmp_path / "router.toml"
     cfg.write_text('[zenoh]\nmode = "router"\n')
-    with start_system(extra_args=["--ros2", "--config", str(cfg)]) as system:
-        with open_client(system.endpoint) as ros:
-            obs = RmwObserver(ros, domain=0)
-            try:
-                ns = f"/{system.robot}"
-                got, cond, close = obs.subscribe(f"{ns}/joint_states", "sensor_msgs/msg/JointState")
-                wait(cond, lambda: len(got) >= 3)
-                close()
-                # `darwin up` printed the adapter's address line (it was ready before it served).
-                assert any(line.startswith("ros2: domain 0 namespace /") for line in system.lines)
-                # The lease service takes and gives back the control lease.
-                SetBool = STORE.types["std_srvs/msg/SetBool_Request"]
-                with system.robot_client(name="lease watcher") as watcher:
-                    reply, *_ = obs.call(f"{ns}/lease", "std_srvs/srv/SetBool", SetBool(data=True))
-                    assert reply.success, reply.message
-                    watcher.wait_for("status", lambda s: (s.lease or {}).get("name") == "ros2", timeout=10)
-                    reply, *_ = obs.call(f"{ns}/lease", "std_srvs/srv/SetBool", SetBool(data=False))
-                    assert reply.success, reply.message
-                    watcher.wait_for("status", lambda s: not s.lease, timeout=10)
-            finally:
-                obs.close()
+    with (
+        start_system(extra_args=["--ros2", "--config", str(cfg)]) as system,
+        open_client(system.endpoint) as ros,
+    ):
+        obs = RmwObserver(ros, domain=0)
+        try:
+            ns = f"/{system.robot}"
+            got, cond, close = obs.subscribe(f"{ns}/joint_states", "sensor_msgs/msg/JointState")
+            wait(cond, lambda: len(got) >= 3)
+            close()
+            # `darwin up` printed the adapter's address line (it was ready before it served).
+            assert any(line.startswith("ros2: domain 0 namespace /") for line in system.lines)
+            # The lease service takes and gives back the control lease.
+            SetBool = STORE.types["std_srvs/msg/SetBool_Request"]
+            with system.robot_client(name="lease watcher") as watcher:
+                reply, *_ = obs.call(f"{ns}/lease", "std_srvs/srv/SetBool", SetBool(data=True))
+                assert reply.success, reply.message
+                watcher.wait_for(
+                    "status", lambda s: (s.lease or {}).get("name") == "ros2", timeout=10
+                )
+                reply, *_ = obs.call(f"{ns}/lease", "std_srvs/srv/SetBool", SetBool(data=False))
+                assert reply.success, reply.message
+                watcher.wait_for("status", lambda s: not s.lease, timeout=10)
+        finally:
+            obs.close()
