@@ -316,6 +316,8 @@ class Adapter:
 
     def _release(self, why: str) -> None:
         self._traj_cancel.set()
+        if self._walking:
+            self._stop_walk()  # the arbiter stops it too when the lease ends; do not rely on it
         self._walking = False
         self._holding = False
         self._lease_auto = False

@@ -221,6 +221,29 @@ def test_ros_sees_and_drives_the_robot_beside_every_other_client(tmp_path: Path)
     assert any(walking(s) for s in recording.decoded("status"))
 
 
+def trajectory(names: list[str], points: list[tuple[float, list[float]]]):
+    T = STORE.types
+    empty = np.array([], dtype=np.float64)
+    return T["trajectory_msgs/msg/JointTrajectory"](
+        header=T["std_msgs/msg/Header"](
+            stamp=T["builtin_interfaces/msg/Time"](sec=0, nanosec=0), frame_id=""
+        ),
+        joint_names=names,
+        points=[
+            T["trajectory_msgs/msg/JointTrajectoryPoint"](
+                positions=np.array(pos, dtype=np.float64),
+                velocities=empty,
+                accelerations=empty,
+                effort=empty,
+                time_from_start=T["builtin_interfaces/msg/Duration"](
+                    sec=int(t), nanosec=int(round((t % 1) * 1e9))
+                ),
+            )
+            for t, pos in points
+        ],
+    )
+
+
 def _bad_twist_payloads() -> list[tuple[str, bytes, object]]:
     good = bytes(STORE.serialize_cdr(twist(x=0.05), "geometry_msgs/msg/Twist"))
     nan = bytes(STORE.serialize_cdr(twist(x=math.nan), "geometry_msgs/msg/Twist"))
@@ -264,27 +287,7 @@ def test_bad_ros_input_moves_nothing_and_the_adapter_keeps_running(
             ad.wait_line("cmd_vel angular.z is inf")
 
             # A trajectory outside a joint's limits is refused whole, before any servo moves.
-            JT = STORE.types["trajectory_msgs/msg/JointTrajectory"]
-            JTP = STORE.types["trajectory_msgs/msg/JointTrajectoryPoint"]
-            Dur = STORE.types["builtin_interfaces/msg/Duration"]
-            Header = STORE.types["std_msgs/msg/Header"]
-            Time = STORE.types["builtin_interfaces/msg/Time"]
-            empty = np.array([], dtype=np.float64)
-
-            def point(pan: float, t: int):
-                return JTP(
-                    positions=np.array([pan]),
-                    velocities=empty,
-                    accelerations=empty,
-                    effort=empty,
-                    time_from_start=Dur(sec=t, nanosec=0),
-                )
-
-            traj = JT(
-                header=Header(stamp=Time(sec=0, nanosec=0), frame_id=""),
-                joint_names=["j_pan"],
-                points=[point(0.2, 1), point(3.0, 2)],
-            )
+            traj = trajectory(["j_pan"], [(1.0, [0.2]), (2.0, [3.0])])
             obs.wait_for(
                 lambda g: any(
                     e["kind"] == "MS" and e.get("topic") == f"{ns}/joint_trajectory"
@@ -294,6 +297,24 @@ def test_bad_ros_input_moves_nothing_and_the_adapter_keeps_running(
             tput = obs.publisher(f"{ns}/joint_trajectory", "trajectory_msgs/msg/JointTrajectory")
             tput(traj)
             ad.wait_line("j_pan = 3.000 rad is outside its limits")
+
+            # While someone else holds the lease, a burst of Twists changes nothing and the
+            # adapter says so once (log and event).
+            events: list = []
+            watcher.subscribe(
+                "events", lambda e: events.append(e) if e.kind == "ros2_refused" else None
+            )
+            with watcher.control("busy holder"):
+                for _ in range(5):
+                    put(twist(x=0.05))
+                ad.wait_line("ROS command ignored")
+                watcher.wait_for(
+                    "events", lambda e: e.kind == "ros2_refused", fresh=False, timeout=10
+                )
+                st = watcher.wait_for("status", timeout=10)
+                assert not walking(st) and st.lease["name"] == "busy holder"
+            assert sum("ROS command ignored" in line for line in ad.lines) == 1
+            assert len(events) == 1
 
             # Nothing moved, nobody took the lease, and the adapter still publishes.
             after = watcher.wait_for("joints", timeout=10)
@@ -333,6 +354,30 @@ def test_darwin_up_ros2_with_a_router_endpoint(tmp_path: Path) -> None:
                 watcher.wait_for(
                     "status", lambda s: (s.lease or {}).get("name") == "ros2", timeout=10
                 )
+                # A valid trajectory moves the head through the arbiter, point by point.
+                from tests.ros2_observer import HASH
+
+                assert "trajectory_msgs/msg/JointTrajectory" in HASH
+                obs.wait_for(
+                    lambda g: any(
+                        e["kind"] == "MS" and e.get("topic") == f"{ns}/joint_trajectory"
+                        for e in g.values()
+                    )
+                )
+                tput = obs.publisher(
+                    f"{ns}/joint_trajectory", "trajectory_msgs/msg/JointTrajectory"
+                )
+                tput(trajectory(["j_pan"], [(0.3, [0.2]), (0.6, [0.4])]))
+                watcher.wait_for(
+                    "joints", lambda j: abs(j.goal[j.id.index(19)] - 0.4) < 0.01, timeout=15
+                )
+                # torque off through the service, then on again.
+                reply, *_ = obs.call(f"{ns}/torque", "std_srvs/srv/SetBool", SetBool(data=False))
+                assert reply.success, reply.message
+                watcher.wait_for("joints", lambda j: not any(j.torque_enabled), timeout=10)
+                reply, *_ = obs.call(f"{ns}/torque", "std_srvs/srv/SetBool", SetBool(data=True))
+                assert reply.success, reply.message
+                watcher.wait_for("joints", lambda j: all(j.torque_enabled), timeout=10)
                 reply, *_ = obs.call(f"{ns}/lease", "std_srvs/srv/SetBool", SetBool(data=False))
                 assert reply.success, reply.message
                 watcher.wait_for("status", lambda s: not s.lease, timeout=10)
