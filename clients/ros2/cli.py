@@ -52,11 +52,13 @@ def _domain(value: int | None) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    import zenoh
+
     from clients.robot import Robot
     from clients.ros2.adapter import Adapter, Options
     from clients.ros2.graph import check_namespace
     from schemas.errors import DarwinError
-    from schemas.session import check_endpoint, open_client
+    from schemas.session import check_endpoint, client_config
 
     domain = _domain(args.domain)
     robot = Robot(args.connect, args.robot, name="ros2")
@@ -76,20 +78,29 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as exc:
             print(f"darwin ros2: {exc}", file=sys.stderr)
             return 2
-        if args.router:
-            try:
-                ros_session = open_client(check_endpoint(args.router))
-            except (ValueError, Exception) as exc:
-                print(
-                    f"darwin ros2: cannot join the ROS router at {args.router}: {exc}; "
-                    "is rmw_zenohd (or zenohd) running there?",
-                    file=sys.stderr,
-                )
-                return 1
+        if args.joint_rate is not None and not args.joint_rate > 0:
+            print(
+                f"darwin ros2: --joint-rate {args.joint_rate} must be above 0 Hz", file=sys.stderr
+            )
+            return 2
+        # The ROS side gets a session of its own, configured like rmw_zenoh's (timestamping on:
+        # transient-local history needs it), on the robot's endpoint or on the ROS router.
+        ros_endpoint = args.router or robot.target.endpoint
+        try:
+            conf = client_config(check_endpoint(ros_endpoint))
+            conf.insert_json5("timestamping/enabled", "true")
+            ros_session = zenoh.open(conf)
+        except (ValueError, zenoh.ZError) as exc:
+            print(
+                f"darwin ros2: cannot open the ROS session at {ros_endpoint}: {exc}; "
+                "is rmw_zenohd (or zenohd, or `darwin up`) running there?",
+                file=sys.stderr,
+            )
+            return 1
         options = Options(domain, namespace, args.node_name, args.joint_rate, args.lease_idle)
-        adapter = Adapter(robot, ros_session or robot.session, options)
+        adapter = Adapter(robot, ros_session, options)
         print(f"ros2: domain {domain} namespace {namespace} node {args.node_name}", flush=True)
-        print(f"ros2 zenoh: {args.router or robot.target.endpoint}", flush=True)
+        print(f"ros2 zenoh: {ros_endpoint}", flush=True)
         stop = threading.Event()
         signal.signal(signal.SIGTERM, lambda *_: stop.set())
         signal.signal(signal.SIGINT, lambda *_: stop.set())
