@@ -107,3 +107,30 @@ def test_masses_inertias_and_frames(body, urdf):
     # The foot box's bottom face is the sole.
     foot = next(link for link in body.links if link.name == "r_foot")
     assert foot.box.centre[2] - foot.box.size[2] / 2 == pytest.approx(-kin.ANKLE_LENGTH)
+
+
+def test_darwin_urdf_writes_a_loadable_file(tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "darwin.urdf"
+    done = subprocess.run(
+        [sys.executable, "-m", "robot_daemon.cli", "urdf", "-o", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"urdf: {out}"
+    model = yourdfpy.URDF.load(str(out), load_meshes=False)
+    assert len(model.actuated_joint_names) == 20
+    bad = subprocess.run(
+        [sys.executable, "-m", "robot_daemon.cli", "urdf", "-o", str(tmp_path / "no" / "x.urdf")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert bad.returncode == 1
+    assert (
+        bad.stderr.strip().startswith("darwin urdf: cannot write") and "Traceback" not in bad.stderr
+    )
