@@ -240,22 +240,24 @@ class Adapter:
         try:
             self.robot.acquire()
         except LeaseBusyError as exc:
-            if not self._refused_burst:
-                self._refused_burst = True
-                self._say("ros2_refused", f"ROS command ignored: {exc}")
+            self._refused(exc)
             return False
         self._holding = True
         self._lease_auto = True
         self._say("ros2_lease", "the ROS adapter took the control lease")
         return True
 
+    def _refused(self, exc: Exception) -> None:
+        """Someone else holds the lease: say so once per burst of ROS commands."""
+        if not self._refused_burst:
+            self._refused_burst = True
+            self._say("ros2_refused", f"ROS command ignored: {exc}")
+
     def _command(self, fn: Any, *args: Any, **kw: Any) -> Any:
         try:
             return fn(*args, **kw)
-        except NoLeaseError:
-            self._holding = (
-                False  # lost it (idle timeout, someone's halt…): take it again next time
-            )
+        except (NoLeaseError, LeaseBusyError):
+            self._holding = False  # lost it (idle timeout…): take it again next time
             raise
 
     def _on_twist(self, ros_type: str, msg: Any) -> None:
@@ -275,6 +277,8 @@ class Adapter:
         try:
             self._command(self.robot.walk, walk.x, walk.y, walk.turn)
             self._walking = True
+        except LeaseBusyError as exc:
+            self._refused(exc)
         except CommandError as exc:
             self._reject(f"cmd_vel refused by the arbiter: {exc}")
 
