@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -84,8 +85,18 @@ class Joint:
     def fixed(self) -> bool:
         return self.axis is None
 
-    def origin(self) -> np.ndarray:
+    @cached_property
+    def _origin(self) -> np.ndarray:
         return kin.transform(rpy_rotation(*self.rpy), self.xyz)
+
+    def origin(self) -> np.ndarray:
+        return self._origin.copy()
+
+    def motion(self, angle: float) -> np.ndarray:
+        """Origin, then the joint's rotation by ``angle`` (rad) about its axis."""
+        if self.axis is None:
+            return self._origin
+        return self._origin @ kin.transform(axis_rotation(self.axis, angle))
 
 
 @dataclass(frozen=True)
@@ -128,11 +139,9 @@ class Body:
 
     def joint_transform(self, j: Joint, positions: kin.Positions) -> np.ndarray:
         """Parent-to-child transform of one joint (origin, then the joint's rotation)."""
-        t = j.origin()
         if j.axis is None or j.servo_id is None:
-            return t
-        q = kin._angle(positions, j.servo_id)
-        return t @ kin.transform(axis_rotation(j.axis, q))
+            return j.origin()
+        return j.motion(kin._angle(positions, j.servo_id))
 
     def total_mass(self) -> float:
         return sum(link.mass for link in self.links)
@@ -143,9 +152,17 @@ def rpy_rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return kin.rpy_matrix(roll, pitch, yaw)
 
 
+_PRINCIPAL = {0: kin.rot_x, 1: kin.rot_y, 2: kin.rot_z}
+
+
 def axis_rotation(axis: Iterable[float], angle: float) -> np.ndarray:
-    """Rotation by ``angle`` about a unit ``axis`` (Rodrigues)."""
-    a = np.asarray(list(axis), dtype=float)
+    """Rotation by ``angle`` about a unit ``axis`` (Rodrigues; direct for ±x, ±y, ±z)."""
+    axis = tuple(axis)
+    nonzero = [k for k, v in enumerate(axis) if v != 0.0]
+    if len(nonzero) == 1 and abs(axis[nonzero[0]]) == 1.0:
+        k = nonzero[0]
+        return _PRINCIPAL[k](angle * axis[k])
+    a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
     k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
     return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)

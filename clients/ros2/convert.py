@@ -14,7 +14,6 @@ from typing import Any
 import numpy as np
 
 from schemas.body import MX28_STALL_TORQUE, Body
-from schemas.kinematics import matrix_rpy
 from schemas.messages import Imu, Joints, Status, World
 
 from .types import msg_class
@@ -54,9 +53,20 @@ def joint_state(joints: Joints, names_by_id: Mapping[int, str]) -> Any:
 
 
 def quaternion(r: np.ndarray) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation matrix."""
-    roll, pitch, yaw = matrix_rpy(r)
-    return rpy_quaternion(roll, pitch, yaw)
+    """(x, y, z, w) of a rotation matrix (Shepperd's method: stable for every rotation)."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = r[:3, :3].tolist()
+    tr = m00 + m11 + m22
+    if tr > 0:
+        s = 2.0 * math.sqrt(tr + 1.0)
+        return ((m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s, 0.25 * s)
+    if m00 > m11 and m00 > m22:
+        s = 2.0 * math.sqrt(1.0 + m00 - m11 - m22)
+        return (0.25 * s, (m01 + m10) / s, (m02 + m20) / s, (m21 - m12) / s)
+    if m11 > m22:
+        s = 2.0 * math.sqrt(1.0 + m11 - m00 - m22)
+        return ((m01 + m10) / s, 0.25 * s, (m12 + m21) / s, (m02 - m20) / s)
+    s = 2.0 * math.sqrt(1.0 + m22 - m00 - m11)
+    return ((m02 + m20) / s, (m12 + m21) / s, 0.25 * s, (m10 - m01) / s)
 
 
 def rpy_quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
@@ -117,23 +127,27 @@ def imu(m: Imu, tilt: TiltFilter, frame_id: str = "imu") -> Any:
     )
 
 
-def transform(t: float, parent: str, child: str, pose: np.ndarray) -> Any:
-    x, y, z, w = quaternion(pose[:3, :3])
+def transform(t: float | Any, parent: str, child: str, pose: np.ndarray) -> Any:
+    """A TransformStamped; ``t`` is seconds or an already built builtin_interfaces/Time."""
+    x, y, z, w = quaternion(pose)
+    px, py, pz = pose[:3, 3].tolist()
     tr = msg_class("geometry_msgs/msg/Transform")(
-        translation=msg_class("geometry_msgs/msg/Vector3")(
-            x=float(pose[0, 3]), y=float(pose[1, 3]), z=float(pose[2, 3])
-        ),
+        translation=msg_class("geometry_msgs/msg/Vector3")(x=px, y=py, z=pz),
         rotation=msg_class("geometry_msgs/msg/Quaternion")(x=x, y=y, z=z, w=w),
     )
+    when = stamp(t) if isinstance(t, (int, float)) else t
     return msg_class("geometry_msgs/msg/TransformStamped")(
-        header=header(t, parent), child_frame_id=child, transform=tr
+        header=msg_class("std_msgs/msg/Header")(stamp=when, frame_id=parent),
+        child_frame_id=child,
+        transform=tr,
     )
 
 
 def tf_joints(body: Body, positions: Any, t: float, moving: bool = True) -> Any:
     """TFMessage of the servo joints (``moving``) or of the fixed joints (for tf_static)."""
+    when = stamp(t)
     out = [
-        transform(t, j.parent, j.child, body.joint_transform(j, positions))
+        transform(when, j.parent, j.child, body.joint_transform(j, positions))
         for j in body.joints
         if j.fixed != moving
     ]
