@@ -25,7 +25,13 @@ pytest.importorskip("rosbags")
 from clients.recording import Recorder, read_recording
 from config.loader import load_robot
 from schemas.session import free_tcp_port, open_client, server_config
-from tests.fixtures.system import REPO, RunningSystem, darwin_command, start_system
+from tests.fixtures.system import (
+    REPO,
+    START_TIMEOUT,
+    RunningSystem,
+    darwin_command,
+    start_system,
+)
 from tests.legacy_client import LegacyClient
 from tests.ros2_observer import STORE, RmwObserver, gid
 
@@ -342,10 +348,8 @@ def test_darwin_up_ros2_with_a_router_endpoint(tmp_path: Path) -> None:
         try:
             ns = f"/{system.robot}"
             got, cond, close = obs.subscribe(f"{ns}/joint_states", "sensor_msgs/msg/JointState")
-            wait(cond, lambda: len(got) >= 3)
+            wait(cond, lambda: len(got) >= 3, timeout=START_TIMEOUT)  # includes its start-up
             close()
-            # `darwin up` printed the adapter's address line (it was ready before it served).
-            assert any(line.startswith("ros2: domain 0 namespace /") for line in system.lines)
             # The lease service takes and gives back the control lease.
             SetBool = STORE.types["std_srvs/msg/SetBool_Request"]
             with system.robot_client(name="lease watcher") as watcher:
@@ -381,5 +385,11 @@ def test_darwin_up_ros2_with_a_router_endpoint(tmp_path: Path) -> None:
                 reply, *_ = obs.call(f"{ns}/lease", "std_srvs/srv/SetBool", SetBool(data=False))
                 assert reply.success, reply.message
                 watcher.wait_for("status", lambda s: not s.lease, timeout=10)
+            # `darwin up` relays the adapter's address line (the adapter serves before `up`
+            # prints it, so the line may trail the first samples: wait for it).
+            deadline = time.monotonic() + 20
+            while not any(line.startswith("ros2: domain 0 namespace /") for line in system.lines):
+                assert time.monotonic() < deadline, system.output()
+                time.sleep(0.05)
         finally:
             obs.close()
