@@ -27,6 +27,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "motion": ("robot_daemon.motion.cli", "motion files: convert between .bin and text"),
     "record": ("clients.recording.record_cli", "record the robot's publications to MCAP"),
     "replay": ("clients.recording.replay_cli", "republish a recording on the key space"),
+    "ros2": ("clients.ros2.cli", "make the robot a ROS 2 node (rmw_zenoh, no ROS install needed)"),
+    "urdf": ("clients.ros2.urdf_cli", "print the robot's URDF (from the body description)"),
 }
 
 

@@ -170,6 +170,7 @@ class Daemon:
             self.options.listen,
             int(zcfg.get("link_lease_ms", 3000)),
             max_message_bytes=int(zcfg.get("max_message_bytes", MAX_MESSAGE_BYTES)),
+            mode=str(zcfg.get("mode", "peer")),
         )
         if self.options.connect:
             conf.insert_json5("connect/endpoints", json.dumps(self.options.connect))

@@ -75,6 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--tui", action="store_true", help="open the terminal UI here once everything runs"
     )
     parser.add_argument(
+        "--ros2", action="store_true", help="also run the ROS 2 adapter (`darwin ros2`)"
+    )
+    parser.add_argument(
         "--wire-timing",
         action=argparse.BooleanOptionalAction,
         default=None,
@@ -148,6 +151,10 @@ def run(args: argparse.Namespace) -> int:
             children.append(gateway)
             adapters.append(Adapter(gateway))
             print(f"gateway: {gateway.wait_line('gateway:', START_TIMEOUT)}", flush=True)
+        if args.ros2:
+            ros2 = Child("ros2", ["ros2", "--connect", endpoint, "--robot", robot], relay)
+            children.append(ros2)
+            print(f"ros2: {ros2.wait_line('ros2:', START_TIMEOUT)}", flush=True)
         if args.tui:
             return run_tui(endpoint, robot)
         # Run until a signal or the daemon's death; adapters that die are started again.

@@ -71,13 +71,22 @@ def _config(
     return conf
 
 
+SERVER_MODES = ("peer", "router")
+
+
 def server_config(
-    listen: list[str], lease_ms: int | None = 3000, max_message_bytes: int = MAX_MESSAGE_BYTES
+    listen: list[str],
+    lease_ms: int | None = 3000,
+    max_message_bytes: int = MAX_MESSAGE_BYTES,
+    mode: str = "peer",
 ) -> zenoh.Config:
-    """A peer that listens (daemon, simulator world, replay)."""
+    """A session that listens (daemon, simulator world, replay): a peer, or a Zenoh router
+    (``mode="router"``) that other machines' sessions, ROS 2 nodes included, join as clients."""
+    if mode not in SERVER_MODES:
+        raise ValueError(f"zenoh mode {mode!r} is not one of {', '.join(SERVER_MODES)}")
     for ep in listen:
         check_endpoint(ep)
-    return _config("peer", listen, [], lease_ms, max_message_bytes)
+    return _config(mode, listen, [], lease_ms, max_message_bytes)
 
 
 def client_config(endpoint: str, lease_ms: int | None = 3000) -> zenoh.Config:

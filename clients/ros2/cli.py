@@ -1,0 +1,117 @@
+"""``darwin ros2``: make the robot a ROS 2 node (rmw_zenoh wire format, no ROS needed here)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import sys
+import threading
+
+log = logging.getLogger("darwin.ros2")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--connect", metavar="ENDPOINT", help="Zenoh endpoint of the robot daemon")
+    parser.add_argument("--robot", help="robot name (default DARWIN_ROBOT or op1)")
+    parser.add_argument("--domain", type=int, help="ROS domain id (default ROS_DOMAIN_ID, else 0)")
+    parser.add_argument("--namespace", help="ROS namespace of every topic (default /<robot>)")
+    parser.add_argument("--node-name", default="darwin", help="ROS node name (default darwin)")
+    parser.add_argument(
+        "--joint-rate", type=float, help="joint_states and tf rate in Hz (default: every tick)"
+    )
+    parser.add_argument(
+        "--router",
+        metavar="ENDPOINT",
+        help="join an existing rmw_zenohd/zenohd (e.g. tcp/HOST:7447) for the ROS side; "
+        "default: ROS nodes reach the robot's own Zenoh endpoint",
+    )
+    parser.add_argument(
+        "--lease-idle",
+        type=float,
+        default=10.0,
+        help="seconds without ROS commands before a lease the adapter took is released",
+    )
+
+
+def _domain(value: int | None) -> int:
+    if value is not None:
+        domain = value
+    else:
+        raw = os.environ.get("ROS_DOMAIN_ID", "0") or "0"
+        try:
+            domain = int(raw)
+        except ValueError:
+            raise SystemExit(
+                f"darwin ros2: ROS_DOMAIN_ID={raw!r} is not a number; unset it or fix it"
+            ) from None
+    if not 0 <= domain <= 232:
+        raise SystemExit(f"darwin ros2: domain {domain} is outside ROS's 0..232; pass --domain")
+    return domain
+
+
+def run(args: argparse.Namespace) -> int:
+    import zenoh
+
+    from clients.robot import Robot
+    from clients.ros2.adapter import Adapter, Options
+    from clients.ros2.graph import check_namespace
+    from schemas.errors import DarwinError
+    from schemas.session import check_endpoint, client_config
+
+    domain = _domain(args.domain)
+    robot = Robot(args.connect, args.robot, name="ros2")
+    ros_session = None
+    adapter = None
+    try:
+        if not robot.alive(timeout=3.0):
+            print(
+                f"darwin ros2: no daemon for robot {robot.target.robot!r} at "
+                f"{robot.target.endpoint}; start it with `darwin up` or fix --connect/--robot",
+                file=sys.stderr,
+            )
+            return 1
+        namespace = args.namespace or f"/{robot.target.robot}"
+        try:
+            check_namespace(namespace)
+        except ValueError as exc:
+            print(f"darwin ros2: {exc}", file=sys.stderr)
+            return 2
+        if args.joint_rate is not None and not args.joint_rate > 0:
+            print(
+                f"darwin ros2: --joint-rate {args.joint_rate} must be above 0 Hz", file=sys.stderr
+            )
+            return 2
+        # The ROS side gets a session of its own, configured like rmw_zenoh's (timestamping on:
+        # transient-local history needs it), on the robot's endpoint or on the ROS router.
+        ros_endpoint = args.router or robot.target.endpoint
+        try:
+            conf = client_config(check_endpoint(ros_endpoint))
+            conf.insert_json5("timestamping/enabled", "true")
+            ros_session = zenoh.open(conf)
+        except (ValueError, zenoh.ZError) as exc:
+            print(
+                f"darwin ros2: cannot open the ROS session at {ros_endpoint}: {exc}; "
+                "is rmw_zenohd (or zenohd, or `darwin up`) running there?",
+                file=sys.stderr,
+            )
+            return 1
+        options = Options(domain, namespace, args.node_name, args.joint_rate, args.lease_idle)
+        adapter = Adapter(robot, ros_session, options)
+        print(f"ros2: domain {domain} namespace {namespace} node {args.node_name}", flush=True)
+        print(f"ros2 zenoh: {ros_endpoint}", flush=True)
+        stop = threading.Event()
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+        signal.signal(signal.SIGINT, lambda *_: stop.set())
+        stop.wait()
+        return 0
+    except DarwinError as exc:
+        print(f"darwin ros2: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        if adapter is not None:
+            adapter.close()
+        if ros_session is not None:
+            ros_session.close()
+        robot.close()
