@@ -23,6 +23,7 @@ from typing import Any, Self
 import msgpack
 import zenoh
 
+from clients.teach import TeachMixin
 from schemas.errors import (
     ClientError,
     CommandTimeoutError,
@@ -297,8 +298,9 @@ class Commander:
         return self.command("head", pan=pan, tilt=tilt)
 
 
-class Robot(Commander):
-    """Commands plus the robot's live state and subscriptions."""
+class Robot(Commander, TeachMixin):
+    """Commands plus the robot's live state and subscriptions; action pages and teach mode
+    (:mod:`clients.teach`)."""
 
     def __init__(
         self,
