@@ -89,8 +89,10 @@ def test_limp_move_capture_mirror_save_reload_play(teach_system) -> None:
                 "joints", lambda m: all(abs(m.position[i]) < 0.02 for i in range(6)), timeout=10
             )
             robot.page_play(200)
-            events.wait(lambda e: e.kind == "action" and "page 200" in e.message and "finished"
-                        in e.message, timeout=15)
+            events.wait(
+                lambda e: e.kind == "action" and e.message == "page 200 (taught) finished",
+                timeout=15,
+            )
             servos = sim_servos(sim)
             for name, deg in step.items():
                 if name in ("time", "pause"):
