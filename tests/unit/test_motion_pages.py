@@ -21,6 +21,7 @@ from robot_daemon.motion.setup import build_manager
 from schemas.errors import ErrorCode
 from tests.shared_data import STOCK_MOTIONS as STOCK
 
+REPO = Path(__file__).resolve().parents[2]
 needs_stock = pytest.mark.skipif(not STOCK.exists(), reason="stock motion_4096.bin not present")
 
 
@@ -262,3 +263,28 @@ def test_stock_file_loads_edits_and_saves_without_losing_data() -> None:
     assert set(diff) <= {word, word + 1, 15 * 512 + binfile.OFF_CHECKSUM}
     assert binfile.checksum_ok(out[15 * 512 : 16 * 512])
     assert binfile.parse_bin(out)[15].steps[0].words[20] == by[15].steps[0].words[20] + 114
+
+
+def test_cli_exports_the_library_with_the_user_pages(ctx: MotionContext, tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    call(ctx, op="put", page=wave())
+    out = tmp_path / "all.bin"
+    cmd = [sys.executable, "-m", "robot_daemon.cli", "motion", "export", str(out)]
+    user = ["--user-library", str(tmp_path / "motions")]
+    done = subprocess.run([*cmd, *user], capture_output=True, text=True, cwd=REPO)
+    assert done.returncode == 0, done.stderr
+    assert out.read_bytes() == call(ctx, op="export")["bin"]
+    # Back through the converter: the same text as the library's.
+    txt = tmp_path / "all.toml"
+    conv = [sys.executable, "-m", "robot_daemon.cli", "motion", "convert", str(out), str(txt)]
+    subprocess.run(conv, check=True, capture_output=True, cwd=REPO)
+    store: PageStore = ctx.manager.module("action").store
+    assert txt.read_text() == textfile.dumps(store.library.pages.values(), store.names)
+    long = wave()
+    long["step"] = [dict(long["step"][0]) for _ in range(8)]
+    call(ctx, op="put", page=long)
+    refused_run = subprocess.run([*cmd, *user, "--force"], capture_output=True, text=True, cwd=REPO)
+    assert refused_run.returncode == 1
+    assert refused_run.stderr.count("\n") == 1 and "at most 7" in refused_run.stderr
