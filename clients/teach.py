@@ -14,8 +14,9 @@ Editing itself is :class:`clients.pages.PageEditor` (pure, shared with the TUI).
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -118,6 +119,18 @@ class TeachMixin:
         names = joints_of(joints)
         self.command("torque", enable=True, ids=names)
         return names
+
+    @contextlib.contextmanager
+    def teaching(
+        self, joints: str | Iterable[str] = "all", confirm: bool = False
+    ) -> Iterator[list[str]]:
+        """Joints limp inside the block, torque back on when it ends (even on error)."""
+        names = self.limp(joints, confirm)
+        try:
+            yield names
+        finally:
+            with contextlib.suppress(Exception):
+                self.stiffen(names)
 
     def limp_joints(self) -> list[str]:
         return [j for j, on in self._torque_map().items() if not on]

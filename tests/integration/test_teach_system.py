@@ -109,3 +109,9 @@ def test_limp_move_capture_mirror_save_reload_play(teach_system) -> None:
             assert len(data) == 131072
             assert robot.page_delete(200)["number"] == 200
             assert not list(user.glob("*.toml"))
+
+            # A block of teach mode: the head limp inside it, torque back on after.
+            with robot.teaching("head") as limp:
+                assert limp == ["head_pan", "head_tilt"]
+                robot.wait_for("joints", lambda m: not any(m.torque_enabled[18:20]), timeout=10)
+            robot.wait_for("joints", lambda m: all(m.torque_enabled[18:20]), timeout=10)

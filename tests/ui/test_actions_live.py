@@ -13,7 +13,7 @@ import pytest
 from textual.widgets import DataTable
 
 from clients.pages import joints_of
-from clients.tui.tabs.actions import ActionsTab
+from clients.tui.tabs.actions import ActionsTab, ConfirmScreen
 from robot_daemon.sim.control import SimControl
 from tests.fixtures.system import RunningSystem, start_system
 from tests.ui.live import connected, holder, live_app, show_tab, until
@@ -63,6 +63,12 @@ async def test_teach_a_page_in_the_tui_and_play_it(teach_ui_system, settings_fil
         assert tab.editor is not None and len(tab.editor.steps) == 1
         number = tab.editor.page["number"]
         assert tab.cursor_joint() == "r_shoulder_pitch"
+        # Everything limp would drop the standing robot: asked first; "no" changes nothing.
+        await pilot.press("A")
+        await until(pilot, lambda: isinstance(app.screen, ConfirmScreen), "the confirmation")
+        await pilot.press("n")
+        await until(pilot, lambda: not isinstance(app.screen, ConfirmScreen), "the answer")
+        assert tab.st.limp == [] and all(app.model.joints.torque_enabled)
         await pilot.press("a")  # limp the limb under the cursor: the right arm
         assert tab.st.limp == joints_of("right_arm")
         await until(

@@ -288,3 +288,13 @@ def test_cli_exports_the_library_with_the_user_pages(ctx: MotionContext, tmp_pat
     refused_run = subprocess.run([*cmd, *user, "--force"], capture_output=True, text=True, cwd=REPO)
     assert refused_run.returncode == 1
     assert refused_run.stderr.count("\n") == 1 and "at most 7" in refused_run.stderr
+
+
+def test_an_unwritable_user_library_is_refused_with_the_fix(tmp_path: Path) -> None:
+    blocker = tmp_path / "motions"
+    blocker.write_text("a file where the folder should be")
+    ctx = make_ctx(blocker)
+    err = refused(ctx, op="put", page=wave())
+    assert (err.code, err.field) == (ErrorCode.UNAVAILABLE, "page")
+    assert "user_library" in err.message and "DARWIN_MOTIONS" in err.message
+    assert 200 not in ctx.manager.module("action").library
