@@ -144,6 +144,9 @@ class PageStore:
         tmp = path.with_name(f".{path.name}.tmp")
         tmp.write_text(textfile.dumps(pages, self.names), encoding="utf-8")
         os.replace(tmp, path)
+        # What was written is known: the reload that follows need not parse it again.
+        st = path.stat()
+        self._cache[path] = _Cached((st.st_mtime_ns, st.st_size), list(pages))
 
     def _others_in(self, path: Path, number: int) -> list[Page]:
         cached = self._cache.get(path)
