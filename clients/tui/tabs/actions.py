@@ -145,6 +145,7 @@ class ActionsTab(TabView):
         if model.edits.actions is None:
             model.edits.actions = ActionsState()
         self.st: ActionsState = model.edits.actions
+        self._typing = "value"  # what the input box edits: "value" or "field"
 
     # -- layout ----------------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
@@ -281,6 +282,11 @@ class ActionsTab(TabView):
         self.focus_target().focus()
 
     def action_back(self) -> None:
+        box = self.query_one("#actions-input", Input)
+        if box.display:
+            box.display = False
+            self.focus_target().focus()
+            return
         if self.st.limp:
             self.end_teach()
             return
@@ -325,7 +331,7 @@ class ActionsTab(TabView):
     def on_input_submitted(self, event: Input.Submitted) -> None:
         event.input.display = False
         text = event.value.strip()
-        what = getattr(self, "_typing", "value")
+        what = self._typing
         if what == "field":
             key, _sep, value = text.partition("=")
             key, value = key.strip(), value.strip()
