@@ -125,6 +125,7 @@ class ActionModule(MotionModule):
         self._vel = np.zeros(0)
         self._pending: Page | None = None
         self._pending_step = 0
+        self._entry = 0  # the step the page was entered at
         self._stopping = False
         self._braking = False
         self._started_page: int | None = None
@@ -218,7 +219,7 @@ class ActionModule(MotionModule):
         self._page, self._ids = page, ids
         self._pos, self._vel = start, np.array([pvel.get(j, 0.0) for j in ids])
         self._frames = page_targets(page, ids, start)
-        self._step, self._repeat = first, 0
+        self._step, self._repeat, self._entry = first, 0, first
         self.claim(ids)
         self._started_page = page.number
         self.emit(
@@ -244,7 +245,8 @@ class ActionModule(MotionModule):
         last = k == len(page.steps) - 1
         if last or self._braking or page.steps[k].pause > 0 or page.schedule == SCHEDULE_SPEED:
             return np.zeros(len(self._ids))
-        before = self._frames[k - 1] if k > 0 else self._pos
+        # Entering at a later step (play from a step), the joints come from where they are.
+        before = self._frames[k - 1] if k > self._entry else self._pos
         d_in = self._frames[k] - before
         d_out = self._frames[k + 1] - self._frames[k]
         same = np.sign(d_in) * np.sign(d_out) > 0
@@ -292,7 +294,7 @@ class ActionModule(MotionModule):
         self._repeat += 1
         self._vel = np.zeros_like(self._vel)
         if self._repeat < max(page.repeat, 1) and not self._stopping:
-            self._step = 0
+            self._step = self._entry = 0
             self._start_step()
             return
         follow = page.exit if self._stopping else page.next
