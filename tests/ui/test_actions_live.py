@@ -144,3 +144,22 @@ async def test_teach_a_page_in_the_tui_and_play_it(teach_ui_system, settings_fil
             )
 
         await until(pilot, at_captured, "the emulator's goals at the captured angles")
+
+        # Done playing, the page is deleted from the list (after a confirmation).
+        def playing() -> bool:
+            status = app.model.status
+            return bool(status and (status.motion.get("action") or {}).get("playing"))
+
+        await until(pilot, lambda: not playing(), "the page played to its end")
+        await pilot.press("escape")
+        await until(pilot, lambda: tab.editor is None, "back to the list")
+        await until(pilot, lambda: any(r["number"] == number for r in tab.st.listing), "listed")
+        table = tab.query_one("#pages-list", DataTable)
+        table.move_cursor(row=[r["number"] for r in tab.st.listing].index(number))
+        await pilot.press("x")
+        await until(pilot, lambda: isinstance(app.screen, ConfirmScreen), "the confirmation")
+        await pilot.press("y")
+        await until(
+            pilot, lambda: all(r["number"] != number for r in tab.st.listing), "the page gone"
+        )
+        assert not list(user.glob("*.toml"))

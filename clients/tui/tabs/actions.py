@@ -369,8 +369,17 @@ class ActionsTab(TabView):
             self._edit(lambda e: e.delete_step(self.st.row))
             return
         if self.st.listing:
-            number = self.st.listing[min(self.st.row, len(self.st.listing) - 1)]["number"]
-            self.send("pages", tag="delete", op="delete", number=number)
+            row = self.st.listing[min(self.st.row, len(self.st.listing) - 1)]
+            number = row["number"]
+
+            def go(yes: bool | None) -> None:
+                if yes:
+                    self.send("pages", tag="delete", op="delete", number=number)
+
+            question = _("Delete page {number} ({name}) from your motion library?").format(
+                number=number, name=row["name"]
+            )
+            self.app.push_screen(ConfirmScreen(question), go)
 
     def action_move(self, delta: int) -> None:
         k = self._edit(lambda e: e.move_step(self.st.row, delta))
