@@ -29,6 +29,7 @@ from typing import Any, Self
 import zenoh
 
 from clients.lease_keeper import LeaseKeeper
+from clients.teach import TeachMixin
 from schemas.errors import (
     ClientError,
     CommandTimeoutError,
@@ -349,8 +350,9 @@ class Commander:
         return self.command("head", pan=pan, tilt=tilt)
 
 
-class Robot(Commander):
-    """Commands plus the robot's live state and subscriptions."""
+class Robot(Commander, TeachMixin):
+    """Commands plus the robot's live state and subscriptions; action pages and teach mode
+    (:mod:`clients.teach`)."""
 
     def __init__(
         self,

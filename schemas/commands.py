@@ -44,6 +44,7 @@ Angles are rad, speeds rad/s or m/s, durations s. Joints are named by id (1..20)
 | sound | file: path \\| say: text | yes |
 | playball | op: "start" \\| "stop", color: name (default "red") | start |
 | behaviours | — → the behaviour library and the legacy ``type`` table | no |
+| pages | op: list, get, put, delete, reload, export, play; number, page, step | put… |
 
 A choreography item is ``{"behaviour": id, ...params}`` where params depend on the behaviour's
 kind: ``action`` (page), ``walk`` (duration s, x, y, turn), ``sound`` (file/say), ``led``
@@ -91,6 +92,7 @@ OPS_WITHOUT_LEASE: dict[str, frozenset[str]] = {
     "playball": frozenset({"stop"}),
     "registers": frozenset({"read"}),
     "walk_params": frozenset({"read"}),
+    "pages": frozenset({"list", "get", "export"}),
 }
 
 

@@ -30,6 +30,7 @@ VERBS: tuple[str, ...] = (
     "sound",
     "playball",
     "behaviours",
+    "pages",
 )
 
 # Verbs that are accepted without the control lease (they never move the robot, or stop it).

@@ -36,6 +36,7 @@ from clients.tui.messages import (
 )
 from clients.tui.model import Model
 from clients.tui.settings import Settings, default_path
+from clients.tui.tabs.actions import ActionsTab
 from clients.tui.tabs.base import SendCommand, TabView
 from clients.tui.tabs.behaviours import BehavioursTab, library_entries
 from clients.tui.tabs.camera import CameraTab
@@ -59,6 +60,7 @@ TABS: tuple[tuple[str, str], ...] = (
     ("walk", N_("Walk")),
     ("behaviours", N_("Behaviours")),
     ("log", N_("Log")),
+    ("actions", N_("Actions")),
 )
 
 
@@ -151,6 +153,8 @@ class DarwinApp(App[None]):
                 return WalkTab(self.model)
             case "behaviours":
                 return BehavioursTab(self.model)
+            case "actions":
+                return ActionsTab(self.model)
             case "log":
                 return LogTab(self.model)
         raise ValueError(f"unknown tab {tab_id!r}; tabs are {', '.join(t for t, _ in TABS)}")

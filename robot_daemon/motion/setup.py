@@ -5,8 +5,8 @@ from __future__ import annotations
 from typing import Any
 
 from config.loader import RobotConfig
-from robot_daemon.motion.action.library import load_library
 from robot_daemon.motion.action.player import ActionModule
+from robot_daemon.motion.action.store import PageStore, user_library_dir
 from robot_daemon.motion.ball import ball_module
 from robot_daemon.motion.behaviours import BehaviourLibrary
 from robot_daemon.motion.choreography import ChoreographyModule
@@ -28,7 +28,10 @@ def build_manager(robot: RobotConfig, settings: dict[str, Any]) -> MotionManager
     the tick it is detected."""
     manager = MotionManager(robot)
     manager.add(FallMonitor(settings.get("imu"), settings.get("fall")))
-    manager.add(ActionModule(load_library((settings.get("motion") or {}).get("library") or None)))
+    motion = settings.get("motion") or {}
+    names = {j.id: j.name for j in robot.joints}
+    store = PageStore(names, motion.get("library") or None, user_library_dir(motion))
+    manager.add(ActionModule(store.library, store))
     manager.add(HeadModule(HeadLimits.from_config(settings.get("head"))))
     manager.add(WalkingModule(WalkParams.from_config(settings.get("walking"))))
     manager.add(DirectModule(default_speed=float(robot.max_speed) / 2))

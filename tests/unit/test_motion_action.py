@@ -168,3 +168,21 @@ def test_sit_down_then_stand_up_from_the_project_library_reach_their_poses() -> 
         for j in range(1, 21):
             if last.driven(j):
                 assert rig.pos[j] == pytest.approx((last.words[j] - 2048) * 2 * math.pi / 4096)
+
+
+def test_play_from_a_step_goes_there_from_where_the_joints_are() -> None:
+    page = Page(
+        7,
+        name="three",
+        steps=[step(40, r_elbow=30.0), step(40, r_elbow=-30.0), step(40, r_elbow=10.0)],
+    )
+    rig = Rig([page])
+    rig.action.play(7, step=3)
+    rig.run_until_idle()
+    elbow = [t[5] for t in rig.trace]
+    assert rig.pos[5] == pytest.approx(math.radians(10.0), abs=1e-3)
+    # Straight from 0° to 10°: never through the earlier steps' 30° and −30°.
+    assert min(elbow) >= -1e-9 and max(elbow) <= math.radians(10.0) + 1e-3
+    assert rig.tick < 60  # one step of 40 units, not three
+    with pytest.raises(KeyError, match=r"steps 1\.\.3"):
+        rig.action.play(7, step=4)

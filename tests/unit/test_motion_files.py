@@ -97,8 +97,14 @@ def test_bad_files_are_refused_with_a_clear_message(tmp_path: Path) -> None:
         textfile.loads("[[page]]\nnumber = 3\n[[page]]\nnumber = 3\n")
     with pytest.raises(MotionFileError, match="not valid TOML"):
         textfile.loads("[[page]\n")
-    with pytest.raises(MotionFileError, match="at most 7"):
-        textfile.loads("[[page]]\nnumber = 3\n" + "[[page.step]]\ntime = 1\n" * 8)
+    # Text holds longer pages than the .bin: 8 steps read, but do not fit a .bin page.
+    long = textfile.loads("[[page]]\nnumber = 3\n" + "[[page.step]]\ntime = 1\n" * 8)
+    with pytest.raises(MotionFileError, match="at most 7") as err:
+        binfile.build_bin(long)
+    assert err.value.field == "step"
+    with pytest.raises(MotionFileError, match="at most 32") as err:
+        textfile.loads("[[page]]\nnumber = 3\n" + "[[page.step]]\ntime = 1\n" * 33)
+    assert err.value.field == "step"
 
 
 def test_project_library_has_the_stock_numbers_and_stays_within_limits() -> None:

@@ -16,12 +16,26 @@ from clients.tui.model import Model
 class SendCommand(Message):
     """A tab asks the app to send an arbiter command (the app owns the link)."""
 
-    def __init__(self, verb: str, tag: str = "", quiet: bool = False, **fields: Any) -> None:
+    def __init__(
+        self,
+        verb: str,
+        tag: str = "",
+        quiet: bool = False,
+        *,
+        origin: Widget | None = None,
+        **fields: Any,
+    ) -> None:
         super().__init__()
         self.verb = verb
         self.tag = tag
         self.quiet = quiet
         self.fields = fields
+        self._origin = origin
+
+    @property
+    def control(self) -> Widget | None:
+        # The tab that sent it: the app routes the reply back to its ``command_done``.
+        return self._origin
 
 
 class TabView(Vertical, can_focus=True):
@@ -56,7 +70,7 @@ class TabView(Vertical, can_focus=True):
         return bool(boxes) and bool(boxes.first(Checkbox).value)
 
     def send(self, verb: str, *, tag: str = "", quiet: bool = False, **fields: Any) -> None:
-        self.post_message(SendCommand(verb, tag=tag, quiet=quiet, **fields))
+        self.post_message(SendCommand(verb, tag=tag, quiet=quiet, origin=self, **fields))
 
     def focus_target(self) -> Widget:
         """What gets the focus when the tab is shown (its bindings then work at once)."""

@@ -45,7 +45,13 @@ JOINT_SLOTS = tuple(range(1, 21))
 
 
 class MotionFileError(DarwinError):
-    """A motion file that cannot be read: wrong size, bad field, unknown joint."""
+    """A motion file or page that cannot be read or written: wrong size, bad field, unknown
+    joint. ``field`` names the page-table field at fault (``name``, ``step[2].r_knee``…) when
+    there is one."""
+
+    def __init__(self, message: str, field: str | None = None) -> None:
+        super().__init__(message)
+        self.field = field
 
 
 @dataclass
@@ -102,14 +108,18 @@ class Page:
         name = self.name.encode("latin-1")
         if len(name) > NAME_SIZE:
             raise MotionFileError(
-                f"page {self.number}: name {self.name!r} is longer than {NAME_SIZE} bytes"
+                f"page {self.number}: name {self.name!r} is longer than {NAME_SIZE} bytes", "name"
             )
         buf[0 : len(name)] = name
         if self.name_tail:
             start = len(name) + 1
             buf[start : start + len(self.name_tail)] = self.name_tail
         if not 0 <= len(self.steps) <= MAX_STEPS or len(self.steps) + len(self.leftover) > 7:
-            raise MotionFileError(f"page {self.number}: at most {MAX_STEPS} steps fit in a page")
+            raise MotionFileError(
+                f"page {self.number} ({self.name}): {len(self.steps) + len(self.leftover)} "
+                f"steps; a ROBOTIS .bin page holds at most {MAX_STEPS}",
+                "step",
+            )
         for off, value in (
             (OFF_REPEAT, self.repeat),
             (OFF_SCHEDULE, self.schedule),
@@ -173,10 +183,13 @@ class Page:
     @property
     def blank(self) -> bool:
         """True for what the stock tool writes for an unused page."""
-        return not self.zero and self.pack() == BLANK_PAGE.pack()
+        if self.zero or self.steps or len(self.leftover) > MAX_STEPS:
+            return False
+        return self.pack() == _BLANK_BYTES
 
 
 BLANK_PAGE = Page(0)
+_BLANK_BYTES = BLANK_PAGE.pack()
 
 
 def checksum_ok(page_bytes: bytes) -> bool:
@@ -204,14 +217,13 @@ def read_bin(path: str | Path) -> list[Page]:
 
 
 def build_bin(pages: list[Page] | dict[int, Page]) -> bytes:
-    """The 131 072 bytes of an action file. Missing pages are blank (page 0: zeros)."""
+    """The 131 072 bytes of an action file. Missing pages are blank (page 0: zeros). A page the
+    format cannot hold raises :class:`MotionFileError` naming it."""
     by_number = pages if isinstance(pages, dict) else {p.number: p for p in pages}
     out = bytearray()
     for n in range(PAGE_COUNT):
         page = by_number.get(n)
-        if page is None:
-            page = Page(n, zero=True) if n == 0 else BLANK_PAGE
-        out += page.pack()
+        out += (bytes(PAGE_SIZE) if n == 0 else _BLANK_BYTES) if page is None else page.pack()
     return bytes(out)
 
 

@@ -21,7 +21,9 @@ from typing import Any
 import numpy as np
 
 from robot_daemon.motion.action.binfile import JOINT_SLOTS, SCHEDULE_SPEED, Page
+from robot_daemon.motion.action.check import page_problems
 from robot_daemon.motion.action.library import MotionLibrary
+from robot_daemon.motion.action.store import PageStore
 from robot_daemon.motion.interface import JointFrame, MotionModule
 from schemas.units import raw_to_rad
 
@@ -107,9 +109,10 @@ def page_joints(page: Page) -> list[int]:
 class ActionModule(MotionModule):
     name = "action"
 
-    def __init__(self, library: MotionLibrary) -> None:
+    def __init__(self, library: MotionLibrary, store: PageStore | None = None) -> None:
         super().__init__()
         self.library = library
+        self.store = store  # where the library comes from and is saved to (``pages`` verb)
         self._page: Page | None = None
         self._ids: list[int] = []
         self._frames: list[np.ndarray] = []
@@ -121,25 +124,43 @@ class ActionModule(MotionModule):
         self._pos = np.zeros(0)
         self._vel = np.zeros(0)
         self._pending: Page | None = None
+        self._pending_step = 0
+        self._entry = 0  # the step the page was entered at
         self._stopping = False
         self._braking = False
 
     # -- commands (motion thread, between ticks) ------------------------------------------------
-    def play(self, ref: int | str) -> Page:
-        """Queue a page to start on the next tick; ``KeyError`` for an unknown page,
-        ``ValueError`` for a page (or a page it chains to) that leaves the joint limits."""
+    def play(self, ref: int | str, step: int = 1) -> Page:
+        """Queue a page to start on the next tick at ``step`` (1-based; later repeats start at
+        1); ``KeyError`` for an unknown page or step, ``ValueError`` for a page (or a page it
+        chains to) that leaves the joint limits or breaks the format's rules."""
         page = self.library.page(ref)
+        if not 1 <= step <= len(page.steps):
+            raise KeyError(f"page {page.number} ({page.name}) has steps 1..{len(page.steps)}")
         if self.manager is not None:
-            bad = self.library.violations(self.manager.robot, self.library.chain(page.number))
+            lib, robot = self.library, self.manager.robot
+            bad = [
+                problem
+                for n in lib.chain(page.number)
+                for problem in page_problems(lib.pages[n], robot, lib)
+            ]
             if bad:
                 raise ValueError(
-                    f"page {page.number} ({page.name}) leaves the joint limits: {bad[0]}"
+                    f"page {page.number} ({page.name}) cannot be played: {bad[0]}"
                     + (f" (and {len(bad) - 1} more)" if len(bad) > 1 else "")
                 )
-        self._pending = page
+        self._pending, self._pending_step = page, step - 1
         self._stopping = self._braking = False
         self.claim(page_joints(page))
         return page
+
+    def in_use(self) -> set[int]:
+        """Pages playing, queued, or reachable from the one playing (through next/exit)."""
+        out: set[int] = set()
+        for page in (self._page, self._pending):
+            if page is not None:
+                out |= {page.number, *self.library.chain(page.number)}
+        return out
 
     def stop(self) -> None:
         """Finish the current page (its repeats too), then play its exit page if it has one."""
@@ -174,8 +195,8 @@ class ActionModule(MotionModule):
     # -- the tick ------------------------------------------------------------------------------
     def step(self, frame: JointFrame) -> dict[int, float]:
         if self._pending is not None:
-            self._begin(self._pending, frame)
-            self._pending = None
+            self._begin(self._pending, frame, self._pending_step)
+            self._pending, self._pending_step = None, 0
         if self._page is None:
             return {}
         self._advance(frame.dt)
@@ -187,7 +208,7 @@ class ActionModule(MotionModule):
     def _ramp(self, page: Page) -> float:
         return page.accel * self._unit(page)
 
-    def _begin(self, page: Page, frame: JointFrame | None) -> None:
+    def _begin(self, page: Page, frame: JointFrame | None, first: int = 0) -> None:
         ids = page_joints(page)
         prev = {j: float(self._pos[k]) for k, j in enumerate(self._ids)}
         pvel = {j: float(self._vel[k]) for k, j in enumerate(self._ids)}
@@ -197,7 +218,7 @@ class ActionModule(MotionModule):
         self._page, self._ids = page, ids
         self._pos, self._vel = start, np.array([pvel.get(j, 0.0) for j in ids])
         self._frames = page_targets(page, ids, start)
-        self._step, self._repeat = 0, 0
+        self._step, self._repeat, self._entry = first, 0, first
         self.claim(ids)
         self.emit(
             "action",
@@ -222,7 +243,8 @@ class ActionModule(MotionModule):
         last = k == len(page.steps) - 1
         if last or self._braking or page.steps[k].pause > 0 or page.schedule == SCHEDULE_SPEED:
             return np.zeros(len(self._ids))
-        before = self._frames[k - 1] if k > 0 else self._pos
+        # Entering at a later step (play from a step), the joints come from where they are.
+        before = self._frames[k - 1] if k > self._entry else self._pos
         d_in = self._frames[k] - before
         d_out = self._frames[k + 1] - self._frames[k]
         same = np.sign(d_in) * np.sign(d_out) > 0
@@ -270,7 +292,7 @@ class ActionModule(MotionModule):
         self._repeat += 1
         self._vel = np.zeros_like(self._vel)
         if self._repeat < max(page.repeat, 1) and not self._stopping:
-            self._step = 0
+            self._step = self._entry = 0
             self._start_step()
             return
         follow = page.exit if self._stopping else page.next

@@ -20,6 +20,10 @@ Only what the stock tool would not write by itself appears beyond that (``slopes
 ``reserved``, ``checksum``, ``name_tail``, per-step ``raw`` and ``spare``, and
 ``[[page.leftover]]`` steps stored after the step count), so that ``.bin`` → text → ``.bin`` is
 byte-identical. Pages absent from a text file are blank.
+
+A page may hold up to :data:`MAX_TEXT_STEPS` steps in text; the ``.bin`` holds 7, so writing a
+longer page to a ``.bin`` is refused naming it. :func:`page_to_dict` and :func:`page_from_dict`
+are the same table as a Python map (what the ``pages`` verb sends); errors name the field.
 """
 
 from __future__ import annotations
@@ -35,8 +39,9 @@ from robot_daemon.motion.action.binfile import (
     DEFAULT_SLOPES,
     DEFAULT_SPARE,
     JOINT_SLOTS,
-    MAX_STEPS,
+    NAME_SIZE,
     NOT_DRIVEN,
+    RESERVED_OFFSETS,
     SCHEDULE_SPEED,
     SCHEDULE_TIME,
     SLOPES_SIZE,
@@ -66,6 +71,7 @@ PAGE_KEYS = {
     "zero",
 }
 STEP_KEYS = {"time", "pause", "raw", "spare"}
+MAX_TEXT_STEPS = 32  # a text page's steps (+ leftover); the .bin holds binfile.MAX_STEPS
 
 HEADER = """\
 # DARwIn-OP action pages, darwin-zenoh text format (README, "Motion").
@@ -138,6 +144,56 @@ def page_text(page: Page, names: dict[int, str]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _step_dict(step: Step, names: dict[int, str]) -> dict[str, Any]:
+    out: dict[str, Any] = {"time": step.time, "pause": step.pause}
+    raw: dict[str, int] = {}
+    for slot in JOINT_SLOTS:
+        word = step.words[slot]
+        name = names.get(slot, f"joint{slot}")
+        if word == NOT_DRIVEN:
+            continue
+        if word <= POSITION_MAX:
+            out[name] = round(float(raw_to_deg(word)), 2)
+        else:
+            raw[name] = word
+    if raw:
+        out["raw"] = raw
+    spare = tuple(step.words[s] for s in SPARE_SLOTS)
+    if spare != DEFAULT_SPARE:
+        out["spare"] = list(spare)
+    return out
+
+
+def page_to_dict(page: Page, names: dict[int, str] | None = None) -> dict[str, Any]:
+    """The page as the table :func:`page_text` writes (what ``tomllib`` reads back from it)."""
+    names = names or default_joint_names()
+    if page.zero:
+        return {"number": page.number, "zero": True}
+    schedule = next((k for k, v in SCHEDULES.items() if v == page.schedule), page.schedule)
+    out: dict[str, Any] = {
+        "number": page.number,
+        "name": page.name,
+        "repeat": page.repeat,
+        "schedule": schedule,
+        "speed": page.speed,
+        "accel": page.accel,
+        "next": page.next,
+        "exit": page.exit,
+    }
+    if page.slopes != DEFAULT_SLOPES:
+        out["slopes"] = page.slopes.hex()
+    if page.reserved != DEFAULT_RESERVED:
+        out["reserved"] = {str(k): v for k, v in sorted(page.reserved.items())}
+    if page.checksum is not None:
+        out["checksum"] = page.checksum
+    if page.name_tail:
+        out["name_tail"] = page.name_tail.hex()
+    out["step"] = [_step_dict(s, names) for s in page.steps]
+    if page.leftover:
+        out["leftover"] = [_step_dict(s, names) for s in page.leftover]
+    return out
+
+
 def dumps(pages: Iterable[Page], names: dict[int, str] | None = None) -> str:
     """Text for the pages worth writing (not the blank ones, not an all-zero page 0)."""
     names = names or default_joint_names()
@@ -154,65 +210,118 @@ def write_text(path: str | Path, pages: Iterable[Page], names: dict[int, str] | 
 
 
 # -- reading -----------------------------------------------------------------------------------
-def _int(d: dict[str, Any], key: str, where: str, default: int, low: int = 0, high: int = 255):
+def _int(
+    d: dict[str, Any],
+    key: str,
+    where: str,
+    default: int,
+    low: int = 0,
+    high: int = 255,
+    field: str | None = None,
+) -> int:
     value = d.get(key, default)
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise MotionFileError(f"{where}: {key} must be an integer {low}..{high}, got {value!r}")
+        raise MotionFileError(
+            f"{where}: {key} must be an integer {low}..{high}, got {value!r}", field or key
+        )
     return value
 
 
-def _parse_step(d: dict[str, Any], where: str, ids: dict[str, int]) -> Step:
+def _parse_step(d: dict[str, Any], where: str, ids: dict[str, int], path: str = "step") -> Step:
     if not isinstance(d, dict):
-        raise MotionFileError(f"{where}: a step must be a table")
-    step = Step(time=_int(d, "time", where, 0), pause=_int(d, "pause", where, 0))
+        raise MotionFileError(f"{where}: a step must be a table", path)
+    step = Step(
+        time=_int(d, "time", where, 0, field=f"{path}.time"),
+        pause=_int(d, "pause", where, 0, field=f"{path}.pause"),
+    )
     for key, value in d.items():
         if key in STEP_KEYS:
             continue
         if key not in ids:
-            raise MotionFileError(f"{where}: unknown joint {key!r}; joints are {', '.join(ids)}")
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise MotionFileError(f"{where}: {key} must be degrees (a number), got {value!r}")
-        raw = deg_to_raw(float(value))
+            raise MotionFileError(
+                f"{where}: unknown joint {key!r}; joints are {', '.join(ids)}", f"{path}.{key}"
+            )
+        if isinstance(value, bool) or not isinstance(value, int | float) or value != value:
+            raise MotionFileError(
+                f"{where}: {key} must be degrees (a number), got {value!r}", f"{path}.{key}"
+            )
+        raw = deg_to_raw(float(value)) if abs(value) < 1e6 else -1
         if not 0 <= raw <= POSITION_MAX:
-            raise MotionFileError(f"{where}: {key} = {value}° is outside the servo's range")
+            raise MotionFileError(
+                f"{where}: {key} = {value}° is outside the servo's range", f"{path}.{key}"
+            )
         step.words[ids[key]] = raw
-    for key, value in (d.get("raw") or {}).items():
+    raw_words = d.get("raw") or {}
+    if not isinstance(raw_words, dict):
+        raise MotionFileError(f"{where}: raw must be a table {{joint = word}}", f"{path}.raw")
+    for key, value in raw_words.items():
         if key not in ids:
-            raise MotionFileError(f"{where}: unknown joint {key!r} in raw")
-        step.words[ids[key]] = _int({key: value}, key, where, 0, 0, 0xFFFF)
+            raise MotionFileError(f"{where}: unknown joint {key!r} in raw", f"{path}.raw.{key}")
+        step.words[ids[key]] = _int({key: value}, key, where, 0, 0, 0xFFFF, f"{path}.raw.{key}")
     spare = d.get("spare")
     if spare is not None:
         if not isinstance(spare, list) or len(spare) != len(SPARE_SLOTS):
-            raise MotionFileError(f"{where}: spare must list {len(SPARE_SLOTS)} words")
+            raise MotionFileError(
+                f"{where}: spare must list {len(SPARE_SLOTS)} words", f"{path}.spare"
+            )
         for slot, value in zip(SPARE_SLOTS, spare, strict=True):
-            step.words[slot] = _int({"spare": value}, "spare", where, 0, 0, 0xFFFF)
+            step.words[slot] = _int({"spare": value}, "spare", where, 0, 0, 0xFFFF, f"{path}.spare")
     return step
 
 
+def _steps(d: dict[str, Any], key: str, where: str, ids: dict[str, int]) -> list[Step]:
+    raw = d.get(key, [])
+    if not isinstance(raw, list):
+        raise MotionFileError(f"{where}: {key} must be a list of step tables", key)
+    if len(raw) > MAX_TEXT_STEPS:
+        raise MotionFileError(
+            f"{where}: {len(raw)} steps; a page holds at most {MAX_TEXT_STEPS}", key
+        )
+    label = "step" if key == "step" else key
+    return [
+        _parse_step(s, f"{where}, {label} {i + 1}", ids, f"{key}[{i}]") for i, s in enumerate(raw)
+    ]
+
+
 def _parse_page(d: dict[str, Any], source: str, ids: dict[str, int]) -> Page:
+    if not isinstance(d, dict):
+        raise MotionFileError(f"{source}: a page must be a table", "page")
     number = d.get("number")
     if isinstance(number, bool) or not isinstance(number, int) or not 0 <= number <= 255:
-        raise MotionFileError(f"{source}: a page needs a number 0..255, got {number!r}")
+        raise MotionFileError(f"{source}: a page needs a number 0..255, got {number!r}", "number")
     where = f"{source}, page {number}"
     unknown = set(d) - PAGE_KEYS
     if unknown:
-        raise MotionFileError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+        first = sorted(map(str, unknown))
+        raise MotionFileError(f"{where}: unknown key(s) {', '.join(first)}", first[0])
     if d.get("zero"):
         return Page(number, zero=True)
     name = d.get("name", "")
-    if not isinstance(name, str) or len(name.encode("latin-1", "replace")) > 14:
-        raise MotionFileError(f"{where}: name must be a string of at most 14 characters")
+    if not isinstance(name, str):
+        raise MotionFileError(f"{where}: name must be a string, got {name!r}", "name")
+    try:
+        encoded = name.encode("latin-1")
+    except UnicodeEncodeError:
+        raise MotionFileError(
+            f"{where}: name {name!r} has characters a page name cannot hold (Latin-1 only)",
+            "name",
+        ) from None
+    if len(encoded) > NAME_SIZE:
+        raise MotionFileError(
+            f"{where}: name {name!r} is {len(encoded)} characters; at most {NAME_SIZE}", "name"
+        )
     schedule = d.get("schedule", "time")
     schedule = SCHEDULES.get(schedule, schedule) if isinstance(schedule, str) else schedule
     if not isinstance(schedule, int) or isinstance(schedule, bool):
-        raise MotionFileError(f"{where}: schedule must be 'time' or 'speed', got {schedule!r}")
-    steps = [_parse_step(s, f"{where}, step {i + 1}", ids) for i, s in enumerate(d.get("step", []))]
-    leftover = [
-        _parse_step(s, f"{where}, leftover {i + 1}", ids)
-        for i, s in enumerate(d.get("leftover", []))
-    ]
-    if len(steps) + len(leftover) > MAX_STEPS:
-        raise MotionFileError(f"{where}: {len(steps)} steps; a page holds at most {MAX_STEPS}")
+        raise MotionFileError(
+            f"{where}: schedule must be 'time' or 'speed', got {schedule!r}", "schedule"
+        )
+    steps = _steps(d, "step", where, ids)
+    leftover = _steps(d, "leftover", where, ids)
+    if len(steps) + len(leftover) > MAX_TEXT_STEPS:
+        raise MotionFileError(
+            f"{where}: {len(steps)} steps; a page holds at most {MAX_TEXT_STEPS}", "step"
+        )
     page = Page(
         number,
         name=name,
@@ -231,14 +340,38 @@ def _parse_page(d: dict[str, Any], source: str, ids: dict[str, int]) -> Page:
         except (TypeError, ValueError):
             page.slopes = b""
         if len(page.slopes) != SLOPES_SIZE:
-            raise MotionFileError(f"{where}: slopes must be {SLOPES_SIZE} bytes of hex")
+            raise MotionFileError(f"{where}: slopes must be {SLOPES_SIZE} bytes of hex", "slopes")
     if "reserved" in d:
-        page.reserved = {int(k): _int(d["reserved"], k, where, 0) for k in d["reserved"]}
+        reserved = d["reserved"]
+        if not isinstance(reserved, dict) or not all(
+            str(k).isdigit() and int(k) in RESERVED_OFFSETS for k in reserved
+        ):
+            raise MotionFileError(
+                f"{where}: reserved must map header offsets "
+                f"({', '.join(map(str, RESERVED_OFFSETS))}) to bytes",
+                "reserved",
+            )
+        page.reserved = {
+            int(k): _int(reserved, k, where, 0, field=f"reserved.{k}") for k in reserved
+        }
     if "checksum" in d:
         page.checksum = _int(d, "checksum", where, 0)
     if "name_tail" in d:
-        page.name_tail = bytes.fromhex(d["name_tail"])
+        try:
+            page.name_tail = bytes.fromhex(d["name_tail"])
+        except (TypeError, ValueError):
+            raise MotionFileError(f"{where}: name_tail must be hex bytes", "name_tail") from None
+        if len(encoded) + 1 + len(page.name_tail) > NAME_SIZE:
+            raise MotionFileError(f"{where}: name_tail does not fit after the name", "name_tail")
     return page
+
+
+def page_from_dict(
+    d: dict[str, Any], names: dict[int, str] | None = None, source: str = "page"
+) -> Page:
+    """A page from its table (the ``pages`` verb's ``page``); errors name the field."""
+    names = names or default_joint_names()
+    return _parse_page(d, source, {name: jid for jid, name in names.items()})
 
 
 def loads(text: str, source: str = "motion text", names: dict[int, str] | None = None):
