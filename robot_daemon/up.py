@@ -46,6 +46,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--tui", action="store_true", help="open the terminal UI here once everything runs"
     )
     parser.add_argument(
+        "--foxglove", action="store_true", help="also start the Foxglove server (darwin foxglove)"
+    )
+    parser.add_argument("--foxglove-listen", metavar="HOST:PORT", help="where Foxglove connects")
+    parser.add_argument(
+        "--web", action="store_true", help="also serve the terminal UI to browsers (darwin web)"
+    )
+    parser.add_argument("--web-listen", metavar="HOST:PORT", help="where browsers connect")
+    parser.add_argument(
         "--wire-timing",
         action=argparse.BooleanOptionalAction,
         default=None,
@@ -115,6 +123,15 @@ def run(args: argparse.Namespace) -> int:
             gateway = Child("gateway", gw, relay)
             children.append(gateway)
             print(f"gateway: {gateway.wait_line('gateway:', START_TIMEOUT)}", flush=True)
+        for name, wanted, listen in (
+            ("foxglove", args.foxglove, args.foxglove_listen),
+            ("web", args.web, args.web_listen),
+        ):
+            if wanted:
+                extra = ["--listen", listen] if listen else []
+                child = Child(name, [name, "--connect", endpoint, "--robot", robot, *extra], relay)
+                children.append(child)
+                print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
         if args.tui:
             return run_tui(endpoint, robot)
         # Run until a signal, or until a child dies (then stop the others and say so).
