@@ -113,6 +113,7 @@ class Bridge:
             robot.subscribe("vision", self._on_ball),
         ]
         self._stop = threading.Event()
+        self._urdf_now = threading.Event()
         self._urdf_thread: threading.Thread | None = None
         if self.ch_urdf is not None:
             self._urdf_thread = threading.Thread(target=self._urdf_loop, daemon=True)
@@ -124,6 +125,7 @@ class Bridge:
 
     def close(self) -> None:
         self._stop.set()
+        self._urdf_now.set()
         for sub in self._subs:
             with contextlib.suppress(Exception):
                 sub.close()
@@ -222,17 +224,17 @@ class Bridge:
 
     def _urdf_loop(self) -> None:
         assert self.ch_urdf is not None
-        while True:
+        while not self._stop.is_set():
             if self.ch_urdf.has_sinks():
                 self.ch_urdf.log({"data": self.urdf})
-            if self._stop.wait(URDF_PERIOD):
-                return
+            self._urdf_now.wait(URDF_PERIOD)
+            self._urdf_now.clear()
 
     # -- who watches what -----------------------------------------------------------------------
     def subscribed(self, client: Client, channel: ChannelView) -> None:
         self._ref(client.id, ("sub", channel.id), True)
         if channel.id == self.ch_urdf_id:
-            self.ch_urdf.log({"data": self.urdf})  # type: ignore[union-attr]
+            self._urdf_now.set()  # published from its thread, never inside the SDK's callback
         if channel.id != self.ch_camera.id():
             return
         with self._lock:

@@ -10,6 +10,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
+from clients.foxglove.urdf import robot_description
 from schemas import kinematics as K
 from schemas.messages import Status
 from schemas.session import free_tcp_port
@@ -55,6 +56,8 @@ def test_channels_are_advertised_with_foxglove_schemas(fox: tuple[RunningSystem,
         for topic in ("/joints", "/imu", "/status", "/loop", "/world"):
             assert schemas[topic][0] == "json", topic
         assert {"/halt", "/lease", "/action", "/behaviour", "/torque"} <= set(fc.services)
+        # No body description in this build: no URDF channel rather than an empty one.
+        assert ("/robot_description" in schemas) == (robot_description() is not None)
 
 
 def test_joints_and_transforms_match_the_kinematics(fox: tuple[RunningSystem, str]) -> None:
@@ -198,3 +201,36 @@ def test_walking_parameters_read_and_written_with_the_lease(
         assert robot.command("walk_params")["params"]["foot_height"] == old + 5
         fc.set_parameters([{"name": "walk/foot_height", "value": old, "type": "float64"}], "w3")
         fc.call("/lease", {"op": "release"}, 11)
+
+
+def test_a_client_that_leaves_loses_its_lease(fox: tuple[RunningSystem, str]) -> None:
+    system, url = fox
+    with system.robot_client(name="watcher") as robot:
+        with FoxgloveClient.open(url) as fc:
+            fc.subscribe("/status")
+            assert fc.call("/lease", {"op": "acquire"}, 1)[0] == "ok"
+            robot.wait_for("status", lambda s: s.lease is not None, WAIT)
+        # The connection closed: the server drops that client's Commander, whose liveliness
+        # token goes, and the arbiter ends the lease (with a safe stop).
+        robot.wait_for("status", lambda s: s.lease is None, WAIT)
+
+
+def test_the_urdf_is_served_when_the_body_description_provides_one(
+    fox: tuple[RunningSystem, str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from clients.foxglove import bridge as bridge_module
+    from clients.robot import Robot
+
+    system, _ = fox
+    urdf = '<robot name="darwin"><link name="base_link"/></robot>'
+    monkeypatch.setattr(bridge_module, "robot_description", lambda: urdf)
+    with Robot(system.endpoint, system.robot, name="fox-urdf") as robot:
+        bridge = bridge_module.Bridge(robot, "127.0.0.1", 0)
+        try:
+            with FoxgloveClient.open(f"ws://127.0.0.1:{bridge.port}") as fc:
+                ch = fc.channel("/robot_description")
+                assert (ch["encoding"], ch["schemaName"]) == ("json", "std_msgs/String")
+                fc.subscribe("/robot_description")
+                assert fc.take("/robot_description")["data"] == urdf
+        finally:
+            bridge.close()
