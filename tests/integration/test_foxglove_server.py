@@ -4,13 +4,16 @@ walk through the lease."""
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from clients.foxglove.urdf import robot_description
+from config.loader import load_robot
 from schemas import kinematics as K
 from schemas.messages import Status
 from schemas.session import free_tcp_port
@@ -18,6 +21,7 @@ from tests.fixtures.system import RunningSystem, start_system
 from tests.foxglove_ws import WAIT, FoxgloveClient
 
 pytestmark = pytest.mark.timeout(240)
+LAYOUT = Path(__file__).resolve().parents[2] / "clients" / "foxglove" / "layout.json"
 
 
 def address(system: RunningSystem, name: str, timeout: float = 30.0) -> str:
@@ -58,6 +62,13 @@ def test_channels_are_advertised_with_foxglove_schemas(fox: tuple[RunningSystem,
         assert {"/halt", "/lease", "/action", "/behaviour", "/torque"} <= set(fc.services)
         # No body description in this build: no URDF channel rather than an empty one.
         assert ("/robot_description" in schemas) == (robot_description() is not None)
+        # The shipped layout names only channels this server advertises (and /cmd_vel, which
+        # the Teleop panel publishes), and joint plot paths name real joints.
+        joint_names = set(load_robot().names)
+        for topic, path in layout_paths():
+            assert topic in schemas or topic in {"/cmd_vel", "/robot_description"}, topic
+            if topic == "/joints":
+                assert path.split(".")[2] in joint_names, path
 
 
 def test_joints_and_transforms_match_the_kinematics(fox: tuple[RunningSystem, str]) -> None:
@@ -104,6 +115,29 @@ def test_joints_and_transforms_match_the_kinematics(fox: tuple[RunningSystem, st
         hand = K.arm_chain(pos, "right")[2]
         assert np.allclose([poses["r_hand"].translation.x, poses["r_hand"].translation.y,
                             poses["r_hand"].translation.z], hand, atol=1e-9)
+
+
+def layout_paths() -> list[tuple[str, str]]:
+    """(topic, path) of every topic or message path the shipped layout refers to."""
+    layout = json.loads(LAYOUT.read_text())
+    found: list[tuple[str, str]] = []
+
+    def walk(value: object) -> None:
+        if isinstance(value, dict):
+            for k, v in value.items():
+                if k == "publish":
+                    continue  # the 3D panel's click-to-publish defaults, unused here
+                if isinstance(k, str) and k.startswith("/"):
+                    found.append((k, k))
+                walk(v)
+        elif isinstance(value, list):
+            for v in value:
+                walk(v)
+        elif isinstance(value, str) and value.startswith("/") and " " not in value:
+            found.append(("/" + value[1:].split(".")[0].split("[")[0], value))
+
+    walk(layout["configById"])
+    return found
 
 
 def quat_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
