@@ -49,7 +49,9 @@ class FoxgloveClient:
     @classmethod
     def open(cls, url: str) -> FoxgloveClient:
         # Entered as a context manager (closed by ``close()``): websockets warns otherwise.
-        ws = connect(url, subprotocols=SUBPROTOCOLS, max_size=None).__enter__()  # type: ignore[arg-type]
+        ws = connect(  # type: ignore[arg-type]
+            url, subprotocols=SUBPROTOCOLS, max_size=None, ping_interval=None
+        ).__enter__()
         client = cls(ws)
         client.until(lambda c: c.server_info and c.channels and c.services)
         return client
