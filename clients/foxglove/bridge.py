@@ -94,16 +94,25 @@ class Bridge:
         self.commanders = Commanders(robot)
         self.teleop = Teleop(self.commanders, self.warn)
         self.params = WalkParameters(self.commanders, robot, self.warn)
-        self.server: WebSocketServer = foxglove.start_server(
-            name=f"darwin {robot.target.robot}",
-            host=host,
-            port=port,
-            capabilities=[Capability.ClientPublish, Capability.Parameters, Capability.Services],
-            supported_encodings=["json"],
-            server_listener=_Listener(self),
-            services=[self._service(name) for name in SERVICES],
-            context=c,
-        )
+        try:
+            self.server: WebSocketServer = foxglove.start_server(
+                name=f"darwin {robot.target.robot}",
+                host=host,
+                port=port,
+                capabilities=[
+                    Capability.ClientPublish,
+                    Capability.Parameters,
+                    Capability.Services,
+                ],
+                supported_encodings=["json"],
+                server_listener=_Listener(self),
+                services=[self._service(name) for name in SERVICES],
+                context=c,
+            )
+        except BaseException:
+            self.teleop.close()
+            self.commanders.close()
+            raise
         self._subs = [
             robot.subscribe("joints", self._on_joints),
             robot.subscribe("imu", self._on_imu),

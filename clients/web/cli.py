@@ -42,11 +42,9 @@ def tui_command(args: argparse.Namespace) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from clients.web.server import serve
-    from schemas.session import free_tcp_port, resolve
+    from schemas.session import resolve
 
     host, port = parse_listen(args.listen, "web", DEFAULT_LISTEN)
     target = resolve(args.connect, args.robot)  # a bad endpoint or name fails here, once
-    if port == 0:
-        port = free_tcp_port(host)
     serve(tui_command(args), host, port, title=f"darwin {target.robot}")
     return 0

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import socket
 import struct
+import subprocess
 from collections.abc import Iterator
 
 import pytest
 
 from schemas.session import free_tcp_port
-from tests.fixtures.system import RunningSystem, start_system
+from tests.fixtures.system import RunningSystem, darwin_command, start_system
 from tests.foxglove_ws import WAIT, FoxgloveClient
 from tests.integration.test_foxglove_server import address
 
@@ -89,3 +91,24 @@ def test_out_of_range_parameters_and_bad_teleop(fox: tuple[RunningSystem, str]) 
         assert not status.motion.get("walking", {}).get("walking")
         assert fc.call("/lease", {"op": "release"}, 2)[0] == "ok"
     still_serving(system, url)
+
+
+@pytest.mark.parametrize("command", ["foxglove", "web"])
+def test_a_busy_port_is_one_line_naming_the_fix(
+    fox: tuple[RunningSystem, str], command: str
+) -> None:
+    system, _ = fox
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        target = ["--connect", system.endpoint, "--robot", system.robot]
+        out = subprocess.run(
+            darwin_command(command, *target, "--listen", f"127.0.0.1:{port}"),
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    assert out.returncode == 1 and out.stdout == ""
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"127.0.0.1:{port}" in lines[0] and "--listen" in lines[0], lines

@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import subprocess
 import time
+import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -17,7 +18,7 @@ import pytest
 
 from schemas.session import free_tcp_port
 from tests.browser import Page, chromium
-from tests.fixtures.system import REPO, RunningSystem, darwin_command
+from tests.fixtures.system import REPO, RunningSystem, darwin_command, start_system
 
 DEADLINE_S = 60.0
 ARTIFACTS = Path(os.environ.get("DARWIN_TEST_ARTIFACTS", REPO / "test-artifacts"))
@@ -119,3 +120,15 @@ def test_tui_in_a_browser(robot_system: RunningSystem, web: str) -> None:
             page.screenshot(ARTIFACTS / "web.png")
             mover.halt()
     assert (ARTIFACTS / "web.png").stat().st_size > 1000
+
+
+def test_darwin_up_web_serves_the_page() -> None:
+    listen = f"127.0.0.1:{free_tcp_port()}"
+    with start_system(gateway=False, extra_args=["--web", "--web-listen", listen]) as system:
+        deadline = time.monotonic() + DEADLINE_S
+        while not any(line == f"web: http://{listen}" for line in system.lines):
+            assert system.alive and time.monotonic() < deadline, system.output()
+            time.sleep(0.05)  # the fixture's reader thread owns the output: poll its list
+        with urllib.request.urlopen(f"http://{listen}/", timeout=10) as page:
+            html = page.read().decode()
+        assert f'data-session-websocket-url="ws://{listen}/ws"' in html
