@@ -15,6 +15,25 @@ from schemas.errors import ConfigError
 
 
 class WebServer(Server):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._tabs: set[asyncio.Task[Any]] = set()
+
+    async def handle_websocket(self, request: web.Request) -> web.WebSocketResponse:
+        task = asyncio.current_task()
+        assert task is not None
+        self._tabs.add(task)
+        try:
+            return await super().handle_websocket(request)
+        finally:
+            self._tabs.discard(task)
+
+    async def on_shutdown(self, app: web.Application) -> None:
+        # Each open tab ends its UI (textual-serve tells the app to quit) instead of keeping
+        # the server's graceful shutdown waiting on a websocket that never closes.
+        for task in list(self._tabs):
+            task.cancel()
+
     def initialize_logging(self) -> None:
         # textual-serve would install a rich handler on stdout; stdout carries only our
         # address line, the rest goes to the `darwin` logging on stderr.
@@ -32,7 +51,12 @@ class WebServer(Server):
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, self.request_exit)
         web.run_app(
-            self._make_app(), sock=sock, handle_signals=False, loop=loop, print=lambda *a: None
+            self._make_app(),
+            sock=sock,
+            handle_signals=False,
+            loop=loop,
+            print=lambda *a: None,
+            shutdown_timeout=5.0,
         )
 
 

@@ -7,7 +7,9 @@ creates (its only handle is a ``terminal`` property on the session object)."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import subprocess
 import time
 import urllib.request
@@ -49,7 +51,7 @@ pytestmark = pytest.mark.timeout(240)
 
 
 @pytest.fixture
-def web(robot_system: RunningSystem, tmp_path: Path) -> Iterator[str]:
+def web(robot_system: RunningSystem, tmp_path: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
     listen = f"127.0.0.1:{free_tcp_port()}"
     env = dict(os.environ, XDG_CONFIG_HOME=str(tmp_path / "config"), PYTHONUNBUFFERED="1")
     args = ["web", "--connect", robot_system.endpoint, "--robot", robot_system.robot]
@@ -66,13 +68,16 @@ def web(robot_system: RunningSystem, tmp_path: Path) -> Iterator[str]:
         assert proc.stdout is not None
         line = proc.stdout.readline().strip()
         assert line == f"web: http://{listen}", line
-        yield f"http://{listen}/"
+        yield f"http://{listen}/", proc
     finally:
-        os.killpg(proc.pid, 15)
+        # The whole group: the server and any tab's UI process it left.
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGTERM)
         try:
             proc.wait(timeout=10)
         except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, 9)
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
             proc.wait(timeout=5)
         if proc.stdout is not None:
             proc.stdout.close()
@@ -94,13 +99,30 @@ def joint_row(screen: str, name: str) -> str:
     return next(line for line in screen.splitlines() if f" {name} " in line)
 
 
-def test_tui_in_a_browser(robot_system: RunningSystem, web: str) -> None:
+def tab_processes(robot: str) -> list[int]:
+    """The ``darwin tui`` processes `darwin web` runs for open tabs on ``robot``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                cmd = (entry / "cmdline").read_bytes().split(b"\0")
+            except OSError:
+                continue
+            if b"tui" in cmd and robot.encode() in cmd and b"robot_daemon.cli" in cmd:
+                found.append(int(entry.name))
+    return found
+
+
+def test_tui_in_a_browser(
+    robot_system: RunningSystem, web: tuple[str, subprocess.Popen[str]]
+) -> None:
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     robot = robot_system.robot
+    url, server = web
     with chromium() as page:
         page.call("Page.enable")
         page.call("Page.addScriptToEvaluateOnNewDocument", source=KEEP_TERMINAL)
-        page.call("Page.navigate", url=web)
+        page.call("Page.navigate", url=url)
         header = wait_screen(page, lambda s: "connected" in s, "the connected header")
         assert f"DARwIn-OP {robot}" in header.splitlines()[0]
         assert "Accelerometer" in header  # the first tab (IMU)
@@ -119,7 +141,12 @@ def test_tui_in_a_browser(robot_system: RunningSystem, web: str) -> None:
             wait_screen(page, lambda s: " 22.9 " in joint_row(s, "r_shoulder_pitch"), "22.9°")
             page.screenshot(ARTIFACTS / "web.png")
             mover.halt()
-    assert (ARTIFACTS / "web.png").stat().st_size > 1000
+        assert (ARTIFACTS / "web.png").stat().st_size > 1000
+        # Stopping the server with a tab still open ends that tab's UI process too.
+        assert tab_processes(robot)
+        server.terminate()
+        assert server.wait(timeout=30) == 0
+        assert not tab_processes(robot)
 
 
 def test_darwin_up_web_serves_the_page() -> None:
