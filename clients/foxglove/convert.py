@@ -25,8 +25,8 @@ from clients.foxglove.frames import quaternion
 from schemas.messages import BallDetection, CameraFrame, Event, Joints, Message, Status
 
 # Event kinds that mean something went wrong (the rest are informational).
-WARNING_KINDS = frozenset({"fall", "servo_alarm", "lease_expired", "port_lost"})
-ERROR_KINDS = frozenset({"fault", "error"})
+WARNING_KINDS = frozenset({"fall", "servo_alarm", "warning", "port", "halt"})
+ERROR_KINDS = frozenset({"fault"})
 BALL_COLOUR = Color(r=1.0, g=0.1, b=0.1, a=1.0)
 
 

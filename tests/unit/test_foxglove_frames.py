@@ -66,3 +66,40 @@ def test_teleop_and_request_parsing_refuse_bad_input() -> None:
         with pytest.raises(BadRequest):
             parse_json(raw, "t")
     assert parse_json(b"", "t") == {}
+
+
+
+def decoded(msg: object) -> object:
+    """A foxglove-sdk message read back through its own protobuf schema."""
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    schema = type(msg).get_schema()  # type: ignore[attr-defined]
+    pool = descriptor_pool.DescriptorPool()
+    for f in descriptor_pb2.FileDescriptorSet.FromString(schema.data).file:
+        pool.Add(f)
+    cls = message_factory.GetMessageClass(pool.FindMessageTypeByName(schema.name))
+    return cls.FromString(msg.encode())  # type: ignore[attr-defined]
+
+
+def test_event_levels() -> None:
+    from clients.foxglove.convert import log_entry
+    from schemas.messages import Event
+
+    error, warning, info = 4, 3, 2  # foxglove.Log.Level
+    assert decoded(log_entry(Event(kind="fault", message="m"))).level == error
+    assert decoded(log_entry(Event(kind="servo_alarm", message="m"))).level == warning
+    entry = decoded(log_entry(Event(kind="walk", message="walking", stamp=12.5)))
+    assert (entry.level, entry.name, entry.message) == (info, "walk", "walking")
+    assert (entry.timestamp.seconds, entry.timestamp.nanos) == (12, 500_000_000)
+
+
+def test_ball_annotation_circles_the_detection() -> None:
+    from clients.foxglove.convert import ball_annotations
+    from schemas.messages import BallDetection
+
+    det = BallDetection(found=True, x=100.0, y=60.0, size=0.01, width=320, height=240)
+    ann = decoded(ball_annotations(det))
+    (circle,) = ann.circles
+    assert (circle.position.x, circle.position.y) == (100.0, 60.0)
+    assert math.isclose(circle.diameter, 2 * math.sqrt(0.01 * 320 * 240 / math.pi), rel_tol=1e-6)
+    assert not decoded(ball_annotations(BallDetection(found=False))).circles
