@@ -268,3 +268,27 @@ def test_the_urdf_is_served_when_the_body_description_provides_one(
                 assert fc.take("/robot_description")["data"] == urdf
         finally:
             bridge.close()
+
+
+def test_the_ball_play_detections_become_image_annotations(
+    fox: tuple[RunningSystem, str],
+) -> None:
+    from robot_daemon.sim.control import SimControl
+
+    system, url = fox
+    with system.robot_client(name="player") as robot, FoxgloveClient.open(url) as fc:
+        sim = SimControl(robot.session, system.robot)
+        sim.call("place_robot", x=0.0, y=0.0, yaw=0.0)
+        sim.call("place_ball", x=0.45, y=0.0)
+        fc.subscribe("/camera/ball")
+        with robot.control():
+            robot.playball()
+            try:
+                seen = robot.wait_for("vision", lambda d: d.found, WAIT)
+                ann = fc.take("/camera/ball", lambda m: len(m.circles) == 1)
+                circle = ann.circles[0]
+                assert 0 <= circle.position.x <= seen.width
+                assert 0 <= circle.position.y <= seen.height
+            finally:
+                robot.playball_stop()
+                robot.halt()
