@@ -24,6 +24,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "scan": ("robot_daemon.bus.scan", "list every device on a serial port (ID, model, firmware)"),
     "gateway": ("gateway.cli", "serve the legacy TCP JSON protocol to any number of clients"),
     "tui": ("clients.tui.cli", "the terminal UI (works over SSH)"),
+    "web": ("clients.web.cli", "serve the terminal UI to web browsers"),
+    "foxglove": ("clients.foxglove.cli", "a Foxglove WebSocket server: 3D robot, camera, plots"),
     "motion": ("robot_daemon.motion.cli", "motion files: convert between .bin and text"),
     "record": ("clients.recording.record_cli", "record the robot's publications to MCAP"),
     "replay": ("clients.recording.replay_cli", "republish a recording on the key space"),

@@ -77,6 +77,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--ros2", action="store_true", help="also run the ROS 2 adapter (`darwin ros2`)"
     )
+        "--foxglove", action="store_true", help="also start the Foxglove server (darwin foxglove)"
+    )
+    parser.add_argument("--foxglove-listen", metavar="HOST:PORT", help="where Foxglove connects")
+    parser.add_argument(
+        "--web", action="store_true", help="also serve the terminal UI to browsers (darwin web)"
+    )
+    parser.add_argument("--web-listen", metavar="HOST:PORT", help="where browsers connect")
     parser.add_argument(
         "--wire-timing",
         action=argparse.BooleanOptionalAction,
@@ -151,10 +158,17 @@ def run(args: argparse.Namespace) -> int:
             children.append(gateway)
             adapters.append(Adapter(gateway))
             print(f"gateway: {gateway.wait_line('gateway:', START_TIMEOUT)}", flush=True)
-        if args.ros2:
-            ros2 = Child("ros2", ["ros2", "--connect", endpoint, "--robot", robot], relay)
-            children.append(ros2)
-            print(f"ros2: {ros2.wait_line('ros2:', START_TIMEOUT)}", flush=True)
+        for name, wanted, listen in (
+            ("ros2", args.ros2, None),
+            ("foxglove", args.foxglove, args.foxglove_listen),
+            ("web", args.web, args.web_listen),
+        ):
+            if wanted:
+                extra = ["--listen", listen] if listen else []
+                child = Child(name, [name, "--connect", endpoint, "--robot", robot, *extra], relay)
+                children.append(child)
+                adapters.append(Adapter(child))
+                print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
         if args.tui:
             return run_tui(endpoint, robot)
         # Run until a signal or the daemon's death; adapters that die are started again.

@@ -1,0 +1,1 @@
+"""``darwin foxglove``: the robot's key space as a Foxglove WebSocket server (foxglove-sdk)."""

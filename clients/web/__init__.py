@@ -1,0 +1,1 @@
+"""``darwin web``: the terminal UI served to web browsers (textual-serve)."""

@@ -1,0 +1,50 @@
+"""``darwin web``: the terminal UI in a browser.
+
+Each browser tab runs its own ``darwin tui`` process (textual-serve starts one per websocket),
+so every tab is an ordinary UI client of the key space with its own lease and settings.
+Prints ``web: http://HOST:PORT`` once it serves, then runs until Ctrl-C or SIGTERM.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+
+from clients.listen import parse_listen
+
+DEFAULT_LISTEN = "127.0.0.1:8000"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--connect", metavar="ENDPOINT", help="Zenoh endpoint of the robot, e.g. tcp/10.0.0.5:7447"
+    )
+    parser.add_argument("--robot", help="robot name (default: DARWIN_ROBOT or op1)")
+    parser.add_argument(
+        "--listen",
+        metavar="HOST:PORT",
+        default=DEFAULT_LISTEN,
+        help=f"where browsers connect (default {DEFAULT_LISTEN}; port 0 picks a free one)",
+    )
+    parser.add_argument("--lang", help="language of the interface in every tab")
+
+
+def tui_command(args: argparse.Namespace) -> str:
+    """The shell command each tab runs: this interpreter's ``darwin tui``."""
+    cmd = [sys.executable, "-m", "robot_daemon.cli", "tui"]
+    for opt in ("connect", "robot", "lang"):
+        value = getattr(args, opt, None)
+        if value:
+            cmd += [f"--{opt}", value]
+    return shlex.join(cmd)
+
+
+def run(args: argparse.Namespace) -> int:
+    from clients.web.server import serve
+    from schemas.session import resolve
+
+    host, port = parse_listen(args.listen, "web", DEFAULT_LISTEN)
+    target = resolve(args.connect, args.robot)  # a bad endpoint or name fails here, once
+    serve(tui_command(args), host, port, title=f"darwin {target.robot}")
+    return 0
