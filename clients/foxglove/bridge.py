@@ -78,19 +78,17 @@ class Bridge:
         self.ch_camera = CompressedImageChannel("/camera/image", context=c)
         self.ch_ball = ImageAnnotationsChannel("/camera/ball", context=c)
         self.ch_scene = SceneUpdateChannel("/scene", context=c)
-        self.urdf = robot_description()
-        self.ch_urdf: Channel | None = None
-        if self.urdf is not None:
-            # Foxglove's URDF layer reads a topic of std_msgs/String-shaped messages.
-            self.ch_urdf = Channel(
-                "/robot_description",
-                schema={
-                    "title": "std_msgs/String",
-                    "type": "object",
-                    "properties": {"data": {"type": "string"}},
-                },
-                context=c,
-            )
+        self.urdf = robot_description(robot)
+        # Foxglove's URDF layer reads a topic of std_msgs/String-shaped messages.
+        self.ch_urdf = Channel(
+            "/robot_description",
+            schema={
+                "title": "std_msgs/String",
+                "type": "object",
+                "properties": {"data": {"type": "string"}},
+            },
+            context=c,
+        )
         self.commanders = Commanders(robot)
         self.teleop = Teleop(self.commanders, self.warn)
         self.params = WalkParameters(self.commanders, robot, self.warn)
@@ -123,10 +121,8 @@ class Bridge:
         ]
         self._stop = threading.Event()
         self._urdf_now = threading.Event()
-        self._urdf_thread: threading.Thread | None = None
-        if self.ch_urdf is not None:
-            self._urdf_thread = threading.Thread(target=self._urdf_loop, daemon=True)
-            self._urdf_thread.start()
+        self._urdf_thread = threading.Thread(target=self._urdf_loop, daemon=True)
+        self._urdf_thread.start()
 
     @property
     def port(self) -> int:
@@ -232,7 +228,6 @@ class Bridge:
         self.ch_camera.log(convert.image(msg), log_time=convert.nanos(msg.stamp))
 
     def _urdf_loop(self) -> None:
-        assert self.ch_urdf is not None
         while not self._stop.is_set():
             if self.ch_urdf.has_sinks():
                 self.ch_urdf.log({"data": self.urdf})
@@ -242,7 +237,7 @@ class Bridge:
     # -- who watches what -----------------------------------------------------------------------
     def subscribed(self, client: Client, channel: ChannelView) -> None:
         self._ref(client.id, ("sub", channel.id), True)
-        if channel.id == self.ch_urdf_id:
+        if channel.id == self.ch_urdf.id():
             self._urdf_now.set()  # published from its thread, never inside the SDK's callback
         if channel.id != self.ch_camera.id():
             return
@@ -262,10 +257,6 @@ class Bridge:
             if sub is not None:
                 sub.close()
         self._ref(client.id, ("sub", channel.id), False)
-
-    @property
-    def ch_urdf_id(self) -> int | None:
-        return self.ch_urdf.id() if self.ch_urdf is not None else None
 
     def _ref(self, client_id: int, ref: tuple[str, int], add: bool) -> None:
         """Track what each Foxglove client holds: the SDK reports a disconnect only as

@@ -22,10 +22,10 @@ from clients.robot import Robot
 from clients.ros2 import convert, graph
 from clients.ros2.node import GraphWatch, RosNode
 from clients.ros2.types import msg_class
-from schemas.body import Body, build_body, limits_from_config_reply
+from schemas.body import Body
 from schemas.errors import CommandError, DarwinError, LeaseBusyError, NoLeaseError
 from schemas.messages import CameraFrame, Event, Imu, Joints, World, encode
-from schemas.urdf import to_urdf
+from schemas.urdf import body_from_config_reply, to_urdf
 
 log = logging.getLogger("darwin.ros2")
 
@@ -48,9 +48,7 @@ class Adapter:
         self.options = options
         self.session = ros_session
         cfg = robot.config()
-        self.body: Body = build_body(
-            limits_from_config_reply(cfg), float(cfg.get("max_speed", 5.65))
-        )
+        self.body: Body = body_from_config_reply(cfg)
         self.names_by_id = {j.servo_id: j.name for j in self.body.servo_joints()}
         self.limits = {
             j.name: convert.Limit(j.servo_id, j.lower, j.upper) for j in self.body.servo_joints()

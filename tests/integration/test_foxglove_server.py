@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clients.foxglove.urdf import robot_description
 from config.loader import load_robot
 from schemas import kinematics as K
 from schemas.messages import Status
@@ -60,8 +59,7 @@ def test_channels_are_advertised_with_foxglove_schemas(fox: tuple[RunningSystem,
         for topic in ("/joints", "/imu", "/status", "/loop", "/world"):
             assert schemas[topic][0] == "json", topic
         assert {"/halt", "/lease", "/action", "/behaviour", "/torque"} <= set(fc.services)
-        # No body description in this build: no URDF channel rather than an empty one.
-        assert ("/robot_description" in schemas) == (robot_description() is not None)
+        assert "/robot_description" in schemas
         # The shipped layout names only channels this server advertises (and /cmd_vel, which
         # the Teleop panel publishes), and joint plot paths name real joints.
         joint_names = set(load_robot().names)
@@ -249,25 +247,28 @@ def test_a_client_that_leaves_loses_its_lease(fox: tuple[RunningSystem, str]) ->
         robot.wait_for("status", lambda s: s.lease is None, WAIT)
 
 
-def test_the_urdf_is_served_when_the_body_description_provides_one(
-    fox: tuple[RunningSystem, str], monkeypatch: pytest.MonkeyPatch
+def test_the_urdf_served_is_the_robots_body_with_the_daemons_joint_limits(
+    fox: tuple[RunningSystem, str],
 ) -> None:
-    from clients.foxglove import bridge as bridge_module
+    import xml.etree.ElementTree as ET
+
     from clients.robot import Robot
 
-    system, _ = fox
-    urdf = '<robot name="darwin"><link name="base_link"/></robot>'
-    monkeypatch.setattr(bridge_module, "robot_description", lambda: urdf)
+    system, url = fox
     with Robot(system.endpoint, system.robot, name="fox-urdf") as robot:
-        bridge = bridge_module.Bridge(robot, "127.0.0.1", 0)
-        try:
-            with FoxgloveClient.open(f"ws://127.0.0.1:{bridge.port}") as fc:
-                ch = fc.channel("/robot_description")
-                assert (ch["encoding"], ch["schemaName"]) == ("json", "std_msgs/String")
-                fc.subscribe("/robot_description")
-                assert fc.take("/robot_description")["data"] == urdf
-        finally:
-            bridge.close()
+        limits = {j["urdf"]: (j["min"], j["max"]) for j in robot.config()["joints"]}
+    with FoxgloveClient.open(url) as fc:
+        ch = fc.channel("/robot_description")
+        assert (ch["encoding"], ch["schemaName"]) == ("json", "std_msgs/String")
+        fc.subscribe("/robot_description")
+        urdf = ET.fromstring(fc.take("/robot_description")["data"])
+    joints = {j.get("name"): j for j in urdf.iter("joint") if j.get("type") == "revolute"}
+    assert set(joints) == set(limits)
+    for name, joint in joints.items():
+        limit = joint.find("limit")
+        assert limit is not None
+        low, high = float(limit.get("lower", "nan")), float(limit.get("upper", "nan"))
+        assert (low, high) == pytest.approx(limits[name], abs=1e-6), name
 
 
 def test_the_ball_play_detections_become_image_annotations(
