@@ -77,6 +77,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--ros2", action="store_true", help="also run the ROS 2 adapter (`darwin ros2`)"
     )
+    parser.add_argument(
         "--foxglove", action="store_true", help="also start the Foxglove server (darwin foxglove)"
     )
     parser.add_argument("--foxglove-listen", metavar="HOST:PORT", help="where Foxglove connects")

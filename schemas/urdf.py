@@ -79,7 +79,6 @@ def urdf_from_config_reply(cfg: Mapping[str, object]) -> str:
 
 
 def body_from_config_reply(cfg: Mapping[str, object]) -> Body:
-    max_speed = cfg.get("max_speed", 5.65)
-    return build_body(
-        limits_from_config_reply(cfg), float(max_speed) if isinstance(max_speed, int | float) else 5.65
-    )
+    speed = cfg.get("max_speed")
+    max_speed = float(speed) if isinstance(speed, int | float) else 5.65
+    return build_body(limits_from_config_reply(cfg), max_speed)
