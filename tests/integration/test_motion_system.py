@@ -141,9 +141,11 @@ def test_walking_alternates_legs_at_the_period_and_stops_within_a_step(robot: Ro
     starts_l = [stamps[i] for i in range(1, len(h)) if lifted_l[i] and not lifted_l[i - 1]]
     starts_r = [stamps[i] for i in range(1, len(h)) if lifted_r[i] and not lifted_r[i - 1]]
     assert len(starts_l) >= 3 and len(starts_r) >= 3
-    # Each foot lifts once per period, the two half a period apart (to within a few ticks:
-    # a lift-off is seen at the first tick after it).
-    period_s, slack = params["period_time"] / 1000.0, 3 * 0.008
+    # Each foot lifts once per period, the two half a period apart, to within what the samples
+    # resolve: a lift-off is seen at the first sample after it, so each difference of two is off
+    # by at most the widest gap between samples (a late tick on a busy machine, a dropped one).
+    period_s = params["period_time"] / 1000.0
+    slack = max(3 * 0.008, 2 * float(np.max(np.diff(stamps))))
     assert all(abs(d - period_s) <= slack for d in np.diff(starts_l)), (starts_l, starts_r)
     assert all(abs(d - period_s) <= slack for d in np.diff(starts_r))
     assert abs(abs(starts_r[0] - starts_l[0]) % period_s - period_s / 2) <= slack
