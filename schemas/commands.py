@@ -150,4 +150,10 @@ COMMAND_FIELDS: dict[str, dict[str, Field]] = {
     "sound": {"file": Field("str", 256), "say": Field("str", 500), "lang": LANG},
     "playball": {"op": _op("start", "stop"), "color": Field("str", 32)},
     "behaviours": {},
+    "pages": {
+        "op": _op("list", "get", "put", "delete", "reload", "export", "play"),
+        "number": INT,
+        "step": INT,
+        "page": Field("map", 16),
+    },
 }

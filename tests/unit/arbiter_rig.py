@@ -51,7 +51,7 @@ class ArbiterRig:
         self.bus = RecordingBus()
         self.lease = Lease(60.0, heartbeat_timeout=0.0)
         self.events: list[tuple[str, str, dict[str, Any]]] = []
-        self.extras = {"lease": self.lease, **extras}
+        self.extras = dict(extras)
 
     def context(self) -> MotionContext:
         return MotionContext(
@@ -61,6 +61,7 @@ class ArbiterRig:
             settings=self.settings,
             frame=None,
             emit=lambda kind, message, **data: self.events.append((kind, message, data)),
+            lease=self.lease,
             extras=dict(self.extras),
         )
 
