@@ -126,6 +126,23 @@ def matrix_rpy(r: np.ndarray) -> tuple[float, float, float]:
     return roll, pitch, yaw
 
 
+def quaternion(r: np.ndarray) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of a rotation matrix (Shepperd's method: stable for every rotation)."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = r[:3, :3].tolist()
+    tr = m00 + m11 + m22
+    if tr > 0:
+        s = 2.0 * math.sqrt(tr + 1.0)
+        return ((m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s, 0.25 * s)
+    if m00 > m11 and m00 > m22:
+        s = 2.0 * math.sqrt(1.0 + m00 - m11 - m22)
+        return (0.25 * s, (m01 + m10) / s, (m02 + m20) / s, (m21 - m12) / s)
+    if m11 > m22:
+        s = 2.0 * math.sqrt(1.0 + m11 - m00 - m22)
+        return ((m01 + m10) / s, 0.25 * s, (m12 + m21) / s, (m02 - m20) / s)
+    s = 2.0 * math.sqrt(1.0 + m22 - m00 - m11)
+    return ((m02 + m20) / s, (m12 + m21) / s, 0.25 * s, (m10 - m01) / s)
+
+
 def _angle(positions: Positions, joint_id: int) -> float:
     if isinstance(positions, Mapping):
         return float(positions.get(joint_id, 0.0))

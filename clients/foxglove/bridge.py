@@ -41,9 +41,10 @@ from foxglove.websocket import (
 from clients.foxglove import convert, frames
 from clients.foxglove.control import SERVICES, BadRequest, Commanders, Teleop, call_service
 from clients.foxglove.params import WalkParameters
-from clients.foxglove.urdf import robot_description
+from clients.foxglove.urdf import robot_body
 from clients.robot import Robot, Subscription
 from schemas.messages import BallDetection, CameraFrame, Event, Imu, Joints, Status, World
+from schemas.urdf import to_urdf
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +79,8 @@ class Bridge:
         self.ch_camera = CompressedImageChannel("/camera/image", context=c)
         self.ch_ball = ImageAnnotationsChannel("/camera/ball", context=c)
         self.ch_scene = SceneUpdateChannel("/scene", context=c)
-        self.urdf = robot_description(robot)
+        self.body = robot_body(robot)
+        self.urdf = to_urdf(self.body)
         # Foxglove's URDF layer reads a topic of std_msgs/String-shaped messages.
         self.ch_urdf = Channel(
             "/robot_description",
@@ -189,7 +191,7 @@ class Bridge:
             return
         self._last_tf = now
         pos = frames.positions_by_id(msg.id, msg.position)
-        tree = frames.body_transforms(pos)
+        tree = frames.body_transforms(self.body, pos)
         self._height = float(tree[-1][2][2, 3])
         if self._world_seen:
             tree = tree[:-1]  # the world pose gives field → base_link

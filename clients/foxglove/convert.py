@@ -21,7 +21,7 @@ from foxglove.messages import (
     Vector3,
 )
 
-from clients.foxglove.frames import quaternion
+from schemas.kinematics import quaternion
 from schemas.messages import BallDetection, CameraFrame, Event, Joints, Message, Status
 
 # Event kinds that mean something went wrong (the rest are informational).

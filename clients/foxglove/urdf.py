@@ -1,4 +1,4 @@
-"""Where the Foxglove server gets the robot's URDF: the project's one body description."""
+"""Where the Foxglove server gets the robot's body: the project's one body description."""
 
 from __future__ import annotations
 
@@ -6,19 +6,19 @@ import logging
 
 from clients.robot import Robot
 from config.loader import load_robot
-from schemas.body import build_body, limits_from_config
+from schemas.body import Body, build_body, limits_from_config
 from schemas.errors import DarwinError
-from schemas.urdf import to_urdf, urdf_from_config_reply
+from schemas.urdf import body_from_config_reply
 
 log = logging.getLogger(__name__)
 
 
-def robot_description(robot: Robot) -> str:
-    """The URDF of the robot this server shows, with the joint limits its daemon reports; a
+def robot_body(robot: Robot) -> Body:
+    """The body of the robot this server shows, with the joint limits its daemon reports; a
     replay has no daemon to ask, so then the limits of this machine's config."""
     try:
-        return urdf_from_config_reply(robot.config())
+        return body_from_config_reply(robot.config())
     except DarwinError as exc:
         log.info("no config reply (%s): the URDF uses this machine's joint limits", exc)
         local = load_robot()
-        return to_urdf(build_body(limits_from_config(local), local.max_speed))
+        return build_body(limits_from_config(local), local.max_speed)

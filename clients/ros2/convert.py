@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from schemas.body import MX28_STALL_TORQUE, Body
+from schemas.kinematics import quaternion
 from schemas.messages import Imu, Joints, Status, World
 
 from .types import msg_class
@@ -50,23 +51,6 @@ def joint_state(joints: Joints, names_by_id: Mapping[int, str]) -> Any:
         velocity=np.array([joints.velocity[k] for k in idx], dtype=np.float64),
         effort=np.array(effort, dtype=np.float64),
     )
-
-
-def quaternion(r: np.ndarray) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation matrix (Shepperd's method: stable for every rotation)."""
-    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = r[:3, :3].tolist()
-    tr = m00 + m11 + m22
-    if tr > 0:
-        s = 2.0 * math.sqrt(tr + 1.0)
-        return ((m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s, 0.25 * s)
-    if m00 > m11 and m00 > m22:
-        s = 2.0 * math.sqrt(1.0 + m00 - m11 - m22)
-        return (0.25 * s, (m01 + m10) / s, (m02 + m20) / s, (m21 - m12) / s)
-    if m11 > m22:
-        s = 2.0 * math.sqrt(1.0 + m11 - m00 - m22)
-        return ((m01 + m10) / s, 0.25 * s, (m12 + m21) / s, (m02 - m20) / s)
-    s = 2.0 * math.sqrt(1.0 + m22 - m00 - m11)
-    return ((m02 + m20) / s, (m12 + m21) / s, 0.25 * s, (m10 - m01) / s)
 
 
 def rpy_quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:

@@ -18,6 +18,7 @@ from schemas.messages import Status
 from schemas.session import free_tcp_port
 from tests.fixtures.system import RunningSystem, start_system
 from tests.foxglove_ws import WAIT, FoxgloveClient
+from tests.transforms import compose, quat_matrix
 
 pytestmark = pytest.mark.timeout(240)
 LAYOUT = Path(__file__).resolve().parents[2] / "clients" / "foxglove" / "layout.json"
@@ -97,22 +98,29 @@ def test_joints_and_transforms_match_the_kinematics(fox: tuple[RunningSystem, st
             if match is not None:
                 break
         pos = {i: p for i, p in zip(match["id"], match["position"], strict=True)}
-        poses = {t.child_frame_id: t for t in tf.transforms if t.parent_frame_id == "base_link"}
+        tree = [
+            (
+                t.parent_frame_id,
+                t.child_frame_id,
+                K.transform(
+                    quat_matrix(t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w),
+                    (t.translation.x, t.translation.y, t.translation.z),
+                ),
+            )
+            for t in tf.transforms
+            if t.parent_frame_id != "field"
+        ]
+        poses = compose(tree)
         expect = {
-            "r_foot": K.leg_fk(pos, "right"),
-            "l_foot": K.leg_fk(pos, "left"),
+            "r_sole": K.leg_fk(pos, "right"),
+            "l_sole": K.leg_fk(pos, "left"),
             "camera": K.camera_pose(pos),
             "head": K.head_pose(pos),
         }
         for frame, pose in expect.items():
-            t = poses[frame]
-            got_t = [t.translation.x, t.translation.y, t.translation.z]
-            assert np.allclose(got_t, pose[:3, 3], atol=1e-9), frame
-            q = t.rotation
-            assert np.allclose(quat_matrix(q.x, q.y, q.z, q.w), pose[:3, :3], atol=1e-9), frame
+            assert np.allclose(poses[frame], pose, atol=1e-9), frame
         hand = K.arm_chain(pos, "right")[2]
-        assert np.allclose([poses["r_hand"].translation.x, poses["r_hand"].translation.y,
-                            poses["r_hand"].translation.z], hand, atol=1e-9)
+        assert np.allclose(poses["r_hand"][:3, 3], hand, atol=1e-9)
 
 
 def layout_paths() -> list[tuple[str, str]]:
@@ -136,16 +144,6 @@ def layout_paths() -> list[tuple[str, str]]:
 
     walk(layout["configById"])
     return found
-
-
-def quat_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def test_world_pose_places_the_robot_and_the_ball(fox: tuple[RunningSystem, str]) -> None:

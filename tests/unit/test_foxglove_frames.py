@@ -1,4 +1,5 @@
-"""The Foxglove transform tree from the kinematics: quaternions, the ground, the world pose."""
+"""The Foxglove transform tree: the URDF's joints from the body description, the ground, the
+world pose; quaternions."""
 
 from __future__ import annotations
 
@@ -10,42 +11,41 @@ import pytest
 from clients.foxglove import frames
 from clients.foxglove.control import BadRequest, parse_json, twist_speeds
 from schemas import kinematics as K
+from schemas.body import default_body
 from schemas.messages import World
-
-
-def matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+from tests.transforms import compose, quat_matrix
 
 
 @pytest.mark.parametrize("seed", range(20))
 def test_quaternion_round_trips_any_rotation(seed: int) -> None:
     rng = np.random.default_rng(seed)
     r = K.rpy_matrix(*rng.uniform(-math.pi, math.pi, 3))
-    q = frames.quaternion(r)
+    q = K.quaternion(r)
     assert math.isclose(float(np.linalg.norm(q)), 1.0, abs_tol=1e-12)
-    assert np.allclose(matrix(*q), r, atol=1e-12)
+    assert np.allclose(quat_matrix(*q), r, atol=1e-12)
 
 
 def test_half_turns_about_each_axis() -> None:
     for r in (K.rot_x(math.pi), K.rot_y(math.pi), K.rot_z(math.pi)):
-        assert np.allclose(matrix(*frames.quaternion(r)), r, atol=1e-12)
+        assert np.allclose(quat_matrix(*K.quaternion(r)), r, atol=1e-12)
 
 
-def test_body_stands_on_its_lower_sole() -> None:
-    pos = {13: 0.6, 15: -0.3, 11: -0.3, 14: -0.2}
-    tree = frames.body_transforms(pos)
+def test_the_tree_is_the_urdf_and_stands_on_its_lower_sole() -> None:
+    body = default_body()
+    pos = {13: 0.6, 15: -0.3, 11: -0.3, 14: -0.2, 19: 0.4, 20: -0.2, 1: 0.5}
+    tree = frames.body_transforms(body, pos)
     parent, child, base = tree[-1]
     assert (parent, child) == ("field", "base_link")
     soles = [K.leg_fk(pos, s)[2, 3] for s in K.SIDES]
     assert math.isclose(base[2, 3], -min(soles))
-    by_child = {c: p for _, c, p in tree}
-    assert np.allclose(by_child["camera"], K.camera_pose(pos))
+    # One transform per URDF joint, named by the URDF's links, and composed they are the
+    # project's kinematics.
+    assert {(p, c) for p, c, _ in tree[:-1]} == {(j.parent, j.child) for j in body.joints}
+    poses = compose(tree[:-1])
+    assert np.allclose(poses["camera"], K.camera_pose(pos))
+    assert np.allclose(poses["head"], K.head_pose(pos))
+    for side in K.SIDES:
+        assert np.allclose(poses[f"{side[0]}_sole"], K.leg_fk(pos, side))
 
 
 def test_world_pose_and_ball() -> None:
