@@ -225,9 +225,10 @@ class Commander:
         try:
             while True:
                 try:
-                    return ask(
+                    applied = ask(
                         self.session, key, payload, budget, verb=verb, unreachable=unreachable
                     )
+                    break
                 except RateLimitedError as exc:
                     # Throttled, nothing applied: wait as told while the timeout allows.
                     wait = exc.retry_after or 0.05
@@ -238,6 +239,15 @@ class Commander:
             if exc.field in ("client", "lease_token") and token is not None:
                 self._lease.lost(token)  # the daemon ended our lease meanwhile
             raise
+        if verb == "lease":
+            # However the lease is taken (acquire(), control(), or command("lease", …) as the
+            # TUI does), the secret stays with this client alone and is renewed.
+            secret = applied.pop("token", None)
+            if fields.get("op") == "acquire" and isinstance(secret, str):
+                self._lease.hold(secret)
+            elif fields.get("op") == "release":
+                self._lease.drop()
+        return applied
 
     @property
     def holds_lease(self) -> bool:
@@ -245,11 +255,7 @@ class Commander:
         return self._lease.token is not None
 
     def acquire(self) -> dict[str, Any]:
-        applied = self.command("lease", op="acquire")
-        token = applied.pop("token", None)
-        if isinstance(token, str):
-            self._lease.hold(token)
-        return applied
+        return self.command("lease", op="acquire")
 
     def release(self) -> dict[str, Any]:
         try:
