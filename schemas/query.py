@@ -209,6 +209,16 @@ def ask(
     unreachable: Callable[[], Exception],
 ) -> dict[str, Any]:
     """One query; its ``applied`` map, or the project's error for what came back."""
+    if len(payload) > MAX_PAYLOAD:
+        # Zenoh drops a message over the daemon's limit unanswered: say why here instead of
+        # letting the caller wait for a timeout.
+        raise OutOfRangeError(
+            ErrorCode.OUT_OF_RANGE,
+            f"payload of {len(payload)} bytes is over the {MAX_PAYLOAD}-byte limit: send less "
+            "(split a long choreography, shorten strings)",
+            "payload",
+            verb,
+        )
     try:
         replies = list(session.get(key, payload=payload, timeout=timeout))
     except zenoh.ZError as exc:

@@ -169,3 +169,28 @@ def test_a_failing_subscription_callback_is_logged_once_with_its_traceback(
     records = [r for r in caplog.records if "subscription callback" in r.getMessage()]
     assert len(records) == 1 and records[0].exc_info is not None
     assert sub.errors == 5 and isinstance(sub.last_error, ValueError)
+
+
+def test_a_caller_is_told_at_once_when_its_payload_is_too_large() -> None:
+    # Zenoh would drop it unanswered at the daemon; the caller gets the reason, not a timeout.
+    from schemas.errors import OutOfRangeError
+    from schemas.query import MAX_PAYLOAD, ask
+
+    port = free_tcp_port()
+    with zenoh.open(server_config([f"tcp/127.0.0.1:{port}"])) as session:
+        asked: list[str] = []
+        queryable = session.declare_queryable(
+            "darwin/op1/cmd/pose", lambda q: asked.append(str(q.key_expr)), complete=True
+        )
+        with pytest.raises(OutOfRangeError) as err:
+            ask(
+                session,
+                "darwin/op1/cmd/pose",
+                b"x" * (MAX_PAYLOAD + 1),
+                1.0,
+                verb="pose",
+                unreachable=lambda: AssertionError("unreachable"),
+            )
+        queryable.undeclare()
+    assert err.value.field == "payload"
+    assert asked == []
