@@ -14,7 +14,7 @@ import signal
 
 from gateway.server import Gateway
 from gateway.settings import check_settings, load_settings
-from schemas.session import resolve
+from schemas.session import add_target_arguments, resolve
 
 # The limits a client cannot push past; each one a [gateway] setting of the same name.
 LIMIT_OPTIONS: tuple[tuple[str, type, str, str], ...] = (
@@ -49,14 +49,7 @@ def _limit_overrides(args: argparse.Namespace) -> dict[str, object]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--connect",
-        metavar="ENDPOINT",
-        help="the robot's Zenoh endpoint (default: $DARWIN_ENDPOINT, else tcp/127.0.0.1:7447)",
-    )
-    parser.add_argument(
-        "--robot", metavar="NAME", help="robot name (default: $DARWIN_ROBOT, else op1)"
-    )
+    add_target_arguments(parser)
     parser.add_argument(
         "--listen",
         metavar="HOST:PORT",

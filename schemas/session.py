@@ -7,6 +7,7 @@ Multicast scouting is always off: robots on one network must never find each oth
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import socket
@@ -38,6 +39,21 @@ def resolve(endpoint: str | None = None, robot: str | None = None) -> Target:
     name = robot or os.environ.get(ENV_ROBOT) or DEFAULT_ROBOT
     check_endpoint(ep)
     return Target(ep, check_robot_name(name))
+
+
+def add_target_arguments(parser: argparse.ArgumentParser, robot_default: str = "") -> None:
+    """``--connect`` and ``--robot``, the same for every client of the key space."""
+    parser.add_argument(
+        "--connect",
+        metavar="ENDPOINT",
+        help=f"Zenoh endpoint of the robot, e.g. tcp/10.0.0.5:7447 (default: ${ENV_ENDPOINT}, "
+        f"else {DEFAULT_ENDPOINT})",
+    )
+    parser.add_argument(
+        "--robot",
+        metavar="NAME",
+        help=f"robot name (default: {robot_default}${ENV_ROBOT}, else {DEFAULT_ROBOT})",
+    )
 
 
 def check_endpoint(endpoint: str) -> str:

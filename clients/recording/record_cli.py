@@ -28,7 +28,7 @@ from clients.recording.recorder import (
 )
 from clients.robot import TOPICS
 from schemas.errors import ClientError, RobotUnreachableError
-from schemas.session import open_client, resolve
+from schemas.session import add_target_arguments, open_client, resolve
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -54,8 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="darwin",
         help="what to record and how to encode it (darwin: JSON + msgpack channels)",
     )
-    parser.add_argument("--connect", metavar="ENDPOINT", help="Zenoh endpoint (DARWIN_ENDPOINT)")
-    parser.add_argument("--robot", metavar="NAME", help="robot name (DARWIN_ROBOT, default op1)")
+    add_target_arguments(parser)
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     parser.add_argument(
         "--flush",

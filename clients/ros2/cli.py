@@ -9,12 +9,13 @@ import signal
 import sys
 import threading
 
+from schemas.session import add_target_arguments
+
 log = logging.getLogger("darwin.ros2")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--connect", metavar="ENDPOINT", help="Zenoh endpoint of the robot daemon")
-    parser.add_argument("--robot", help="robot name (default DARWIN_ROBOT or op1)")
+    add_target_arguments(parser)
     parser.add_argument("--domain", type=int, help="ROS domain id (default ROS_DOMAIN_ID, else 0)")
     parser.add_argument("--namespace", help="ROS namespace of every topic (default /<robot>)")
     parser.add_argument("--node-name", default="darwin", help="ROS node name (default darwin)")

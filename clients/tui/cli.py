@@ -6,13 +6,11 @@ import argparse
 
 from clients.tui import i18n
 from schemas.errors import RobotUnreachableError
+from schemas.session import add_target_arguments
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--connect", metavar="ENDPOINT", help="Zenoh endpoint of the robot, e.g. tcp/10.0.0.5:7447"
-    )
-    parser.add_argument("--robot", help="robot name (default: remembered, DARWIN_ROBOT or op1)")
+    add_target_arguments(parser, robot_default="remembered, ")
     parser.add_argument("--name", help="your name, shown to others as the lease holder")
     parser.add_argument(
         "--lang",

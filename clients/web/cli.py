@@ -12,15 +12,13 @@ import shlex
 import sys
 
 from clients.listen import parse_listen
+from schemas.session import add_target_arguments
 
 DEFAULT_LISTEN = "127.0.0.1:8000"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--connect", metavar="ENDPOINT", help="Zenoh endpoint of the robot, e.g. tcp/10.0.0.5:7447"
-    )
-    parser.add_argument("--robot", help="robot name (default: DARWIN_ROBOT or op1)")
+    add_target_arguments(parser)
     parser.add_argument(
         "--listen",
         metavar="HOST:PORT",
