@@ -40,6 +40,19 @@ def page_problems(page: Page, robot: RobotConfig, known: Container[int]) -> list
             out.append(
                 Problem(f"step[{i}].time", f"{label} step {i + 1}: time must be 1..255 units")
             )
+    out += limit_problems(page, robot)
+    for key in ("next", "exit"):
+        target = getattr(page, key)
+        if target and target != page.number and target not in known:
+            out.append(Problem(key, f"{label}: {key} = {target} names no page in the library"))
+    return out
+
+
+def limit_problems(page: Page, robot: RobotConfig) -> list[Problem]:
+    """Every step target of ``page`` outside the configured joint limits."""
+    label = f"page {page.number} ({page.name})"
+    out: list[Problem] = []
+    for i, step in enumerate(page.steps):
         for jid in JOINT_SLOTS:
             if not step.driven(jid) or jid not in robot.by_id:
                 continue
@@ -53,10 +66,6 @@ def page_problems(page: Page, robot: RobotConfig, known: Container[int]) -> list
                         f"its limits {joint.min_deg:.0f}°..{joint.max_deg:.0f}°",
                     )
                 )
-    for key in ("next", "exit"):
-        target = getattr(page, key)
-        if target and target != page.number and target not in known:
-            out.append(Problem(key, f"{label}: {key} = {target} names no page in the library"))
     return out
 
 

@@ -4,14 +4,13 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from pathlib import Path
 
 from config.loader import CONFIG_DIR, RobotConfig
 from robot_daemon.motion.action import binfile, textfile
-from robot_daemon.motion.action.binfile import JOINT_SLOTS, MotionFileError, Page
-from schemas.units import raw_to_rad
+from robot_daemon.motion.action.binfile import MotionFileError, Page
+from robot_daemon.motion.action.check import limit_problems
 
 LIBRARY_DIR = CONFIG_DIR / "motions"
 
@@ -77,23 +76,8 @@ class MotionLibrary:
 
     def violations(self, robot: RobotConfig, numbers: Iterable[int] | None = None) -> list[str]:
         """Every step target outside the configured joint limits, as readable lines."""
-        out = []
         wanted = sorted(self.pages) if numbers is None else [n for n in numbers if n in self]
-        for n in wanted:
-            page = self.pages[n]
-            for i, step in enumerate(page.steps, 1):
-                for jid in JOINT_SLOTS:
-                    if not step.driven(jid) or jid not in robot.by_id:
-                        continue
-                    joint = robot.by_id[jid]
-                    rad = float(raw_to_rad(step.words[jid]))
-                    if not joint.within(rad):
-                        out.append(
-                            f"page {n} ({page.name}) step {i}: {joint.name} "
-                            f"{math.degrees(rad):.1f}° is outside "
-                            f"{joint.min_deg:.0f}°..{joint.max_deg:.0f}°"
-                        )
-        return out
+        return [str(p) for n in wanted for p in limit_problems(self.pages[n], robot)]
 
 
 def read_pages(path: str | Path) -> list[Page]:

@@ -88,28 +88,16 @@ def default_joint_names() -> dict[int, str]:
 
 
 # -- writing -----------------------------------------------------------------------------------
-def _fmt_deg(raw: int) -> str:
-    # Two decimals round-trip exactly: a raw unit is 0.088°.
-    return f"{raw_to_deg(raw):.2f}"
-
-
 def _step_lines(step: Step, table: str, names: dict[int, str]) -> list[str]:
-    lines = [f"[[{table}]]", f"time = {step.time}", f"pause = {step.pause}"]
-    raw: dict[str, int] = {}
-    for slot in JOINT_SLOTS:
-        word = step.words[slot]
-        name = names.get(slot, f"joint{slot}")
-        if word == NOT_DRIVEN:
-            continue
-        if word <= POSITION_MAX:
-            lines.append(f"{name} = {_fmt_deg(word)}")
+    lines = [f"[[{table}]]"]
+    for key, value in _step_dict(step, names).items():
+        if key == "raw":
+            lines.append("raw = { " + ", ".join(f"{k} = {v}" for k, v in value.items()) + " }")
+        elif isinstance(value, float):
+            # Two decimals round-trip exactly: a raw unit is 0.088°.
+            lines.append(f"{key} = {value:.2f}")
         else:
-            raw[name] = word
-    if raw:
-        lines.append("raw = { " + ", ".join(f"{k} = {v}" for k, v in raw.items()) + " }")
-    spare = tuple(step.words[s] for s in SPARE_SLOTS)
-    if spare != DEFAULT_SPARE:
-        lines.append(f"spare = {list(spare)}")
+            lines.append(f"{key} = {value}")
     return lines
 
 
