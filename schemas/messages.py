@@ -183,6 +183,7 @@ class LoopInfo(TypedDict, total=False):
     overruns: int  # ticks whose work ran past the next deadline
     skipped: int  # deadlines given up after overruns
     scheduling: str
+    events_dropped: int  # events the publisher's queue had no room for
 
 
 class CameraInfo(TypedDict, total=False):
@@ -195,6 +196,8 @@ class CameraInfo(TypedDict, total=False):
     fps: float
     width: int
     height: int
+    opened: int  # times the source was opened (one owner: once while anyone needs frames)
+    readers: int  # in-process frame readers (ball vision)
 
 
 class AlarmInfo(TypedDict):

@@ -30,3 +30,25 @@ def compose(tree: list[tuple[str, str, np.ndarray]], root: str = "base_link") ->
         return poses[frame]
 
     return {frame: pose_of(frame) for frame in edges if frame != root}
+
+
+def tf_poses(transforms: list, root: str = "base_link") -> dict:
+    """Every frame's pose in ``root`` from Foxglove ``FrameTransform`` messages (``field`` and
+    what hangs from it left out)."""
+    edges = [
+        (
+            t.parent_frame_id,
+            t.child_frame_id,
+            _pose(t.rotation, t.translation),
+        )
+        for t in transforms
+        if t.parent_frame_id != "field"
+    ]
+    return compose(edges, root)
+
+
+def _pose(q, v) -> np.ndarray:  # type: ignore[no-untyped-def]
+    pose = np.eye(4)
+    pose[:3, :3] = quat_matrix(q.x, q.y, q.z, q.w)
+    pose[:3, 3] = (v.x, v.y, v.z)
+    return pose

@@ -14,6 +14,7 @@ from schemas.session import free_tcp_port
 from tests.fixtures.system import darwin_command
 from tests.foxglove_ws import FoxgloveClient
 from tests.integration.test_recording_replay import recording  # noqa: F401  (fixture)
+from tests.transforms import tf_poses
 
 pytestmark = pytest.mark.timeout(240)
 
@@ -73,8 +74,7 @@ def test_a_replayed_session_reaches_foxglove(replay_foxglove: str) -> None:
 
         tf = fc.take("/tf", same_stamp)
         pos = dict(zip(joints["id"], joints["position"], strict=True))
-        foot = next(t for t in tf.transforms if t.child_frame_id == "l_foot")
-        expect = K.leg_fk(pos, "left")[:3, 3]
-        assert np.allclose([foot.translation.x, foot.translation.y, foot.translation.z], expect)
+        sole = tf_poses(tf.transforms)["l_sole"]
+        assert np.allclose(sole, K.leg_fk(pos, "left"), atol=1e-9)
         img = fc.take("/camera/image")
         assert bytes(img.data).startswith(b"\xff\xd8")

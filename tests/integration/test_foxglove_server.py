@@ -18,7 +18,7 @@ from schemas.messages import Status
 from schemas.session import free_tcp_port
 from tests.fixtures.system import RunningSystem, start_system
 from tests.foxglove_ws import WAIT, FoxgloveClient
-from tests.transforms import compose, quat_matrix
+from tests.transforms import tf_poses
 
 pytestmark = pytest.mark.timeout(240)
 LAYOUT = Path(__file__).resolve().parents[2] / "clients" / "foxglove" / "layout.json"
@@ -98,19 +98,7 @@ def test_joints_and_transforms_match_the_kinematics(fox: tuple[RunningSystem, st
             if match is not None:
                 break
         pos = {i: p for i, p in zip(match["id"], match["position"], strict=True)}
-        tree = [
-            (
-                t.parent_frame_id,
-                t.child_frame_id,
-                K.transform(
-                    quat_matrix(t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w),
-                    (t.translation.x, t.translation.y, t.translation.z),
-                ),
-            )
-            for t in tf.transforms
-            if t.parent_frame_id != "field"
-        ]
-        poses = compose(tree)
+        poses = tf_poses(tf.transforms)
         expect = {
             "r_sole": K.leg_fk(pos, "right"),
             "l_sole": K.leg_fk(pos, "left"),
