@@ -26,7 +26,14 @@ async def until(pilot: Pilot, condition: Callable[[], object], what: str) -> Non
     deadline = time.monotonic() + DEADLINE_S
     while not condition():
         if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
+            app = pilot.app
+            status = getattr(getattr(app, "model", None), "status", None)
+            lease = getattr(status, "lease", None)
+            log = getattr(getattr(app, "model", None), "events", None)
+            last = [getattr(e, "message", e) for e in list(log or [])[-5:]]
+            raise AssertionError(
+                f"timed out waiting for {what} (lease holder: {lease}; last events: {last})"
+            )
         await pilot.pause(0.05)
 
 
