@@ -66,7 +66,9 @@ def publishing() -> Iterator[Publishing]:
 @pytest.fixture
 def robot(publishing: Publishing) -> Iterator[Robot]:
     with Robot(publishing.src.endpoint, ROBOT, name="nb-test") as r:
+        # The state holds what has arrived: wait for both streams the tests read from it.
         r.wait_for("joints", timeout=10)
+        r.wait_for("imu", timeout=10)
         yield r
 
 
