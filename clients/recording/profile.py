@@ -67,6 +67,14 @@ class Profile(Protocol):
         """The message's own time (MCAP ``publish_time``)."""
         ...
 
+    def bind(self, session: Any, keys: Keys) -> Profile:
+        """The instance one recording uses (it may ask the daemon, keep per-recording state)."""
+        ...
+
+    def latched(self) -> tuple[tuple[ChannelSpec, bytes], ...]:
+        """Messages written at the start of every file (segment): latched topics."""
+        ...
+
 
 def json_topic(key: str) -> str:
     return f"/{key}"
@@ -121,12 +129,25 @@ class DarwinProfile:
         stamp = decoded.get("stamp") if decoded is not None else None
         return int(stamp * 1e9) if isinstance(stamp, int | float) else log_ns
 
+    def bind(self, session: Any, keys: Keys) -> DarwinProfile:
+        return self
+
+    def latched(self) -> tuple[tuple[ChannelSpec, bytes], ...]:
+        return ()
+
 
 DARWIN = DarwinProfile()
 PROFILES: dict[str, Profile] = {DARWIN.name: DARWIN}
 
+# After DARWIN: the ROS 2 profile builds on it.
+from clients.recording.ros2_profile import ROS2  # noqa: E402
 
-def get_profile(name: str) -> Profile:
+PROFILES[ROS2.name] = ROS2
+
+
+def get_profile(name: str | Profile) -> Profile:
+    if not isinstance(name, str):
+        return name
     try:
         return PROFILES[name]
     except KeyError:
