@@ -4,9 +4,9 @@ The recorder and the MCAP sink know nothing of message types: a profile tells th
 expression to subscribe for each topic, how to decode a sample (for counts and the text log),
 and which channels (topic, message encoding, schema name/encoding/data, metadata, encoder) each
 sample is written to. ``darwin`` (the default) writes a JSON channel with a JSON Schema and the
-raw msgpack channel per topic. A ROS 2 profile (``cdr`` messages, ``ros2msg`` schemas, MCAP
-header profile ``ros2``: the layout rosbag2's MCAP storage writes) plugs in by adding a
-:class:`Profile` to :data:`PROFILES`; nothing else changes.
+raw msgpack channel per topic; ``ros2`` (:mod:`clients.recording.ros2_profile`) a ROS 2 bag
+(``cdr`` messages, ``ros2msg`` schemas, MCAP header profile ``ros2``). Another plugs in by adding
+a :class:`Profile` to :data:`PROFILES`; nothing else changes.
 """
 
 from __future__ import annotations

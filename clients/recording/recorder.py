@@ -114,6 +114,7 @@ class Recorder:
     used) or a bare ``zenoh.Session`` (then pass ``robot``, else ``DARWIN_ROBOT`` or ``op1``).
     ``split_seconds`` / ``split_bytes`` write numbered segments (``NAME-0001.mcap``…) instead
     of one file; ``flush_interval`` (s) and ``chunk_bytes`` bound what a kill can lose.
+    ``profile`` is a :class:`Profile` or its name (``"darwin"``, ``"ros2"``: a ROS 2 bag).
     ``on_notice`` gets each one-line notice about a truncated file found in the output place
     (default: logged as a warning); they are also kept in ``notices``.
     """

@@ -16,12 +16,16 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from clients.recording import Recorder
 from clients.recording.scan import RecordScanner
 from clients.recording.segments import existing_segments
+from schemas.body import default_body
 from schemas.messages import Joints
+from schemas.session import free_tcp_port, open_client, open_server
 from schemas.urdf import body_from_config_reply
 from tests.fixtures.emulator import wait_until
 from tests.fixtures.system import RunningSystem
@@ -103,7 +107,7 @@ def test_ros2_bag_decodes_with_the_daemons_joints(
         proc = record(robot_system, path, "--duration", "3")
         err = finish(proc)
         witness.close()
-    assert "joints" in err and ".mcap" in err
+    assert "joints" in err and ".mcap" in err and "dropped" not in err
 
     ns = f"/{robot_system.robot}"
     types = check_layout(path, ns)
@@ -190,3 +194,31 @@ def test_ros2_segments_and_recover_stay_bags(robot_system: RunningSystem, tmp_pa
     assert types[f"{ns}/joint_states"] == "sensor_msgs/msg/JointState"
     kept = [msg for t, msg in decoded(out) if t == f"{ns}/joint_states"]
     assert kept and all(len(m.name) == 20 for m in kept)
+
+
+def test_notebook_recorder_takes_the_profile_by_name_and_falls_back_to_the_local_body(
+    tmp_path: Path,
+) -> None:
+    """No daemon answers `config`: the bag still describes the robot, from the local config."""
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    path = tmp_path / "alone.mcap"
+    with open_server([endpoint]), open_client(endpoint) as session:
+        rec = Recorder(session, path, ["joints"], robot="nobody", profile="ros2").start()
+        rec.stop()
+    types = check_layout(path, "/nobody")
+    assert types == {
+        "/nobody/robot_description": "std_msgs/msg/String",
+        "/nobody/tf_static": "tf2_msgs/msg/TFMessage",
+    }
+    (description,) = [m for t, m in decoded(path) if t == "/nobody/robot_description"]
+    assert all(j.name in description.data for j in default_body().servo_joints())
+
+
+def test_unknown_profile_names_the_choices(tmp_path: Path) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    with (
+        open_server([endpoint]),
+        open_client(endpoint) as session,
+        pytest.raises(ValueError, match="darwin, ros2"),
+    ):
+        Recorder(session, tmp_path / "x.mcap", robot="r", profile="ros1")
