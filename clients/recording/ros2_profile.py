@@ -117,7 +117,11 @@ def body_for(session: zenoh.Session, keys: Keys) -> Body:
         cfg = Commander(robot=keys.robot, session=session, name="recorder", timeout=2.0).config()
         return body_from_config_reply(cfg)
     except DarwinError as exc:
-        log.warning("no config from the daemon (%s); using the local robot config's body", exc)
+        log.debug("config query: %s", exc)
+        log.warning(
+            "robot %r did not answer `config`: the bag describes the local robot config's body",
+            keys.robot,
+        )
         return default_body()
 
 

@@ -226,6 +226,16 @@ def test_notebook_recorder_takes_the_profile_by_name_and_falls_back_to_the_local
     }
     (description,) = [m for t, m in decoded(path) if t == "/nobody/robot_description"]
     assert all(j.name in description.data for j in default_body().servo_joints())
+    # darwin replay sends the project's msgpack channels, which a bag has not: it says so.
+    replay = subprocess.run(
+        [sys.executable, "-m", "robot_daemon.cli", "replay", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert replay.returncode == 2
+    assert "ROS 2 bag" in replay.stderr and "ros2 bag play" in replay.stderr
+    assert "Traceback" not in replay.stderr
 
 
 def test_unknown_profile_names_the_choices(tmp_path: Path) -> None:
