@@ -114,7 +114,9 @@ def body_for(session: zenoh.Session, keys: Keys) -> Body:
     from clients.robot import Commander
 
     try:
-        cfg = Commander(robot=keys.robot, session=session, name="recorder", timeout=2.0).config()
+        # Closed at once: its liveliness token must not outlive the question.
+        with Commander(robot=keys.robot, session=session, name="recorder", timeout=2.0) as c:
+            cfg = c.config()
         return body_from_config_reply(cfg)
     except DarwinError as exc:
         log.debug("config query: %s", exc)
