@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import time
 from datetime import UTC, datetime
 from typing import IO, Any
 
@@ -66,7 +67,8 @@ class McapSink:
         self._keys = topics
         self._specs: dict[str, tuple[ChannelSpec, ...]] = {}
         self._schemas: dict[str, int] = {}
-        self._channels: dict[tuple[str, int], int] = {}
+        # one MCAP channel per (topic, encoding): two sources may feed one ROS topic (tf)
+        self._channels: dict[tuple[str, str], int] = {}
         self._seq: dict[int, int] = {}
         self._writer.add_metadata(
             "darwin",
@@ -79,6 +81,9 @@ class McapSink:
                 **(metadata or {}),
             },
         )
+        for spec, data in profile.latched():
+            now = time.time_ns()
+            self._writer.add_message(self._channel(spec), now, data, now, 0)
         self.flush()
         os.replace(part, path)
 
@@ -87,8 +92,8 @@ class McapSink:
         """Bytes on disk so far (the open chunk is not counted until it is written)."""
         return self._file.tell()
 
-    def _channel(self, topic: str, index: int, spec: ChannelSpec) -> int:
-        cid = self._channels.get((topic, index))
+    def _channel(self, spec: ChannelSpec) -> int:
+        cid = self._channels.get((spec.topic, spec.message_encoding))
         if cid is None:
             sid = 0
             if spec.schema is not None:
@@ -100,7 +105,7 @@ class McapSink:
             cid = self._writer.register_channel(
                 spec.topic, spec.message_encoding, sid, spec.metadata
             )
-            self._channels[(topic, index)] = cid
+            self._channels[(spec.topic, spec.message_encoding)] = cid
         return cid
 
     def write(
@@ -112,11 +117,11 @@ class McapSink:
                 topic, self._keys[topic], self._robot
             )
         pub_ns = self._profile.publish_ns(decoded, log_ns)
-        for index, spec in enumerate(specs):
+        for spec in specs:
             data = spec.encode(payload, decoded)
             if data is None:
                 continue
-            cid = self._channel(topic, index, spec)
+            cid = self._channel(spec)
             seq = self._seq.get(cid, 0)
             self._seq[cid] = seq + 1
             self._writer.add_message(cid, log_ns, data, pub_ns, seq)

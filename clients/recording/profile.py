@@ -4,9 +4,9 @@ The recorder and the MCAP sink know nothing of message types: a profile tells th
 expression to subscribe for each topic, how to decode a sample (for counts and the text log),
 and which channels (topic, message encoding, schema name/encoding/data, metadata, encoder) each
 sample is written to. ``darwin`` (the default) writes a JSON channel with a JSON Schema and the
-raw msgpack channel per topic. A ROS 2 profile (``cdr`` messages, ``ros2msg`` schemas, MCAP
-header profile ``ros2``: the layout rosbag2's MCAP storage writes) plugs in by adding a
-:class:`Profile` to :data:`PROFILES`; nothing else changes.
+raw msgpack channel per topic; ``ros2`` (:mod:`clients.recording.ros2_profile`) a ROS 2 bag
+(``cdr`` messages, ``ros2msg`` schemas, MCAP header profile ``ros2``). Another plugs in by adding
+a :class:`Profile` to :data:`PROFILES`; nothing else changes.
 """
 
 from __future__ import annotations
@@ -67,6 +67,14 @@ class Profile(Protocol):
         """The message's own time (MCAP ``publish_time``)."""
         ...
 
+    def bind(self, session: Any, keys: Keys) -> Profile:
+        """The instance one recording uses (it may ask the daemon, keep per-recording state)."""
+        ...
+
+    def latched(self) -> tuple[tuple[ChannelSpec, bytes], ...]:
+        """Messages written at the start of every file (segment): latched topics."""
+        ...
+
 
 def json_topic(key: str) -> str:
     return f"/{key}"
@@ -121,12 +129,25 @@ class DarwinProfile:
         stamp = decoded.get("stamp") if decoded is not None else None
         return int(stamp * 1e9) if isinstance(stamp, int | float) else log_ns
 
+    def bind(self, session: Any, keys: Keys) -> DarwinProfile:
+        return self
+
+    def latched(self) -> tuple[tuple[ChannelSpec, bytes], ...]:
+        return ()
+
 
 DARWIN = DarwinProfile()
 PROFILES: dict[str, Profile] = {DARWIN.name: DARWIN}
 
+# After DARWIN: the ROS 2 profile builds on it.
+from clients.recording.ros2_profile import ROS2  # noqa: E402
 
-def get_profile(name: str) -> Profile:
+PROFILES[ROS2.name] = ROS2
+
+
+def get_profile(name: str | Profile) -> Profile:
+    if not isinstance(name, str):
+        return name
     try:
         return PROFILES[name]
     except KeyError:

@@ -52,7 +52,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--profile",
         choices=sorted(PROFILES),
         default="darwin",
-        help="what to record and how to encode it (darwin: JSON + msgpack channels)",
+        help="what to record and how to encode it (darwin: JSON + msgpack channels; "
+        "ros2: a ROS 2 bag, the adapter's topics in CDR as rosbag2 writes them)",
+    )
+    parser.add_argument(
+        "--ros2",
+        dest="profile",
+        action="store_const",
+        const="ros2",
+        help="write a ROS 2 bag (same as --profile ros2): `ros2 bag info FILE.mcap` opens it",
     )
     add_target_arguments(parser)
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")

@@ -31,7 +31,7 @@ from typing import Any, Self
 import zenoh
 
 from clients.recording.mcap_sink import CHUNK_BYTES, McapSink
-from clients.recording.profile import DARWIN, Profile, check_topics
+from clients.recording.profile import DARWIN, Profile, check_topics, get_profile
 from clients.recording.segments import (
     SegmentedSink,
     Sink,
@@ -114,6 +114,7 @@ class Recorder:
     used) or a bare ``zenoh.Session`` (then pass ``robot``, else ``DARWIN_ROBOT`` or ``op1``).
     ``split_seconds`` / ``split_bytes`` write numbered segments (``NAME-0001.mcap``…) instead
     of one file; ``flush_interval`` (s) and ``chunk_bytes`` bound what a kill can lose.
+    ``profile`` is a :class:`Profile` or its name (``"darwin"``, ``"ros2"``: a ROS 2 bag).
     ``on_notice`` gets each one-line notice about a truncated file found in the output place
     (default: logged as a warning); they are also kept in ``notices``.
     """
@@ -130,7 +131,7 @@ class Recorder:
         chunk_bytes: int = CHUNK_BYTES,
         split_seconds: float | None = None,
         split_bytes: int | None = None,
-        profile: Profile = DARWIN,
+        profile: Profile | str = DARWIN,
         queue_size: int = 20_000,
         on_notice: Callable[[str], object] | None = None,
     ) -> None:
@@ -142,8 +143,8 @@ class Recorder:
             name = resolve(None, robot).robot
         self.keys = Keys(name)
         self.path = os.fspath(path)
-        self.profile = profile
-        self.topics = check_topics(topics, profile)
+        self.profile = get_profile(profile)
+        self.topics = check_topics(topics, self.profile)
         self.format = format or guess_format(self.path)
         if self.format not in FORMATS:
             raise ValueError(f"unknown recording format {self.format!r}; use one of {FORMATS}")
@@ -233,6 +234,8 @@ class Recorder:
     def start(self) -> Self:
         if self._state != "new":
             raise ClientError(f"this Recorder is {self._state}; create a new one to record again")
+        # Per recording (the ros2 profile asks the daemon for the body here).
+        self.profile = self.profile.bind(self._session, self.keys)
         sink = self._open_sink()
         self._thread = threading.Thread(
             target=self._write_loop, args=(sink,), name="darwin-recorder", daemon=True

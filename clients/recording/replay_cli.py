@@ -57,6 +57,8 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if not rec.messages:
         hint = f" ({notices[0]})" if notices else ""
+        if rec.metadata.get("darwin", {}).get("profile") == "ros2":
+            hint = "; it is a ROS 2 bag (darwin record --ros2): play it with `ros2 bag play`"
         print(f"darwin replay: {rec.path} holds no replayable messages{hint}", file=sys.stderr)
         return 2
     topics = [t for item in args.topics for t in item.split(",") if t] if args.topics else None
