@@ -23,7 +23,6 @@ import argparse
 import contextlib
 import itertools
 import os
-import signal
 import statistics
 import subprocess
 import sys
@@ -38,6 +37,7 @@ sys.path.insert(0, str(REPO))
 
 from clients.robot import Robot  # noqa: E402
 from schemas.session import free_tcp_port  # noqa: E402
+from tests.fixtures.system import stop_group  # noqa: E402
 from tests.foxglove_ws import FoxgloveClient  # noqa: E402
 
 TICKS = os.sysconf("SC_CLK_TCK")
@@ -78,16 +78,6 @@ def start(args: list[str], prefix: str) -> tuple[subprocess.Popen[str], str]:
     raise RuntimeError(f"darwin {args[0]} exited before printing {prefix!r}")
 
 
-def stop(proc: subprocess.Popen[str]) -> None:
-    with contextlib.suppress(ProcessLookupError):
-        os.killpg(proc.pid, signal.SIGTERM)
-    try:
-        proc.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait()
-
-
 @contextlib.contextmanager
 def darwin_up() -> Iterator[tuple[str, str, int]]:
     robot = f"bench{uuid.uuid4().hex[:6]}"
@@ -98,7 +88,7 @@ def darwin_up() -> Iterator[tuple[str, str, int]]:
     try:
         yield endpoint, robot, find_child(proc.pid, "robot_daemon.cli daemon")
     finally:
-        stop(proc)
+        stop_group(proc)
 
 
 def pump(client: FoxgloveClient, stop_: threading.Event, counts: list[int], i: int) -> None:
@@ -181,7 +171,7 @@ def main() -> int:
             for n in counts:
                 row(f"{n} cl", measure(robot, daemon, fox.pid, url, n, args.seconds), base)
         finally:
-            stop(fox)
+            stop_group(fox)
         row("none", measure(robot, daemon, None, None, 0, args.seconds), base)
     return 0
 

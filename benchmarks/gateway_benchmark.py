@@ -22,7 +22,6 @@ import json
 import math
 import os
 import selectors
-import signal
 import statistics
 import subprocess
 import sys
@@ -37,6 +36,7 @@ sys.path.insert(0, str(REPO))
 
 from clients.robot import Robot  # noqa: E402
 from schemas.session import free_tcp_port  # noqa: E402
+from tests.fixtures.system import stop_group  # noqa: E402
 from tests.legacy_client import LegacyClient  # noqa: E402
 
 HEAD_PAN = 19
@@ -74,13 +74,7 @@ def darwin_up() -> Iterator[tuple[str, str, tuple[str, int]]]:
         threading.Thread(target=lambda: [None for _ in proc.stdout], daemon=True).start()
         yield endpoint, robot, gateway
     finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGTERM)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        stop_group(proc)
         if proc.stdout is not None:
             proc.stdout.close()
 
