@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 
 from clients.pages import PageEditor
-from config.loader import load_all, robot_from_dict
+from config.loader import load_all
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, needs_lease
 from robot_daemon.arbiter.verbs import pages as pages_verb
 from robot_daemon.motion.action import binfile, textfile
 from robot_daemon.motion.action.library import LIBRARY_DIR
 from robot_daemon.motion.action.store import PageStore
 from robot_daemon.motion.interface import JointFrame
-from robot_daemon.motion.setup import build_manager
 from schemas.errors import ErrorCode
+from tests.fixtures.motion import motion_context
 from tests.shared_data import STOCK_MOTIONS as STOCK
 
 REPO = Path(__file__).resolve().parents[2]
@@ -28,15 +28,7 @@ needs_stock = pytest.mark.skipif(not STOCK.exists(), reason="stock motion_4096.b
 def make_ctx(user_dir: Path) -> MotionContext:
     settings = load_all()
     settings["motion"]["user_library"] = str(user_dir)
-    robot = robot_from_dict(settings["robot"])
-    return MotionContext(
-        robot=robot,
-        manager=build_manager(robot, settings),
-        bus=None,  # type: ignore[arg-type]
-        settings=settings,
-        frame=None,
-        emit=lambda *a, **k: None,
-    )
+    return motion_context(settings)
 
 
 @pytest.fixture
