@@ -36,8 +36,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from clients.robot import Robot  # noqa: E402
-from schemas.session import free_tcp_port  # noqa: E402
-from tests.fixtures.system import stop_group  # noqa: E402
+from tests.fixtures.system import start_system, stop_group  # noqa: E402
 from tests.foxglove_ws import FoxgloveClient  # noqa: E402
 
 TICKS = os.sysconf("SC_CLK_TCK")
@@ -81,14 +80,8 @@ def start(args: list[str], prefix: str) -> tuple[subprocess.Popen[str], str]:
 @contextlib.contextmanager
 def darwin_up() -> Iterator[tuple[str, str, int]]:
     robot = f"bench{uuid.uuid4().hex[:6]}"
-    listen = f"tcp/127.0.0.1:{free_tcp_port()}"
-    proc, endpoint = start(
-        ["up", "--robot", robot, "--listen", listen, "--camera", "sim", "--no-gateway"], "zenoh:"
-    )
-    try:
-        yield endpoint, robot, find_child(proc.pid, "robot_daemon.cli daemon")
-    finally:
-        stop_group(proc)
+    with start_system(robot=robot, camera="sim", gateway=False) as system:
+        yield system.endpoint, robot, find_child(system.process.pid, "robot_daemon.cli daemon")
 
 
 def pump(client: FoxgloveClient, stop_: threading.Event, counts: list[int], i: int) -> None:
