@@ -25,6 +25,7 @@ from clients.recording.segments import existing_segments
 from schemas.messages import CameraFrame, Joints, decode, encode
 from schemas.session import free_tcp_port
 from tests.fixtures.emulator import wait_until
+from tests.fixtures.mcap import stock_counts, stream_counts
 from tests.integration.test_recording_mcap import (
     ROBOT,
     Source,
@@ -99,25 +100,6 @@ def on_disk(path: Path) -> dict[str, int]:
         return read_recording(path, on_notice=lambda line: None).counts()
     except Exception:
         return {}
-
-
-def stream_counts(path: Path) -> Counter[str]:
-    """Messages per MCAP channel topic the low-level record stream holds."""
-    counts: Counter[str] = Counter()
-    scanner = RecordScanner(path)
-    topics: dict[int, str] = {}
-    for record in scanner:
-        if type(record).__name__ == "Channel":
-            topics[record.id] = record.topic
-        elif type(record).__name__ == "Message":
-            counts[topics[record.channel_id]] += 1
-    return counts
-
-
-def stock_counts(path: Path) -> Counter[str]:
-    """Messages per channel topic the stock seeking reader gets (raises on a cut file)."""
-    with open(path, "rb") as f:
-        return Counter(c.topic for _, c, _ in make_reader(f).iter_messages())
 
 
 def darwin(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
