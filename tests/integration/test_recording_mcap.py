@@ -24,6 +24,7 @@ from schemas.keys import Keys
 from schemas.messages import CameraFrame, Event, Imu, Joints, Status, encode
 from schemas.session import open_client, open_server
 from tests.fixtures.emulator import wait_until
+from tests.fixtures.mcap import summary_counts
 
 ROBOT = "rec1"
 
@@ -130,10 +131,7 @@ def test_recorder_counts_schemas_and_order(source: Source, tmp_path: Path) -> No
         reader = make_reader(f)
         summary = reader.get_summary()
         assert summary is not None
-        by_topic = {
-            summary.channels[cid].topic: n
-            for cid, n in summary.statistics.channel_message_counts.items()
-        }
+        by_topic = summary_counts(summary)
         schemas = {s.name: json.loads(s.data) for s in summary.schemas.values()}
         json_msgs = [
             (c.topic, m)
