@@ -25,6 +25,7 @@ from schemas.messages import CameraFrame, Event, Imu, Joints, Status, encode
 from schemas.session import open_client, open_server
 from tests.fixtures.emulator import wait_until
 from tests.fixtures.mcap import summary_counts
+from tests.fixtures.system import run_darwin
 
 ROBOT = "rec1"
 
@@ -280,13 +281,7 @@ def test_killed_recorder_leaves_a_readable_file(source: Source, tmp_path: Path) 
 )
 def test_cli_bad_input_is_explained(tmp_path: Path, args: list[str], message: str) -> None:
     (tmp_path / "garbage.mcap").write_bytes(b"this is not mcap")
-    proc = subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    proc = run_darwin(*args, cwd=tmp_path)
     assert proc.returncode in {1, 2}, proc.stderr
     assert message in proc.stderr
     assert "Traceback" not in proc.stderr

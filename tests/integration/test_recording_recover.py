@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import os
 import signal
-import subprocess
-import sys
 import threading
 from collections import Counter
 from collections.abc import Callable, Iterator
@@ -26,6 +24,7 @@ from schemas.messages import CameraFrame, Joints, decode, encode
 from schemas.session import free_tcp_port
 from tests.fixtures.emulator import wait_until
 from tests.fixtures.mcap import stock_counts, stream_counts
+from tests.fixtures.system import run_darwin as darwin
 from tests.integration.test_recording_mcap import (
     ROBOT,
     Source,
@@ -100,16 +99,6 @@ def on_disk(path: Path) -> dict[str, int]:
         return read_recording(path, on_notice=lambda line: None).counts()
     except Exception:
         return {}
-
-
-def darwin(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        cwd=cwd,
-    )
 
 
 def kill_mid_session(

@@ -4,8 +4,6 @@ segments written by the sink (no Zenoh session: files only; the CLI as a real pr
 from __future__ import annotations
 
 import struct
-import subprocess
-import sys
 from collections import Counter
 from pathlib import Path
 
@@ -26,6 +24,7 @@ from clients.recording.segments import (
 )
 from schemas.messages import Imu, decode, decode_dict, encode
 from tests.fixtures.mcap import stock_counts, stream_counts
+from tests.fixtures.system import run_darwin as darwin
 
 KEYS = {"imu": "darwin/op1/imu"}
 RAW = "/darwin/op1/imu/msgpack"
@@ -72,16 +71,6 @@ def chunks(data: bytes) -> list[tuple[int, int]]:
             out.append((pos, length))
         pos += 9 + length
     return out
-
-
-def darwin(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        cwd=cwd,
-    )
 
 
 def test_every_cut_recovers_what_the_record_stream_holds(tmp_path: Path) -> None:
