@@ -35,16 +35,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from benchmarks.common import cpu_seconds  # noqa: E402
 from clients.robot import Robot  # noqa: E402
 from tests.fixtures.system import start_system, stop_group  # noqa: E402
 from tests.foxglove_ws import FoxgloveClient  # noqa: E402
-
-TICKS = os.sysconf("SC_CLK_TCK")
-
-
-def cpu_seconds(pid: int) -> float:
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / TICKS  # utime + stime
 
 
 def find_child(parent: int, needle: str) -> int:
