@@ -37,7 +37,7 @@ sys.path.insert(0, str(REPO))
 
 from benchmarks.common import cpu_seconds  # noqa: E402
 from clients.robot import Robot  # noqa: E402
-from tests.fixtures.system import start_system, stop_group  # noqa: E402
+from tests.fixtures.system import darwin_command, start_system, stop_group  # noqa: E402
 from tests.foxglove_ws import FoxgloveClient  # noqa: E402
 
 
@@ -55,7 +55,7 @@ def find_child(parent: int, needle: str) -> int:
 
 def start(args: list[str], prefix: str) -> tuple[subprocess.Popen[str], str]:
     proc = subprocess.Popen(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
+        darwin_command(*args),
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,

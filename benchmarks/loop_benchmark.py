@@ -39,13 +39,14 @@ from robot_daemon.bus.tables import (
     SYNC_WRITE_START,
 )
 from schemas.session import free_tcp_port
+from tests.fixtures.emulator import darwin_command
 
 TICK = 0.008
 
 
 def darwin(*args: str, **kw: object) -> subprocess.Popen[str]:
     return subprocess.Popen(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
+        darwin_command(*args),
         stdout=subprocess.PIPE,
         text=True,
         **kw,  # type: ignore[arg-type]

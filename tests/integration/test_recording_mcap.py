@@ -9,7 +9,6 @@ import math
 import os
 import signal
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -25,7 +24,7 @@ from schemas.messages import CameraFrame, Event, Imu, Joints, Status, encode
 from schemas.session import open_client, open_server
 from tests.fixtures.emulator import wait_until
 from tests.fixtures.mcap import summary_counts
-from tests.fixtures.system import run_darwin
+from tests.fixtures.system import darwin_command, run_darwin
 
 ROBOT = "rec1"
 
@@ -191,10 +190,7 @@ def test_unknown_topic_is_refused_with_the_choices(tmp_path: Path) -> None:
 
 def darwin_record(endpoint: str, path: Path, *extra: str) -> subprocess.Popen[str]:
     return subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "robot_daemon.cli",
+        darwin_command(
             "record",
             "-o",
             str(path),
@@ -205,7 +201,7 @@ def darwin_record(endpoint: str, path: Path, *extra: str) -> subprocess.Popen[st
             "--flush",
             "0.1",
             *extra,
-        ],
+        ),
         stderr=subprocess.PIPE,
         text=True,
     )

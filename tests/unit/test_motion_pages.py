@@ -18,6 +18,7 @@ from robot_daemon.motion.action.library import LIBRARY_DIR
 from robot_daemon.motion.action.store import PageStore
 from robot_daemon.motion.interface import JointFrame
 from schemas.errors import ErrorCode
+from tests.fixtures.emulator import darwin_command
 from tests.fixtures.motion import motion_context
 from tests.shared_data import STOCK_MOTIONS as STOCK
 
@@ -259,18 +260,17 @@ def test_stock_file_loads_edits_and_saves_without_losing_data() -> None:
 
 def test_cli_exports_the_library_with_the_user_pages(ctx: MotionContext, tmp_path: Path) -> None:
     import subprocess
-    import sys
 
     call(ctx, op="put", page=wave())
     out = tmp_path / "all.bin"
-    cmd = [sys.executable, "-m", "robot_daemon.cli", "motion", "export", str(out)]
+    cmd = darwin_command("motion", "export", str(out))
     user = ["--user-library", str(tmp_path / "motions")]
     done = subprocess.run([*cmd, *user], capture_output=True, text=True, cwd=REPO)
     assert done.returncode == 0, done.stderr
     assert out.read_bytes() == call(ctx, op="export")["bin"]
     # Back through the converter: the same text as the library's.
     txt = tmp_path / "all.toml"
-    conv = [sys.executable, "-m", "robot_daemon.cli", "motion", "convert", str(out), str(txt)]
+    conv = darwin_command("motion", "convert", str(out), str(txt))
     subprocess.run(conv, check=True, capture_output=True, cwd=REPO)
     store: PageStore = ctx.manager.module("action").store
     assert txt.read_text() == textfile.dumps(store.library.pages.values(), store.names)
