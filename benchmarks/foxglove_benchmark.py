@@ -23,7 +23,6 @@ import argparse
 import contextlib
 import itertools
 import os
-import signal
 import statistics
 import subprocess
 import sys
@@ -36,16 +35,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from benchmarks.common import cpu_seconds  # noqa: E402
 from clients.robot import Robot  # noqa: E402
-from schemas.session import free_tcp_port  # noqa: E402
+from tests.fixtures.system import darwin_command, start_system, stop_group  # noqa: E402
 from tests.foxglove_ws import FoxgloveClient  # noqa: E402
-
-TICKS = os.sysconf("SC_CLK_TCK")
-
-
-def cpu_seconds(pid: int) -> float:
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / TICKS  # utime + stime
 
 
 def find_child(parent: int, needle: str) -> int:
@@ -62,7 +55,7 @@ def find_child(parent: int, needle: str) -> int:
 
 def start(args: list[str], prefix: str) -> tuple[subprocess.Popen[str], str]:
     proc = subprocess.Popen(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
+        darwin_command(*args),
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,
@@ -78,27 +71,11 @@ def start(args: list[str], prefix: str) -> tuple[subprocess.Popen[str], str]:
     raise RuntimeError(f"darwin {args[0]} exited before printing {prefix!r}")
 
 
-def stop(proc: subprocess.Popen[str]) -> None:
-    with contextlib.suppress(ProcessLookupError):
-        os.killpg(proc.pid, signal.SIGTERM)
-    try:
-        proc.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait()
-
-
 @contextlib.contextmanager
 def darwin_up() -> Iterator[tuple[str, str, int]]:
     robot = f"bench{uuid.uuid4().hex[:6]}"
-    listen = f"tcp/127.0.0.1:{free_tcp_port()}"
-    proc, endpoint = start(
-        ["up", "--robot", robot, "--listen", listen, "--camera", "sim", "--no-gateway"], "zenoh:"
-    )
-    try:
-        yield endpoint, robot, find_child(proc.pid, "robot_daemon.cli daemon")
-    finally:
-        stop(proc)
+    with start_system(robot=robot, camera="sim", gateway=False) as system:
+        yield system.endpoint, robot, find_child(system.process.pid, "robot_daemon.cli daemon")
 
 
 def pump(client: FoxgloveClient, stop_: threading.Event, counts: list[int], i: int) -> None:
@@ -181,7 +158,7 @@ def main() -> int:
             for n in counts:
                 row(f"{n} cl", measure(robot, daemon, fox.pid, url, n, args.seconds), base)
         finally:
-            stop(fox)
+            stop_group(fox)
         row("none", measure(robot, daemon, None, None, 0, args.seconds), base)
     return 0
 

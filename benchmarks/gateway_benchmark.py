@@ -20,11 +20,8 @@ import bisect
 import contextlib
 import json
 import math
-import os
 import selectors
-import signal
 import statistics
-import subprocess
 import sys
 import threading
 import time
@@ -36,7 +33,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from clients.robot import Robot  # noqa: E402
-from schemas.session import free_tcp_port  # noqa: E402
+from tests.fixtures.system import start_system  # noqa: E402
 from tests.legacy_client import LegacyClient  # noqa: E402
 
 HEAD_PAN = 19
@@ -44,45 +41,9 @@ HEAD_PAN = 19
 
 @contextlib.contextmanager
 def darwin_up() -> Iterator[tuple[str, str, tuple[str, int]]]:
-    robot = f"bench{uuid.uuid4().hex[:6]}"
-    zport, gport = free_tcp_port(), free_tcp_port()
-    cmd = [sys.executable, "-m", "robot_daemon.cli", "up", "--robot", robot]
-    cmd += ["--listen", f"tcp/127.0.0.1:{zport}", "--gateway-listen", f"127.0.0.1:{gport}"]
-    cmd += ["--camera", "none"]
-    proc = subprocess.Popen(
-        cmd,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-        cwd=REPO,
-        env=dict(os.environ, PYTHONUNBUFFERED="1"),
-        start_new_session=True,
-    )
-    try:
-        endpoint = gateway = None
-        assert proc.stdout is not None
-        deadline = time.monotonic() + 60
-        for line in proc.stdout:
-            if line.startswith("zenoh: "):
-                endpoint = line.split(" ", 1)[1].strip()
-            if line.startswith("gateway: "):
-                gateway = ("127.0.0.1", gport)
-            if (endpoint and gateway) or time.monotonic() > deadline:
-                break
-        if not (endpoint and gateway):
-            raise RuntimeError("darwin up did not start")
-        threading.Thread(target=lambda: [None for _ in proc.stdout], daemon=True).start()
-        yield endpoint, robot, gateway
-    finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGTERM)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
-        if proc.stdout is not None:
-            proc.stdout.close()
+    with start_system(robot=f"bench{uuid.uuid4().hex[:6]}", camera="none", timeout=60) as system:
+        assert system.gateway is not None, "darwin up started without its gateway"
+        yield system.endpoint, system.robot, system.gateway
 
 
 class Seen:

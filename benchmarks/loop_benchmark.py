@@ -15,7 +15,6 @@ the ratios daemon / baseline. Targets: p99 within 1 ms of 8 ms, no overruns, CPU
 from __future__ import annotations
 
 import argparse
-import os
 import subprocess
 import sys
 import time
@@ -26,6 +25,7 @@ from dynamixel_sdk import COMM_SUCCESS, GroupSyncWrite, PacketHandler, PortHandl
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks.common import cpu_seconds
 from clients.robot import Robot
 from robot_daemon.bus.bulk_read import BulkRead
 from robot_daemon.bus.tables import (
@@ -39,14 +39,14 @@ from robot_daemon.bus.tables import (
     SYNC_WRITE_START,
 )
 from schemas.session import free_tcp_port
+from tests.fixtures.emulator import darwin_command
 
 TICK = 0.008
-CLK_TCK = os.sysconf("SC_CLK_TCK")
 
 
 def darwin(*args: str, **kw: object) -> subprocess.Popen[str]:
     return subprocess.Popen(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
+        darwin_command(*args),
         stdout=subprocess.PIPE,
         text=True,
         **kw,  # type: ignore[arg-type]
@@ -59,11 +59,6 @@ def wait_prefix(proc: subprocess.Popen[str], prefix: str) -> str:
         if line.startswith(prefix):
             return line.split(":", 1)[1].strip()
     raise RuntimeError(f"child exited before printing {prefix!r}")
-
-
-def cpu_seconds(pid: int) -> float:
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime + stime
 
 
 def stats(periods: list[float], bus: list[float], overruns: int, cpu: float) -> dict[str, float]:

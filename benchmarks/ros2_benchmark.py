@@ -17,7 +17,6 @@ Run by hand:  .venv/bin/python benchmarks/ros2_benchmark.py [--seconds 10]
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import subprocess
 import sys
@@ -27,6 +26,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from benchmarks.common import cpu_seconds  # noqa: E402
 from schemas.keys import Keys  # noqa: E402
 from schemas.messages import Joints, decode  # noqa: E402
 from schemas.session import open_client  # noqa: E402
@@ -34,11 +34,6 @@ from tests.fixtures.system import darwin_command, start_system  # noqa: E402
 from tests.ros2_observer import STORE, RmwObserver, read_attachment  # noqa: E402
 
 DOMAIN = 9
-
-
-def cpu_seconds(pid: int) -> float:
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def pct(values: list[float], q: float) -> float:

@@ -6,6 +6,7 @@ import os
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
+from clients.listen import parse_listen as _parse_listen
 from config.loader import load_section
 from gateway.framing import MAX_DEPTH_LIMIT, MAX_NUMBER_LENGTH_LIMIT, BodyLimits
 from schemas.errors import ConfigError
@@ -60,13 +61,7 @@ class GatewaySettings:
 
 
 def parse_listen(listen: str) -> tuple[str, int]:
-    host, sep, port = listen.rpartition(":")
-    if not sep or not host or not port.isdigit() or int(port) > 65535:
-        raise ConfigError(
-            f"gateway listen address {listen!r} is not HOST:PORT (e.g. 127.0.0.1:9000; "
-            "port 0 picks a free one)"
-        )
-    return host.strip("[]"), int(port)
+    return _parse_listen(listen, "gateway", "127.0.0.1:9000")
 
 
 def _typed(cls: type, section: dict[str, Any], where: str) -> dict[str, Any]:

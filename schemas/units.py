@@ -23,6 +23,7 @@ RAD_S_PER_SPEED_UNIT = RPM_PER_SPEED_UNIT * 2 * math.pi / 60.0
 # Moving speed 0 means "no limit": the MX-28's own maximum, about 55 rpm at 12 V.
 MX28_MAX_RPM = 55.0
 MX28_MAX_RAD_S = MX28_MAX_RPM * 2 * math.pi / 60.0
+SPEED_MAX = 0x3FF  # the largest moving speed (10 bits)
 
 # Present load (40): 0..1023 one way, 1024..2047 the other; ~0.1 % of max torque per unit.
 LOAD_PERCENT_PER_UNIT = 0.1
@@ -64,7 +65,7 @@ def signed_11bit(raw: int | np.ndarray) -> int | np.ndarray:
 
 
 def encode_signed_11bit(value: int) -> int:
-    magnitude = min(abs(int(value)), 0x3FF)
+    magnitude = min(abs(int(value)), SPEED_MAX)
     return magnitude | (0x400 if value < 0 else 0)
 
 
@@ -77,7 +78,7 @@ def rad_s_to_moving_speed(rad_s: float) -> int:
     """Moving speed register (32) for a speed limit; 0 stays 0, meaning 'no limit'."""
     if rad_s <= 0:
         return 0
-    return max(1, min(1023, int(round(rad_s / RAD_S_PER_SPEED_UNIT))))
+    return max(1, min(SPEED_MAX, int(round(rad_s / RAD_S_PER_SPEED_UNIT))))
 
 
 def load_raw_to_fraction(raw: int | np.ndarray) -> float | np.ndarray:

@@ -9,10 +9,8 @@ from __future__ import annotations
 import base64
 import contextlib
 import json
-import os
 import re
 import shutil
-import signal
 import subprocess
 import tempfile
 import threading
@@ -23,6 +21,8 @@ from pathlib import Path
 from typing import Any
 
 from websockets.sync.client import ClientConnection, connect
+
+from tests.fixtures.system import stop_group
 
 FLAGS = [
     "--headless",
@@ -101,13 +101,7 @@ def chromium() -> Iterator[Page]:
         with connect(url, max_size=None) as ws:
             yield Page(ws)
     finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGTERM)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait(timeout=5)
+        stop_group(proc)
         if drain.is_alive():
             drain.join(timeout=5)
         if proc.stderr is not None:

@@ -17,12 +17,13 @@ import signal
 import socket
 import struct
 import subprocess
-import sys
 import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
 from typing import Any
+
+from tests.fixtures.emulator import darwin_command
 
 ORDERS = ("big", "little", "ascii")
 CONVENTIONS = tuple((order, counted) for order in ORDERS for counted in (False, True))
@@ -199,7 +200,7 @@ def start_gateway(
     fd, path = tempfile.mkstemp(suffix=".toml", prefix="gateway-", dir=tmp_dir)
     with os.fdopen(fd, "w") as f:
         f.write("\n".join(lines) + "\n")
-    cmd = [sys.executable, "-m", "robot_daemon.cli", "gateway", "--connect", endpoint]
+    cmd = darwin_command("gateway", "--connect", endpoint)
     cmd += ["--robot", robot, "--config", path]
     proc = subprocess.Popen(
         cmd,

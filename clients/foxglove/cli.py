@@ -10,21 +10,14 @@ import argparse
 import signal
 import threading
 
-from clients.listen import parse_listen
+from clients.listen import add_server_arguments, parse_listen
 from schemas.errors import ConfigError
-from schemas.session import add_target_arguments
 
 DEFAULT_LISTEN = "127.0.0.1:8765"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    add_target_arguments(parser)
-    parser.add_argument(
-        "--listen",
-        metavar="HOST:PORT",
-        default=DEFAULT_LISTEN,
-        help=f"where Foxglove connects (default {DEFAULT_LISTEN}; port 0 picks a free one)",
-    )
+    add_server_arguments(parser, DEFAULT_LISTEN, "Foxglove connects")
     parser.add_argument(
         "--tf-rate",
         type=float,

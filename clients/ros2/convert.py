@@ -21,7 +21,6 @@ from .types import msg_class
 
 STALL_VOLTAGE = 12.0
 YAW_UNKNOWN_VARIANCE = 1.0e6  # rad²: no magnetometer, the yaw is not observed at all
-GRAVITY = 9.80665
 
 
 class CommandRejected(ValueError):

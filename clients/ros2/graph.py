@@ -137,23 +137,17 @@ class Node:
     enclave: str = "/"
 
     def token(self) -> str:
-        return "/".join(
-            (
-                ADMIN_SPACE,
-                str(self.domain),
-                self.zid,
-                str(self.nid),
-                str(self.nid),
-                Kind.NODE.value,
-                mangle(self.enclave),
-                mangle(self.namespace),
-                mangle(self.name),
-            )
-        )
+        return self._token(self.nid, Kind.NODE)
 
     def entity_token(
         self, eid: int, kind: Kind, topic: str, dds_type: str, type_hash: str, qos: QoS
     ) -> str:
+        return self._token(
+            eid, kind, mangle(topic), mangle(dds_type), mangle(type_hash), qos.keyexpr()
+        )
+
+    def _token(self, eid: int, kind: Kind, *rest: str) -> str:
+        # The node's own token is an entity token whose entity id is the node id.
         return "/".join(
             (
                 ADMIN_SPACE,
@@ -165,10 +159,7 @@ class Node:
                 mangle(self.enclave),
                 mangle(self.namespace),
                 mangle(self.name),
-                mangle(topic),
-                mangle(dds_type),
-                mangle(type_hash),
-                qos.keyexpr(),
+                *rest,
             )
         )
 

@@ -11,20 +11,13 @@ import argparse
 import shlex
 import sys
 
-from clients.listen import parse_listen
-from schemas.session import add_target_arguments
+from clients.listen import add_server_arguments, parse_listen
 
 DEFAULT_LISTEN = "127.0.0.1:8000"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    add_target_arguments(parser)
-    parser.add_argument(
-        "--listen",
-        metavar="HOST:PORT",
-        default=DEFAULT_LISTEN,
-        help=f"where browsers connect (default {DEFAULT_LISTEN}; port 0 picks a free one)",
-    )
+    add_server_arguments(parser, DEFAULT_LISTEN, "browsers connect")
     parser.add_argument("--lang", help="language of the interface in every tab")
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -95,8 +96,12 @@ def identify(bus: DxlBus, dxl_id: int, tries: int = 3) -> Identity | None:
     )
 
 
-def _block(bus: DxlBus, dxl_id: int, first: Register, last: Register, tries: int) -> bytes:
-    return bus.read(dxl_id, first.address, last.end - first.address, tries=tries)[0]
+def _fields(
+    bus: DxlBus, dxl_id: int, first: Register, last: Register, tries: int
+) -> Callable[[Register], int]:
+    """One read of ``first``..``last``; the returned function gives any register inside it."""
+    data = bus.read(dxl_id, first.address, last.end - first.address, tries=tries)[0]
+    return lambda reg: field_value(data, first.address, reg)
 
 
 def describe(bus: DxlBus, dxl_id: int, tries: int = 3) -> dict[str, Any] | None:
@@ -115,11 +120,10 @@ def describe(bus: DxlBus, dxl_id: int, tries: int = 3) -> dict[str, Any] | None:
     }
     try:
         if ident.model == CM730_MODEL:
-            start = CM730.DXL_POWER.reg
-            data = _block(bus, dxl_id, start, CM730.VOLTAGE.reg, tries)
+            read = _fields(bus, dxl_id, CM730.DXL_POWER.reg, CM730.VOLTAGE.reg, tries)
 
             def cm(reg: CM730) -> int:
-                return field_value(data, start.address, reg.reg)
+                return read(reg.reg)
 
             info.update(
                 power=bool(cm(CM730.DXL_POWER)),
@@ -127,11 +131,10 @@ def describe(bus: DxlBus, dxl_id: int, tries: int = 3) -> dict[str, Any] | None:
                 buttons=cm(CM730.BUTTON),
             )
         else:
-            start = MX28.TORQUE_ENABLE.reg
-            data = _block(bus, dxl_id, start, MX28.PRESENT_TEMPERATURE.reg, tries)
+            read = _fields(bus, dxl_id, MX28.TORQUE_ENABLE.reg, MX28.PRESENT_TEMPERATURE.reg, tries)
 
             def mx(reg: MX28) -> int:
-                return field_value(data, start.address, reg.reg)
+                return read(reg.reg)
 
             info.update(
                 torque=bool(mx(MX28.TORQUE_ENABLE)),

@@ -102,18 +102,21 @@ class ChoreographyModule(MotionModule):
     def _module(self, name: str) -> Any:
         return self.manager.get(name) if self.manager is not None else None
 
-    def _start_item(self, frame: JointFrame) -> None:
-        item = self.items[self.index]
-        self._item_started, self._t0 = True, frame.time
+    def _emit_item(self, item: Item, what: str) -> None:
         self.emit(
             "choreography",
-            f"item {self.index + 1}/{len(self.items)} started: {item.label}",
-            state="item_started",
+            f"item {self.index + 1}/{len(self.items)} {what}: {item.label}",
+            state=f"item_{what}",
             run=self.run,
             index=self.index,
             label=item.label,
             item_kind=item.kind,
         )
+
+    def _start_item(self, frame: JointFrame) -> None:
+        item = self.items[self.index]
+        self._item_started, self._t0 = True, frame.time
+        self._emit_item(item, "started")
         p = item.params
         try:
             if item.kind == "action":
@@ -165,15 +168,7 @@ class ChoreographyModule(MotionModule):
 
     def _finish_item(self) -> None:
         item = self.items[self.index]
-        self.emit(
-            "choreography",
-            f"item {self.index + 1}/{len(self.items)} finished: {item.label}",
-            state="item_finished",
-            run=self.run,
-            index=self.index,
-            label=item.label,
-            item_kind=item.kind,
-        )
+        self._emit_item(item, "finished")
         self.index += 1
         self._item_started = False
         if self.index >= len(self.items):

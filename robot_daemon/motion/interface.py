@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from schemas.units import GRAVITY, IMU_CENTER
+
 if TYPE_CHECKING:
     from robot_daemon.motion.manager import MotionManager
 
@@ -34,9 +36,9 @@ class JointFrame:
     online: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=bool))
     torque_enabled: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=bool))
     gyro: np.ndarray = field(default_factory=lambda: np.zeros(3))  # rad/s, x y z (robot axes)
-    accel: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 9.80665]))  # m/s²
-    gyro_raw: np.ndarray = field(default_factory=lambda: np.full(3, 512))  # counts x y z
-    accel_raw: np.ndarray = field(default_factory=lambda: np.full(3, 512))  # counts x y z
+    accel: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, GRAVITY]))  # m/s²
+    gyro_raw: np.ndarray = field(default_factory=lambda: np.full(3, IMU_CENTER))  # counts x y z
+    accel_raw: np.ndarray = field(default_factory=lambda: np.full(3, IMU_CENTER))  # counts x y z
 
 
 @dataclass

@@ -23,6 +23,7 @@ from __future__ import annotations
 from typing import Any
 
 from robot_daemon.sim.control import control_op, control_ops, field
+from schemas.units import GRAVITY
 
 Request = dict[str, Any]
 
@@ -96,7 +97,7 @@ def _voltage(emu, req: Request) -> dict[str, Any]:
 @control_op("body_motion")
 def _body_motion(emu, req: Request) -> dict[str, Any]:
     gyro = field(req, "gyro", list, [0.0, 0.0, 0.0])
-    accel = field(req, "accel", list, [0.0, 0.0, 9.80665])
+    accel = field(req, "accel", list, [0.0, 0.0, GRAVITY])
     emu.set_body_motion(gyro, accel)
     return {"gyro": gyro, "accel": accel}
 

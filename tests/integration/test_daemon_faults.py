@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import subprocess
-import sys
 from collections.abc import Iterator
 
 import pytest
@@ -14,7 +13,7 @@ import pytest
 from robot_daemon.sim.control import SimControl
 from schemas.errors import CommandError
 from schemas.messages import CameraFrame
-from tests.fixtures.system import EventLog, RunningSystem, start_system
+from tests.fixtures.system import EventLog, RunningSystem, darwin_command, start_system
 
 HEAD_PAN = 19
 
@@ -104,10 +103,7 @@ def test_a_second_daemon_gets_port_in_use(faulty_system: RunningSystem) -> None:
     with faulty_system.robot_client() as robot:
         port = robot.wait_for("status", fresh=False).bus["port"]
     out = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "robot_daemon.cli",
+        darwin_command(
             "daemon",
             "--port",
             port,
@@ -115,7 +111,7 @@ def test_a_second_daemon_gets_port_in_use(faulty_system: RunningSystem) -> None:
             "tcp/127.0.0.1:0",
             "--robot",
             "second",
-        ],
+        ),
         capture_output=True,
         text=True,
         timeout=60,

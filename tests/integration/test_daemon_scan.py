@@ -5,20 +5,15 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from collections.abc import Callable
 
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.sim import Emulator
+from tests.fixtures.system import run_darwin
 
 
 def scan(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", "scan", *args],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    return run_darwin("scan", *args)
 
 
 def test_scan_lists_every_device(emulator: Emulator) -> None:

@@ -9,7 +9,6 @@ import math
 import os
 import signal
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -24,6 +23,8 @@ from schemas.keys import Keys
 from schemas.messages import CameraFrame, Event, Imu, Joints, Status, encode
 from schemas.session import open_client, open_server
 from tests.fixtures.emulator import wait_until
+from tests.fixtures.mcap import summary_counts
+from tests.fixtures.system import darwin_command, run_darwin
 
 ROBOT = "rec1"
 
@@ -130,10 +131,7 @@ def test_recorder_counts_schemas_and_order(source: Source, tmp_path: Path) -> No
         reader = make_reader(f)
         summary = reader.get_summary()
         assert summary is not None
-        by_topic = {
-            summary.channels[cid].topic: n
-            for cid, n in summary.statistics.channel_message_counts.items()
-        }
+        by_topic = summary_counts(summary)
         schemas = {s.name: json.loads(s.data) for s in summary.schemas.values()}
         json_msgs = [
             (c.topic, m)
@@ -192,10 +190,7 @@ def test_unknown_topic_is_refused_with_the_choices(tmp_path: Path) -> None:
 
 def darwin_record(endpoint: str, path: Path, *extra: str) -> subprocess.Popen[str]:
     return subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "robot_daemon.cli",
+        darwin_command(
             "record",
             "-o",
             str(path),
@@ -206,7 +201,7 @@ def darwin_record(endpoint: str, path: Path, *extra: str) -> subprocess.Popen[st
             "--flush",
             "0.1",
             *extra,
-        ],
+        ),
         stderr=subprocess.PIPE,
         text=True,
     )
@@ -282,13 +277,7 @@ def test_killed_recorder_leaves_a_readable_file(source: Source, tmp_path: Path) 
 )
 def test_cli_bad_input_is_explained(tmp_path: Path, args: list[str], message: str) -> None:
     (tmp_path / "garbage.mcap").write_bytes(b"this is not mcap")
-    proc = subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    proc = run_darwin(*args, cwd=tmp_path)
     assert proc.returncode in {1, 2}, proc.stderr
     assert message in proc.stderr
     assert "Traceback" not in proc.stderr

@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import os
 import signal
-import subprocess
-import sys
 import threading
 from collections import Counter
 from collections.abc import Callable, Iterator
@@ -19,12 +17,14 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from clients.recording import ReplayControl, read_recording
+from clients.recording import read_recording
 from clients.recording.scan import RecordScanner
 from clients.recording.segments import existing_segments
 from schemas.messages import CameraFrame, Joints, decode, encode
 from schemas.session import free_tcp_port
 from tests.fixtures.emulator import wait_until
+from tests.fixtures.mcap import stock_counts, stream_counts
+from tests.fixtures.system import run_darwin as darwin
 from tests.integration.test_recording_mcap import (
     ROBOT,
     Source,
@@ -34,7 +34,7 @@ from tests.integration.test_recording_mcap import (
     started,
     subscribed,
 )
-from tests.integration.test_recording_replay import Listener, by_topic
+from tests.integration.test_recording_replay import by_topic, darwin_replay, replay_to_the_end
 
 TOPICS = ("joints", "imu", "camera")
 
@@ -99,35 +99,6 @@ def on_disk(path: Path) -> dict[str, int]:
         return read_recording(path, on_notice=lambda line: None).counts()
     except Exception:
         return {}
-
-
-def stream_counts(path: Path) -> Counter[str]:
-    """Messages per MCAP channel topic the low-level record stream holds."""
-    counts: Counter[str] = Counter()
-    scanner = RecordScanner(path)
-    topics: dict[int, str] = {}
-    for record in scanner:
-        if type(record).__name__ == "Channel":
-            topics[record.id] = record.topic
-        elif type(record).__name__ == "Message":
-            counts[topics[record.channel_id]] += 1
-    return counts
-
-
-def stock_counts(path: Path) -> Counter[str]:
-    """Messages per channel topic the stock seeking reader gets (raises on a cut file)."""
-    with open(path, "rb") as f:
-        return Counter(c.topic for _, c, _ in make_reader(f).iter_messages())
-
-
-def darwin(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        cwd=cwd,
-    )
 
 
 def kill_mid_session(
@@ -279,20 +250,11 @@ def test_killed_while_splitting_loses_only_the_open_segment_tail(
     assert_no_gap(ticks)
 
     # `darwin replay` takes the segments as one session.
-    replay = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "robot_daemon.cli",
-            "replay",
-            *map(str, closed),
-            str(tmp_path / "last.mcap"),
-            "--listen",
-            f"tcp/127.0.0.1:{free_tcp_port()}",
-            "--paused",
-        ],
-        stderr=subprocess.PIPE,
-        text=True,
+    replay = darwin_replay(
+        *map(str, closed),
+        str(tmp_path / "last.mcap"),
+        "--listen",
+        f"tcp/127.0.0.1:{free_tcp_port()}",
     )
     try:
         assert replay.stderr is not None
@@ -348,62 +310,19 @@ def test_recovered_file_replays_like_a_clean_one(source: Source, tmp_path: Path)
     rec = read_recording(recovered)
     expected = by_topic([(m.topic, m.payload) for m in rec.messages])
 
-    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "robot_daemon.cli",
-            "replay",
-            str(recovered),
-            "--listen",
-            endpoint,
-            "--robot",
-            "again",
-            "--rate",
-            "10",
-            "--paused",
-        ],
-        stderr=subprocess.PIPE,
-        text=True,
+    got, err, _ = replay_to_the_end(
+        [str(recovered)],
+        "again",
+        "10",
+        len(rec.messages),
+        lambda line: line.startswith("replaying") and "truncated" not in line,
+        timeout=60,
     )
-    listener = None
-    try:
-        assert proc.stderr is not None
-        line = proc.stderr.readline()
-        assert line.startswith("replaying") and "truncated" not in line, line
-        listener = Listener(endpoint, "again")
-        ctl = ReplayControl(listener.session, "again", timeout=5.0)
-        assert ctl.status()["state"] == "paused"
-        ctl.resume()
-        got = listener.take(len(rec.messages))
-        _, err = proc.communicate(timeout=60)
-        assert proc.returncode == 0, err
-        assert f"replayed {len(rec.messages)} messages" in err
-        assert "darwin record recover" not in err
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
-        if listener:
-            listener.close()
+    assert "darwin record recover" not in err
     assert by_topic(got) == expected
 
     # The cut file itself still replays, and says how to recover it.
-    cut = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "robot_daemon.cli",
-            "replay",
-            str(path),
-            "--listen",
-            f"tcp/127.0.0.1:{free_tcp_port()}",
-            "--paused",
-        ],
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    cut = darwin_replay(str(path), "--listen", f"tcp/127.0.0.1:{free_tcp_port()}")
     try:
         assert cut.stderr is not None
         first, second = cut.stderr.readline(), cut.stderr.readline()

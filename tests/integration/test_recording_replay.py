@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import queue
 import subprocess
-import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -19,6 +19,7 @@ from schemas.keys import Keys
 from schemas.messages import Joints, decode
 from schemas.session import free_tcp_port, open_client, open_server
 from tests.fixtures.emulator import wait_until
+from tests.fixtures.system import darwin_command
 from tests.integration.test_recording_mcap import ROBOT, Source, subscribed
 
 
@@ -66,47 +67,59 @@ def by_topic(items: list[tuple[str, bytes]]) -> dict[str, list[bytes]]:
     return out
 
 
-def test_darwin_replay_republishes_the_same_payloads(recording, tmp_path: Path) -> None:
-    path, sent = recording
-    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "robot_daemon.cli",
-            "replay",
-            str(path),
-            "--listen",
-            endpoint,
-            "--robot",
-            "fresh",
-            "--rate",
-            "4",
-            "--paused",
-        ],
-        stderr=subprocess.PIPE,
-        text=True,
+def darwin_replay(*args: str) -> subprocess.Popen[str]:
+    """``darwin replay ARGS --paused`` with its stderr to read."""
+    return subprocess.Popen(
+        darwin_command("replay", *args, "--paused"), stderr=subprocess.PIPE, text=True
     )
+
+
+def replay_to_the_end(
+    files: list[str],
+    robot: str,
+    rate: str,
+    count: int,
+    first_line_ok: Callable[[str], bool],
+    timeout: float = 20.0,
+) -> tuple[list[tuple[str, bytes]], str, Listener]:
+    """``darwin replay`` of ``files`` as ``robot``, resumed from paused and run to its end:
+    the ``count`` messages a listener got, the replay's stderr after its first line (which
+    ``first_line_ok`` checks) and the (closed) listener. The replay must exit 0 saying it
+    replayed ``count`` messages."""
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    proc = darwin_replay(*files, "--listen", endpoint, "--robot", robot, "--rate", rate)
     listener = None
     try:
         assert proc.stderr is not None
         line = proc.stderr.readline()
-        assert line.startswith("replaying") and "as robot fresh" in line, line
-        listener = Listener(endpoint, "fresh")
-        ctl = ReplayControl(listener.session, "fresh", timeout=5.0)
+        assert first_line_ok(line), line
+        listener = Listener(endpoint, robot)
+        ctl = ReplayControl(listener.session, robot, timeout=5.0)
         assert ctl.status()["state"] == "paused"
-        total = sum(map(len, sent.values()))
         assert ctl.resume()["state"] == "playing"
-        got = listener.take(total)
-        _, err = proc.communicate(timeout=20)  # exits by itself at the end
+        got = listener.take(count)
+        _, err = proc.communicate(timeout=timeout)  # exits by itself at the end
         assert proc.returncode == 0, err
-        assert f"replayed {total} messages" in err
+        assert f"replayed {count} messages" in err
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.communicate()
         if listener:
             listener.close()
+    return got, err, listener
+
+
+def test_darwin_replay_republishes_the_same_payloads(recording) -> None:
+    path, sent = recording
+    total = sum(map(len, sent.values()))
+    got, _, listener = replay_to_the_end(
+        [str(path)],
+        "fresh",
+        "4",
+        total,
+        lambda line: line.startswith("replaying") and "as robot fresh" in line,
+    )
     assert by_topic(got) == sent
     assert listener.got.empty()
 

@@ -13,6 +13,7 @@ from clients.recording import Recorder, ReplayControl, Replayer, read_recording
 from clients.robot import Robot
 from schemas.messages import Imu, Joints
 from schemas.session import free_tcp_port, open_server
+from tests.fixtures.mcap import summary_counts
 from tests.fixtures.system import RunningSystem
 
 TOPICS = ["joints", "imu", "status", "events"]
@@ -41,10 +42,7 @@ def test_record_walk_then_replay_as_live(robot_system: RunningSystem, tmp_path: 
         reader = make_reader(f)
         summary = reader.get_summary()
         assert summary is not None
-        counts = {
-            summary.channels[cid].topic: n
-            for cid, n in summary.statistics.channel_message_counts.items()
-        }
+        counts = summary_counts(summary)
         per_channel_times: dict[str, list[int]] = {}
         for _, channel, message in reader.iter_messages(log_time_order=False):
             per_channel_times.setdefault(channel.topic, []).append(message.log_time)

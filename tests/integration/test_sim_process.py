@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 import signal
-import subprocess
 import termios
 from pathlib import Path
 
@@ -19,12 +18,12 @@ from schemas.errors import CommandError, InvalidCommandError
 from schemas.session import open_client
 from tests.fixtures.emulator import (
     SimProcess,
-    darwin_command,
     open_sdk,
     start_emulator_process,
     stop_process,
     wait_until,
 )
+from tests.fixtures.system import run_darwin
 from tests.integration.test_sim_sdk import sensor_bulk_read
 
 
@@ -114,20 +113,10 @@ def test_a_signal_exits_zero_and_removes_the_link(tmp_path: Path, signum: int) -
 
 
 def test_bad_options_are_refused_with_a_clear_message(tmp_path: Path) -> None:
-    out = subprocess.run(
-        darwin_command("sim", "--drop", "2", "--link", str(tmp_path / "x")),
-        capture_output=True,
-        text=True,
-        timeout=30,
-    )
+    out = run_darwin("sim", "--drop", "2", "--link", str(tmp_path / "x"))
     assert out.returncode == 2
     assert "probability 2.0 is outside 0..1" in out.stderr
-    out = subprocess.run(
-        darwin_command("sim", "--overheat", "33", "--link", str(tmp_path / "x")),
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    out = run_darwin("sim", "--overheat", "33", "--link", str(tmp_path / "x"))
     assert out.returncode == 2
     assert "no servo with ID 33" in out.stderr
     assert wait_until(lambda: not (tmp_path / "x").exists(), timeout=1)

@@ -74,3 +74,14 @@ async def show_tab(pilot: Pilot, number: int) -> None:
 def holder(app: DarwinApp) -> str | None:
     lease = app.model.status.lease if app.model.status else None
     return lease.get("client") if lease else None
+
+
+async def toggle_lease(pilot: Pilot, take: bool) -> None:
+    """Press the lease key and wait until this UI holds the lease (``take``) or nobody does."""
+    app = pilot.app
+    assert isinstance(app, DarwinApp)
+    await pilot.press("l")
+    if take:
+        await until(pilot, lambda: holder(app) == app.link.client_id, "the lease")
+    else:
+        await until(pilot, lambda: holder(app) is None, "the lease released")

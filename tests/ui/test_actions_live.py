@@ -16,7 +16,7 @@ from clients.pages import joints_of
 from clients.tui.tabs.actions import ActionsTab, ConfirmScreen
 from robot_daemon.sim.control import SimControl
 from tests.fixtures.system import RunningSystem, start_system
-from tests.ui.live import connected, holder, live_app, show_tab, until
+from tests.ui.live import connected, live_app, show_tab, toggle_lease, until
 
 RIGHT_ARM = {1: "r_shoulder_pitch", 3: "r_shoulder_roll", 5: "r_elbow"}
 BY_HAND = {3: 0.35, 5: 0.7}  # rad, set through the control API (shoulder pitch: by key)
@@ -51,8 +51,7 @@ async def test_teach_a_page_in_the_tui_and_play_it(teach_ui_system, settings_fil
     app = live_app(system, settings_file, "tui-teacher")
     async with app.run_test(size=(160, 48)) as pilot:
         await connected(pilot)
-        await pilot.press("l")
-        await until(pilot, lambda: holder(app) == app.link.client_id, "the lease")
+        await toggle_lease(pilot, take=True)
         await show_tab(pilot, 8)
         tab = app.current_tab()
         assert isinstance(tab, ActionsTab)

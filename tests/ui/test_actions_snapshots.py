@@ -11,6 +11,7 @@ from textual.pilot import Pilot
 
 from clients.pages import joints_of
 from clients.tui.tabs.actions import ActionsTab
+from robot_daemon.arbiter.verbs.pages import page_summary
 from robot_daemon.motion.action import textfile
 from robot_daemon.motion.action.library import load_library
 from tests.ui.test_snapshots import settle
@@ -18,19 +19,7 @@ from tests.ui.test_snapshots import settle
 
 def listing() -> list[dict]:
     lib = load_library()
-    return [
-        {
-            "number": n,
-            "name": p.name,
-            "steps": len(p.steps),
-            "repeat": p.repeat,
-            "speed": p.speed,
-            "next": p.next,
-            "exit": p.exit,
-            "origin": "shipped",
-        }
-        for n, p in sorted(lib.pages.items())
-    ]
+    return [page_summary(n, p, "shipped") for n, p in sorted(lib.pages.items())]
 
 
 def scene(open_page: int | None = None, teach: bool = False) -> Callable[[Pilot], Awaitable[None]]:

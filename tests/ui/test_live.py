@@ -8,7 +8,7 @@ import math
 from textual.widgets import DataTable
 
 from clients.tui.tabs.behaviours import choreography_state
-from tests.ui.live import connected, holder, live_app, show_tab, until
+from tests.ui.live import connected, holder, live_app, show_tab, toggle_lease, until
 
 
 async def test_connects_remembers_and_shows_live_joints(robot_system, settings_file) -> None:
@@ -32,8 +32,7 @@ async def test_lease_pose_and_a_second_tui_watching(robot_system, settings_file,
     async with driver.run_test(size=(120, 40)) as pd, watcher.run_test(size=(120, 40)) as pw:
         await connected(pd)
         await connected(pw)
-        await pd.press("l")
-        await until(pd, lambda: holder(driver) == driver.link.client_id, "the lease")
+        await toggle_lease(pd, take=True)
         await until(pw, lambda: holder(watcher) == driver.link.client_id, "the lease seen")
         await until(
             pw,
@@ -66,16 +65,14 @@ async def test_lease_pose_and_a_second_tui_watching(robot_system, settings_file,
             lambda: any(e.kind == "halt" for e in list(watcher.model.events)[before:]),
             "the halt acknowledged",
         )
-        await pd.press("l")
-        await until(pd, lambda: holder(driver) is None, "the lease released")
+        await toggle_lease(pd, take=False)
 
 
 async def test_walk_with_keys_and_stop(robot_system, settings_file) -> None:
     app = live_app(robot_system, settings_file, "tui-walker")
     async with app.run_test(size=(120, 40)) as pilot:
         await connected(pilot)
-        await pilot.press("l")
-        await until(pilot, lambda: holder(app) == app.link.client_id, "the lease")
+        await toggle_lease(pilot, take=True)
         await show_tab(pilot, 5)
         await pilot.press("w")
 
@@ -87,8 +84,7 @@ async def test_walk_with_keys_and_stop(robot_system, settings_file) -> None:
         assert "x +0.02" in str(app.screen.query_one("#walk-state").render())
         await pilot.press("space")
         await until(pilot, lambda: not walking(), "status saying the robot stopped")
-        await pilot.press("l")
-        await until(pilot, lambda: holder(app) is None, "the lease released")
+        await toggle_lease(pilot, take=False)
 
 
 async def test_build_and_play_a_choreography_in_portuguese(robot_system, settings_file) -> None:
@@ -96,8 +92,7 @@ async def test_build_and_play_a_choreography_in_portuguese(robot_system, setting
     async with app.run_test(size=(120, 40)) as pilot:
         await connected(pilot)
         await until(pilot, lambda: app.model.edits.behaviours, "the behaviour library")
-        await pilot.press("l")
-        await until(pilot, lambda: holder(app) == app.link.client_id, "the lease")
+        await toggle_lease(pilot, take=True)
         await show_tab(pilot, 6)
         kinds = [e.get("kind") for e in app.model.edits.behaviours]
         library = app.screen.query_one("#library")
@@ -114,5 +109,4 @@ async def test_build_and_play_a_choreography_in_portuguese(robot_system, setting
         assert "a tocar" in str(app.screen.query_one("#choreography").border_subtitle)
         await pilot.press("o")
         await until(pilot, lambda: not playing(), "the choreography stopped")
-        await pilot.press("l")
-        await until(pilot, lambda: holder(app) is None, "the lease released")
+        await toggle_lease(pilot, take=False)

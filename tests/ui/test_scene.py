@@ -203,23 +203,15 @@ async def test_header_fields_stay_apart_at_every_width(scene_app) -> None:
 async def test_pose_limits_come_from_the_daemon_not_the_local_config(scene_app) -> None:
     from clients.tui.link import CommandDone
     from clients.tui.tabs.pose import PoseTab
-    from config.loader import load_all, robot_from_dict
-    from robot_daemon.arbiter.registry import MotionContext, Request
+    from config.loader import load_all
+    from robot_daemon.arbiter.registry import Request
     from robot_daemon.arbiter.verbs.basic import config
-    from robot_daemon.motion.setup import build_manager
+    from tests.fixtures.motion import motion_context
 
     # The daemon runs with a narrower head pan than this machine's config says.
     settings = load_all()
     settings["robot"]["joints"]["head_pan"]["max_deg"] = 20.0
-    robot = robot_from_dict(settings["robot"])
-    ctx = MotionContext(
-        robot=robot,
-        manager=build_manager(robot, settings),
-        bus=None,  # type: ignore[arg-type]
-        settings=settings,
-        frame=None,
-        emit=lambda *a, **k: None,
-    )
+    ctx = motion_context(settings)
     reply = config(Request("config", "c", "t", {}), ctx)
     app = scene_app(tab="pose")
     async with app.run_test(size=(120, 40)) as pilot:

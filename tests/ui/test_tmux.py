@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-import sys
 import time
 import uuid
 from collections.abc import Iterator
@@ -14,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.fixtures.system import REPO, RunningSystem
+from tests.fixtures.system import REPO, RunningSystem, darwin_command
 
 DEADLINE_S = 30.0
 
@@ -80,11 +79,11 @@ def test_tui_in_tmux(robot_system: RunningSystem, tmux: Tmux, tmp_path: Path) ->
         "LANG": "C.UTF-8",
         "PATH": os.environ.get("PATH", ""),
     }
-    command = [
-        sys.executable, "-m", "robot_daemon.cli", "tui",
+    command = darwin_command(
+        "tui",
         "--connect", robot_system.endpoint, "--robot", robot_system.robot,
         "--name", "ssh-user", "--lang", "en",
-    ]  # fmt: skip
+    )  # fmt: skip
     env_args = [f"{k}={v}" for k, v in env.items()]
     shell = " ".join(["cd", str(REPO), "&&", "env", *env_args, *command])
     tmux.run("new-session", "-d", "-s", tmux.target, "-x", "100", "-y", "30", shell)

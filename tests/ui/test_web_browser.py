@@ -7,9 +7,7 @@ creates (its only handle is a ``terminal`` property on the session object)."""
 
 from __future__ import annotations
 
-import contextlib
 import os
-import signal
 import subprocess
 import time
 import urllib.request
@@ -20,7 +18,13 @@ import pytest
 
 from schemas.session import free_tcp_port
 from tests.browser import Page, chromium
-from tests.fixtures.system import REPO, RunningSystem, darwin_command, start_system
+from tests.fixtures.system import (
+    REPO,
+    RunningSystem,
+    darwin_command,
+    start_system,
+    stop_group,
+)
 
 DEADLINE_S = 60.0
 ARTIFACTS = Path(os.environ.get("DARWIN_TEST_ARTIFACTS", REPO / "test-artifacts"))
@@ -71,14 +75,7 @@ def web(robot_system: RunningSystem, tmp_path: Path) -> Iterator[tuple[str, subp
         yield f"http://{listen}/", proc
     finally:
         # The whole group: the server and any tab's UI process it left.
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGTERM)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait(timeout=5)
+        stop_group(proc)
         if proc.stdout is not None:
             proc.stdout.close()
 

@@ -12,6 +12,7 @@ from config.loader import load_robot
 from schemas import kinematics as kin
 from schemas.body import default_body
 from schemas.urdf import to_urdf
+from tests.fixtures.emulator import darwin_command
 
 yourdfpy = pytest.importorskip("yourdfpy")
 
@@ -111,11 +112,10 @@ def test_masses_inertias_and_frames(body, urdf):
 
 def test_darwin_urdf_writes_a_loadable_file(tmp_path):
     import subprocess
-    import sys
 
     out = tmp_path / "darwin.urdf"
     done = subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", "urdf", "-o", str(out)],
+        darwin_command("urdf", "-o", str(out)),
         capture_output=True,
         text=True,
         timeout=60,
@@ -125,7 +125,7 @@ def test_darwin_urdf_writes_a_loadable_file(tmp_path):
     model = yourdfpy.URDF.load(str(out), load_meshes=False)
     assert len(model.actuated_joint_names) == 20
     bad = subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", "urdf", "-o", str(tmp_path / "no" / "x.urdf")],
+        darwin_command("urdf", "-o", str(tmp_path / "no" / "x.urdf")),
         capture_output=True,
         text=True,
         timeout=60,

@@ -11,15 +11,15 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from config.loader import load_all, robot_from_dict
-from robot_daemon.arbiter.registry import MotionContext, Request
+from config.loader import load_all
+from robot_daemon.arbiter.registry import Request
 from robot_daemon.arbiter.verbs import ballplay
 from robot_daemon.camera import CameraThread
-from robot_daemon.motion.setup import build_manager
 from robot_daemon.vision.sources import TestPatternSource, register_source
 from schemas.keys import Keys
 from schemas.messages import Message
 from schemas.session import free_tcp_port, server_config
+from tests.fixtures.motion import motion_context
 
 WAIT = 15.0
 
@@ -54,23 +54,13 @@ def test_the_camera_is_opened_once_for_a_subscriber_and_ball_play(
     settings = load_all()
     keys = Keys(f"t{uuid.uuid4().hex[:8]}")
     camera = CameraThread.from_settings(session, keys, spec, settings)
-    robot = robot_from_dict(settings["robot"])
     detections = threading.Event()
 
     def publish(topic: str, msg: Message) -> None:
         assert topic == "vision_ball"
         detections.set()
 
-    ctx = MotionContext(
-        robot=robot,
-        manager=build_manager(robot, settings),
-        bus=None,  # type: ignore[arg-type]
-        settings=settings,
-        frame=None,
-        emit=lambda *a, **k: None,
-        camera=camera,
-        publish=publish,
-    )
+    ctx = motion_context(settings, camera=camera, publish=publish)
     jpegs = threading.Event()
     sub = session.declare_subscriber(keys.camera_jpeg, lambda _s: jpegs.set())
     try:

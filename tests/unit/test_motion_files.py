@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import hashlib
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -13,6 +12,7 @@ from config.loader import load_robot
 from robot_daemon.motion.action import binfile, textfile
 from robot_daemon.motion.action.binfile import MotionFileError, Page, Step
 from robot_daemon.motion.action.library import LIBRARY_DIR, MotionLibrary, load_library
+from tests.fixtures.emulator import darwin_command
 from tests.shared_data import STOCK_MOTIONS as STOCK
 from tests.shared_data import STOCK_MOTIONS_MD5 as STOCK_MD5
 
@@ -52,7 +52,7 @@ def test_stock_file_bin_text_bin_is_byte_identical(tmp_path: Path) -> None:
 @needs_stock
 def test_cli_converts_stock_to_text_and_back(tmp_path: Path) -> None:
     txt, back = tmp_path / "stock.toml", tmp_path / "back.bin"
-    cmd = [sys.executable, "-m", "robot_daemon.cli", "motion", "convert"]
+    cmd = darwin_command("motion", "convert")
     subprocess.run([*cmd, str(STOCK), str(txt)], check=True, cwd=REPO, capture_output=True)
     assert 'name = "sit down"' in txt.read_text()
     subprocess.run([*cmd, str(txt), str(back)], check=True, cwd=REPO, capture_output=True)

@@ -10,15 +10,16 @@ import numpy as np
 import pytest
 
 from clients.pages import PageEditor
-from config.loader import load_all, robot_from_dict
+from config.loader import load_all
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, needs_lease
 from robot_daemon.arbiter.verbs import pages as pages_verb
 from robot_daemon.motion.action import binfile, textfile
 from robot_daemon.motion.action.library import LIBRARY_DIR
 from robot_daemon.motion.action.store import PageStore
 from robot_daemon.motion.interface import JointFrame
-from robot_daemon.motion.setup import build_manager
 from schemas.errors import ErrorCode
+from tests.fixtures.emulator import darwin_command
+from tests.fixtures.motion import motion_context
 from tests.shared_data import STOCK_MOTIONS as STOCK
 
 REPO = Path(__file__).resolve().parents[2]
@@ -28,15 +29,7 @@ needs_stock = pytest.mark.skipif(not STOCK.exists(), reason="stock motion_4096.b
 def make_ctx(user_dir: Path) -> MotionContext:
     settings = load_all()
     settings["motion"]["user_library"] = str(user_dir)
-    robot = robot_from_dict(settings["robot"])
-    return MotionContext(
-        robot=robot,
-        manager=build_manager(robot, settings),
-        bus=None,  # type: ignore[arg-type]
-        settings=settings,
-        frame=None,
-        emit=lambda *a, **k: None,
-    )
+    return motion_context(settings)
 
 
 @pytest.fixture
@@ -267,18 +260,17 @@ def test_stock_file_loads_edits_and_saves_without_losing_data() -> None:
 
 def test_cli_exports_the_library_with_the_user_pages(ctx: MotionContext, tmp_path: Path) -> None:
     import subprocess
-    import sys
 
     call(ctx, op="put", page=wave())
     out = tmp_path / "all.bin"
-    cmd = [sys.executable, "-m", "robot_daemon.cli", "motion", "export", str(out)]
+    cmd = darwin_command("motion", "export", str(out))
     user = ["--user-library", str(tmp_path / "motions")]
     done = subprocess.run([*cmd, *user], capture_output=True, text=True, cwd=REPO)
     assert done.returncode == 0, done.stderr
     assert out.read_bytes() == call(ctx, op="export")["bin"]
     # Back through the converter: the same text as the library's.
     txt = tmp_path / "all.toml"
-    conv = [sys.executable, "-m", "robot_daemon.cli", "motion", "convert", str(out), str(txt)]
+    conv = darwin_command("motion", "convert", str(out), str(txt))
     subprocess.run(conv, check=True, capture_output=True, cwd=REPO)
     store: PageStore = ctx.manager.module("action").store
     assert txt.read_text() == textfile.dumps(store.library.pages.values(), store.names)

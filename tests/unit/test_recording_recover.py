@@ -4,8 +4,6 @@ segments written by the sink (no Zenoh session: files only; the CLI as a real pr
 from __future__ import annotations
 
 import struct
-import subprocess
-import sys
 from collections import Counter
 from pathlib import Path
 
@@ -18,7 +16,6 @@ from clients.recording.mcap_sink import McapSink
 from clients.recording.reader import read_recording, read_session
 from clients.recording.recorder import check_options
 from clients.recording.recover import RecoverError, default_output, recover
-from clients.recording.scan import RecordScanner
 from clients.recording.segments import (
     SegmentedSink,
     existing_segments,
@@ -26,6 +23,8 @@ from clients.recording.segments import (
     segment_path,
 )
 from schemas.messages import Imu, decode, decode_dict, encode
+from tests.fixtures.mcap import stock_counts, stream_counts
+from tests.fixtures.system import run_darwin as darwin
 
 KEYS = {"imu": "darwin/op1/imu"}
 RAW = "/darwin/op1/imu/msgpack"
@@ -57,23 +56,6 @@ def write_flushed(path: Path, n: int = 190, every: int = 25) -> bytes:
     return flushed
 
 
-def stock(path: Path) -> Counter[str]:
-    with open(path, "rb") as f:
-        return Counter(c.topic for _, c, _ in make_reader(f).iter_messages())
-
-
-def scanned(path: Path) -> Counter[str]:
-    scanner = RecordScanner(path)
-    topics: dict[int, str] = {}
-    out: Counter[str] = Counter()
-    for r in scanner:
-        if type(r).__name__ == "Channel":
-            topics[r.id] = r.topic
-        elif type(r).__name__ == "Message":
-            out[topics[r.channel_id]] += 1
-    return out
-
-
 def ticks(path: Path) -> list[int]:
     return [decode(m.payload, Imu).tick for m in read_recording(path).topic("imu")]
 
@@ -91,16 +73,6 @@ def chunks(data: bytes) -> list[tuple[int, int]]:
     return out
 
 
-def darwin(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        cwd=cwd,
-    )
-
-
 def test_every_cut_recovers_what_the_record_stream_holds(tmp_path: Path) -> None:
     data = write_flushed(tmp_path / "a.mcap")
     cut_file = tmp_path / "cut.mcap"
@@ -113,7 +85,7 @@ def test_every_cut_recovers_what_the_record_stream_holds(tmp_path: Path) -> None
         except RecoverError as exc:
             assert cut < 300, (cut, exc)  # only a file cut in its magic or header
             continue
-        assert result.written and stock(out) == scanned(cut_file), cut
+        assert result.written and stock_counts(out) == stream_counts(cut_file), cut
         assert ticks(out) == list(range(len(ticks(out))))
         assert result.total >= kept_before  # a longer file never recovers less
         kept_before = result.total
@@ -132,7 +104,7 @@ def test_corrupt_chunk_in_the_middle_keeps_the_chunks_around_it(tmp_path: Path) 
     assert "Chunk of" in dropped and f"at byte {offset}" in dropped
     assert f"25 messages of {RAW}" not in dropped and f"{RAW} 25" in dropped
     out = tmp_path / "bad.recovered.mcap"
-    assert stock(out)[RAW] == 150
+    assert stock_counts(out)[RAW] == 150
     assert ticks(out) == [*range(75), *range(100, 175)]
     notice = read_recording(bad, on_notice=lambda line: None).notice
     assert notice.startswith(f"{bad} is truncated at byte ")
@@ -186,7 +158,7 @@ def test_outputs_are_never_overwritten_unasked(tmp_path: Path) -> None:
     assert "Traceback" not in proc.stderr
     proc = darwin("record", "recover", "cut.mcap", "--in-place", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    assert stock(tmp_path / "cut.mcap")[RAW] == 175
+    assert stock_counts(tmp_path / "cut.mcap")[RAW] == 175
 
     # A complete file needs nothing.
     proc = darwin("record", "recover", "a.mcap", cwd=tmp_path)
@@ -239,7 +211,7 @@ def test_segments_are_closed_indexed_and_numbered(tmp_path: Path) -> None:
     seen: list[int] = []
     for number, path in enumerate(sink.paths, start=3):
         rec = read_recording(path)
-        assert not rec.truncated and stock(Path(path))[RAW] == len(rec.topic("imu"))
+        assert not rec.truncated and stock_counts(Path(path))[RAW] == len(rec.topic("imu"))
         assert rec.metadata["darwin"]["segment"] == str(number)
         assert rec.metadata["darwin"]["session"] == "s1"
         seen += [decode(m.payload, Imu).tick for m in rec.topic("imu")]
@@ -289,6 +261,6 @@ def test_random_damage_never_breaks_recover(tmp_path: Path) -> None:
         except RecoverError:
             assert at < 300  # the magic or the header itself was hit
             continue
-        assert stock(out) == Counter(result.counts), at
+        assert stock_counts(out) == Counter(result.counts), at
         kept = ticks(out)
         assert kept == sorted(set(kept))  # what is kept is in order, never duplicated

@@ -4,25 +4,15 @@ from __future__ import annotations
 
 import pytest
 
-from config.loader import load_all, robot_from_dict
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, needs_lease
 from robot_daemon.arbiter.verbs import ballplay
-from robot_daemon.motion.setup import build_manager
 from schemas.errors import ErrorCode
+from tests.fixtures.motion import motion_context
 
 
 @pytest.fixture
 def ctx() -> MotionContext:
-    settings = load_all()
-    robot = robot_from_dict(settings["robot"])
-    return MotionContext(
-        robot=robot,
-        manager=build_manager(robot, settings),
-        bus=None,  # type: ignore[arg-type]
-        settings=settings,
-        frame=None,
-        emit=lambda *a, **k: None,
-    )
+    return motion_context()
 
 
 def call(ctx: MotionContext, **fields) -> dict:

@@ -79,6 +79,14 @@ class TabView(Vertical, can_focus=True):
     def notify_error(self, text: str) -> None:
         self.app.notify(text, severity="error", timeout=6)
 
+    def typed_degrees(self, text: str) -> float | None:
+        """``text`` as degrees, or None once the user is told how to type them."""
+        try:
+            return float(text)
+        except ValueError:
+            self.notify_error(_("Type a number of degrees, e.g. -12.5"))
+            return None
+
     def refresh_view(self, model: Model) -> None:
         """Draw what changed (called only while the tab shows)."""
 

@@ -153,10 +153,8 @@ class MotorsTab(TabView):
         self.refresh_view(self.model)
 
     def on_input_submitted(self, event: Input.Submitted) -> None:
-        try:
-            degrees = float(event.value)
-        except ValueError:
-            self.notify_error(_("Type a number of degrees, e.g. -12.5"))
+        degrees = self.typed_degrees(event.value)
+        if degrees is None:
             return
         self.set_goal(self.selected, degrees)
         self.query_one(DataTable).focus()

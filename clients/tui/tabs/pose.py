@@ -172,10 +172,8 @@ class PoseTab(TabView):
     def on_input_submitted(self, event: Input.Submitted) -> None:
         if event.input.id != "pose-value":
             return
-        try:
-            degrees = float(event.value)
-        except ValueError:
-            self.notify_error(_("Type a number of degrees, e.g. -12.5"))
+        degrees = self.typed_degrees(event.value)
+        if degrees is None:
             return
         self.set_edit(self.selected, degrees)
 

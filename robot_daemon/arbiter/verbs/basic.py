@@ -35,20 +35,18 @@ def _direct(ctx: MotionContext) -> DirectModule:
 
 def _check_online(ctx: MotionContext, jid: int, field_name: str) -> None:
     frame = ctx.frame
-    if frame is not None and not frame.online[jid]:
-        raise Reject(
-            ErrorCode.UNAVAILABLE,
-            f"joint {ctx.robot.by_id[jid].name} (id {jid}) is offline: not moved "
-            "(see status.bus.offline)",
-            field_name,
-        )
-    if frame is not None and not frame.torque_enabled[jid]:
-        raise Reject(
-            ErrorCode.UNAVAILABLE,
-            f"joint {ctx.robot.by_id[jid].name} (id {jid}) has torque off: enable it first "
-            "(`torque` enable=true)",
-            field_name,
-        )
+    if frame is None:
+        return
+    for ok, why in (
+        (frame.online, "is offline: not moved (see status.bus.offline)"),
+        (frame.torque_enabled, "has torque off: enable it first (`torque` enable=true)"),
+    ):
+        if not ok[jid]:
+            raise Reject(
+                ErrorCode.UNAVAILABLE,
+                f"joint {ctx.robot.by_id[jid].name} (id {jid}) {why}",
+                field_name,
+            )
 
 
 @verb("lease")

@@ -23,7 +23,7 @@ from typing import Any
 from robot_daemon.arbiter import fields as F
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, verb
 from robot_daemon.motion.action import binfile, textfile
-from robot_daemon.motion.action.binfile import MotionFileError
+from robot_daemon.motion.action.binfile import MotionFileError, Page
 from robot_daemon.motion.action.check import bin_problems, page_problems
 from robot_daemon.motion.action.player import ActionModule
 from robot_daemon.motion.action.store import PageStore
@@ -60,7 +60,11 @@ def _number(req: Request, player: ActionModule) -> int:
 
 
 def _summary(store: PageStore, number: int) -> dict[str, Any]:
-    p = store.library.pages[number]
+    return page_summary(number, store.library.pages[number], store.origin(number))
+
+
+def page_summary(number: int, p: Page, origin: str) -> dict[str, Any]:
+    """One row of the ``pages`` listing."""
     return {
         "number": number,
         "name": p.name,
@@ -69,7 +73,7 @@ def _summary(store: PageStore, number: int) -> dict[str, Any]:
         "speed": p.speed,
         "next": p.next,
         "exit": p.exit,
-        "origin": store.origin(number),
+        "origin": origin,
     }
 
 

@@ -220,13 +220,7 @@ class ActionModule(MotionModule):
         self._frames = page_targets(page, ids, start)
         self._step, self._repeat, self._entry = first, 0, first
         self.claim(ids)
-        self.emit(
-            "action",
-            f"page {page.number} ({page.name}) started",
-            page=page.number,
-            name=page.name,
-            state="started",
-        )
+        self._emit_page(page, "started")
         self._start_step()
 
     def _duration(self, page: Page, k: int, start: np.ndarray) -> float:
@@ -296,13 +290,7 @@ class ActionModule(MotionModule):
             self._start_step()
             return
         follow = page.exit if self._stopping else page.next
-        self.emit(
-            "action",
-            f"page {page.number} ({page.name}) finished",
-            page=page.number,
-            name=page.name,
-            state="finished",
-        )
+        self._emit_page(page, "finished")
         if follow and follow in self.library:
             stopping = self._stopping
             self._begin(self.library.page(follow), None)
@@ -310,16 +298,19 @@ class ActionModule(MotionModule):
             return
         self._finish("finished", emit=False)
 
+    def _emit_page(self, page: Page, state: str) -> None:
+        self.emit(
+            "action",
+            f"page {page.number} ({page.name}) {state}",
+            page=page.number,
+            name=page.name,
+            state=state,
+        )
+
     def _finish(self, how: str, release: bool = True, emit: bool = True) -> None:
         page = self._page
         if page is not None and emit:
-            self.emit(
-                "action",
-                f"page {page.number} ({page.name}) {how}",
-                page=page.number,
-                name=page.name,
-                state=how,
-            )
+            self._emit_page(page, how)
         self._page, self._seg, self._phase = None, None, "idle"
         self._stopping = self._braking = False
         if release:

@@ -23,9 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from robot_daemon.motion.ball.settings import FollowerSettings, HeadSettings
-
-# The framework's "at the bottom limit" slack: one MX-28 position unit.
-_ONE_UNIT_DEG = 360.0 / 4096
+from schemas.units import DEG_PER_UNIT
 
 
 @dataclass
@@ -69,7 +67,7 @@ class Follower:
             pan_percent = pan / h.pan_limit_deg
             tilt_percent = abs((tilt - h.tilt_min_deg) / (h.tilt_max_deg - h.tilt_min_deg))
             if -s.kick_pan_deg < pan < s.kick_pan_deg:
-                at_bottom = tilt <= h.tilt_min_deg + _ONE_UNIT_DEG
+                at_bottom = tilt <= h.tilt_min_deg + DEG_PER_UNIT  # the framework's slack: one unit
                 if at_bottom and tilt_err < s.kick_top_deg:
                     self.goal_step = self.goal_turn = 0.0
                     if self.kick_count >= s.kick_frames:

@@ -23,6 +23,7 @@ import numpy as np
 from robot_daemon.motion.interface import JointFrame, MotionModule
 from robot_daemon.motion.walking.ik import leg_servo_angles
 from robot_daemon.motion.walking.params import WalkParams
+from schemas.units import IMU_CENTER, RAD_PER_UNIT
 
 LEG_IDS = tuple(range(7, 19))
 ARM_IDS = (1, 2)
@@ -30,7 +31,6 @@ WALK_IDS = (*ARM_IDS, *LEG_IDS)
 ARM_INIT_DEG = {1: -48.345, 2: 41.313}  # the framework's shoulder pitch while walking
 # Framework servo directions used by the gyro feedback (Walking.cpp ``dir``).
 _DIR = {9: -1, 10: -1, 13: 1, 14: -1, 15: -1, 16: 1, 17: 1, 18: 1}
-GYRO_CENTER = 512
 
 
 def _wsin(t: float, period: float, shift: float, mag: float, mag_shift: float) -> float:
@@ -318,13 +318,13 @@ class WalkingModule(MotionModule):
         without compliance (the simulator) the raw law feeds its own correction back."""
         p = self.params
         raw = (
-            float(frame.gyro_raw[0]) - GYRO_CENTER,  # right/left rate (gyro X)
-            float(frame.gyro_raw[1]) - GYRO_CENTER,  # front/back rate (gyro Y)
+            float(frame.gyro_raw[0]) - IMU_CENTER,  # right/left rate (gyro X)
+            float(frame.gyro_raw[1]) - IMU_CENTER,  # front/back rate (gyro Y)
         )
         a = 1.0 if p.balance_filter <= 0 else min(1.0, frame.dt / (p.balance_filter + frame.dt))
         self._gyro_f = [f + (r - f) * a for f, r in zip(self._gyro_f, raw, strict=True)]
         rl, fb = self._gyro_f
-        unit = 2 * math.pi / 4096  # the framework adds servo units
+        unit = RAD_PER_UNIT  # the framework adds servo units
         limit = math.radians(p.balance_limit)
         terms = {
             9: _DIR[9] * rl * p.balance_hip_roll_gain,

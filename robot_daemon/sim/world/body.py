@@ -28,6 +28,8 @@ from schemas.kinematics import SIDES, Positions, Side, leg_fk, matrix_rpy, rot_y
 _SWITCH_DZ = 0.001
 # Both feet count as touching when their heights differ by less than this (m).
 _DOUBLE_SUPPORT_DZ = 0.004
+# Body frame height (m) a robot is placed at before its legs are known.
+_NOMINAL_HEIGHT = 0.29
 
 
 def flatten(pose: np.ndarray) -> np.ndarray:
@@ -74,7 +76,7 @@ class Body:
         """Stand the robot at (x, y) facing ``yaw`` (applied at the next update)."""
         self._pending_place = (x, y, yaw)
         if not self._initialised:  # until the legs are known, stand at a nominal height
-            self.T_wb = planar(x, y, yaw, 0.29)
+            self.T_wb = planar(x, y, yaw, _NOMINAL_HEIGHT)
         self.fallen = "none"
         self.com_outside = 0.0
 
