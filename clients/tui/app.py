@@ -405,6 +405,7 @@ class DarwinApp(App[None]):
                 message.path,
                 split_seconds=message.split_seconds,
                 split_bytes=message.split_bytes,
+                profile=message.profile,
                 on_notice=lambda line: self.notify(line, severity="warning", timeout=12),
             ).start()
         except (OSError, ValueError, ClientError) as exc:

@@ -87,3 +87,45 @@ def test_log_tab_records_in_segments(source: Source, tmp_path: Path) -> None:
             assert any("cannot read the split '5'" in m for m in shown)
 
     asyncio.run(run())
+
+
+def test_log_tab_records_a_ros2_bag(source: Source, tmp_path: Path) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    from textual.widgets import Checkbox
+
+    from tests.integration.test_recording_mcap import joints_msg
+
+    path = tmp_path / "tui-bag.mcap"
+
+    async def run() -> None:
+        app: DarwinApp = create_app(
+            endpoint=source.endpoint, robot=ROBOT, name="tui-bag", settings_path=tmp_path / "t"
+        )
+        async with app.run_test(size=(120, 40)) as pilot:
+            await until(pilot, lambda: app.link.robot is not None, "the link")
+            await pilot.press(str([t for t, _ in TABS].index("log") + 1))
+            tab = app.screen.query_one(LogTab)
+            tab.query_one("#record-path", Input).value = str(path)
+            tab.query_one("#record-ros2", Checkbox).value = True
+            tab.action_record()
+            await until(pilot, lambda: tab.recording, "recording on")
+            pub = source.pubs["joints"]
+            await until(pilot, lambda: pub.matching_status.matching, "the recorder's subscriber")
+            for tick in range(1, 6):
+                source.put("joints", encode(joints_msg(tick)))
+            stats = app._recorder.stats  # type: ignore[union-attr]
+            await until(pilot, lambda: stats.counts.get("joints", 0) == 5, "every joints sample")
+            tab.action_record()
+            await until(pilot, lambda: not tab.recording, "recording off")
+
+    asyncio.run(run())
+    with path.open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        assert reader.get_header().profile == "ros2"
+        states = [
+            m.name
+            for _, channel, _, m in reader.iter_decoded_messages()
+            if channel.topic == f"/{ROBOT}/joint_states"
+        ]
+    assert len(states) == 5 and all(len(names) == 20 for names in states)

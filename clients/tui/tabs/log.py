@@ -1,6 +1,7 @@
 """Log: the robot's events as they come, and recording the session to a file (MCAP, or the
 original's plain text for ``.txt``/``.log``) with :class:`clients.recording.Recorder`, in one
-file or in segments (the split field: ``60s``, ``10m``, ``50MB``, ``10m 1GB``)."""
+file or in segments (the split field: ``60s``, ``10m``, ``50MB``, ``10m 1GB``), as the project's
+channels or, with "ROS 2 bag" ticked, as a ROS 2 bag (``darwin record --ros2``)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal
 from textual.message import Message
-from textual.widgets import Button, Input, RichLog, Static
+from textual.widgets import Button, Checkbox, Input, RichLog, Static
 
 from clients.tui.i18n import N_, _
 from clients.tui.model import Model
@@ -38,6 +39,7 @@ class LogTab(TabView):
     LogTab RichLog { height: 1fr; border: round $primary-darken-2; }
     LogTab #record-path { width: 1fr; }
     LogTab #record-split { width: 14; margin-left: 1; }
+    LogTab #record-ros2 { width: auto; margin-left: 1; }
     LogTab Button { min-width: 0; margin-left: 1; }
     LogTab #record-state { width: auto; margin-left: 1; }
     """
@@ -45,7 +47,7 @@ class LogTab(TabView):
 
     class Record(Message):
         """Start recording to ``path`` (in segments of ``split_seconds`` / ``split_bytes`` when
-        given), or stop when ``path`` is None."""
+        given, with the recorder's ``profile``), or stop when ``path`` is None."""
 
         def __init__(
             self,
@@ -53,11 +55,13 @@ class LogTab(TabView):
             split_seconds: float | None = None,
             split_bytes: int | None = None,
             tab: LogTab | None = None,
+            profile: str = "darwin",
         ) -> None:
             super().__init__()
             self.path = path
             self.split_seconds = split_seconds
             self.split_bytes = split_bytes
+            self.profile = profile
             self._tab = tab
 
         @property
@@ -75,6 +79,7 @@ class LogTab(TabView):
             yield self.stream_box()
             yield Input("session.mcap", id="record-path", compact=True)
             yield Input(placeholder=_("split: 10m 1GB"), id="record-split", compact=True)
+            yield Checkbox(_("ROS 2 bag"), id="record-ros2", compact=True)
             yield Button(_("Record"), id="record-button", compact=True)
             yield Static("", id="record-state")
         yield RichLog(id="events", wrap=True, markup=False, max_lines=2000)
@@ -113,7 +118,8 @@ class LogTab(TabView):
         except ValueError as exc:
             self.notify_error(str(exc))
             return
-        self.post_message(self.Record(path, seconds, size, tab=self))
+        profile = "ros2" if self.query_one("#record-ros2", Checkbox).value else "darwin"
+        self.post_message(self.Record(path, seconds, size, tab=self, profile=profile))
 
     def on_button_pressed(self, event: Button.Pressed) -> None:
         self.action_record()
