@@ -39,8 +39,10 @@ def _prctl() -> Callable[..., int] | None:
 _PRCTL = _prctl()  # looked up here: the child between fork and exec only calls it
 
 
-def _die_with(parent: int) -> Callable[[], None]:
+def _die_with(parent: int, own_group: bool = False) -> Callable[[], None]:
     def preexec() -> None:
+        if own_group:
+            os.setpgid(0, 0)
         if _PRCTL is not None:
             _PRCTL(_PR_SET_PDEATHSIG, signal.SIGTERM)
         if os.getppid() != parent:  # the parent died before the line above took effect
@@ -81,8 +83,11 @@ class Child:
         args: list[str],
         relay: Callable[[str, str], None] | None = None,
         ready: bool = False,
+        own_group: bool = False,
     ) -> None:
-        """``ready=True``: relay every line at once (nobody waits for an address line)."""
+        """``ready=True``: relay every line at once (nobody waits for an address line).
+        ``own_group=True``: out of the terminal's process group, so Ctrl-C reaches only the
+        parent, which stops this child when it is done with it (still dying with the parent)."""
         self.name = name
         self.args = args
         self._relay = relay
@@ -102,7 +107,7 @@ class Child:
                 text=True,
                 env=dict(os.environ, PYTHONUNBUFFERED="1", **{PARENT_FD_ENV: str(watch_r)}),
                 pass_fds=(watch_r,),
-                preexec_fn=_die_with(os.getpid()),
+                preexec_fn=_die_with(os.getpid(), own_group),
             )
         finally:
             os.close(watch_r)

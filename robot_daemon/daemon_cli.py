@@ -179,7 +179,11 @@ def run(args: argparse.Namespace) -> int:
             # A stable path: when the emulator's port vanishes and comes back (a new pty),
             # the daemon reopens the same name.
             sim_args.append(f"--link={tempfile.gettempdir()}/darwin-sim-{os.getpid()}.tty")
-        emulator = Child("sim", sim_command(sim_args, args.wire_timing), relay_to_stderr)
+        # Ctrl-C must not stop the emulator under the daemon: the daemon halts and holds the
+        # pose on it first, then stops it.
+        emulator = Child(
+            "sim", sim_command(sim_args, args.wire_timing), relay_to_stderr, own_group=True
+        )
         port = emulator.wait_line("port:", timeout=20.0)
     else:
         port = args.port or str(load_all(args.config).get("daemon", {}).get("port"))

@@ -11,13 +11,14 @@ code above them (:mod:`robot_daemon.bus.dxl`, :mod:`robot_daemon.bus.robot_bus`)
 from __future__ import annotations
 
 import time
+from abc import ABC, abstractmethod
 
 from dynamixel_sdk import PortHandler
 
 from schemas import units
 
 
-class Transport(PortHandler):
+class Transport(PortHandler, ABC):
     """Bytes in and out; subclasses implement the SDK's I/O hooks and :meth:`open`."""
 
     def __init__(self, port_name: str) -> None:
@@ -25,11 +26,11 @@ class Transport(PortHandler):
         self.bytes_written = 0
         self.bytes_read = 0
 
-    def open(self, baudrate: int) -> None:
-        raise NotImplementedError
+    @abstractmethod
+    def open(self, baudrate: int) -> None: ...
 
-    def close(self) -> None:
-        raise NotImplementedError
+    @abstractmethod
+    def close(self) -> None: ...
 
     def set_baud(self, baudrate: int) -> None:
         self.baudrate = baudrate

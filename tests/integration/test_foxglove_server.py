@@ -5,7 +5,6 @@ walk through the lease."""
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -24,16 +23,10 @@ pytestmark = pytest.mark.timeout(240)
 LAYOUT = Path(__file__).resolve().parents[2] / "clients" / "foxglove" / "layout.json"
 
 
-def address(system: RunningSystem, name: str, timeout: float = 30.0) -> str:
+def address(system: RunningSystem, name: str) -> str:
     """The ``name: address`` line `darwin up` prints (after the lines the fixture waits for)."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        for line in list(system.lines):
-            if line.startswith(f"{name}: "):
-                return line.split(" ", 1)[1].strip()
-        assert system.alive, system.output()
-        time.sleep(0.05)  # the fixture's reader thread owns the output queue: poll its list
-    raise AssertionError(f"no {name!r} line:\n{system.output()}")
+    line = system.wait_line(lambda line: line.startswith(f"{name}: "))
+    return line.split(" ", 1)[1].strip()
 
 
 @pytest.fixture(scope="module")

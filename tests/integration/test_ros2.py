@@ -387,9 +387,6 @@ def test_darwin_up_ros2_with_a_router_endpoint(tmp_path: Path) -> None:
                 watcher.wait_for("status", lambda s: not s.lease, timeout=10)
             # `darwin up` relays the adapter's address line (the adapter serves before `up`
             # prints it, so the line may trail the first samples: wait for it).
-            deadline = time.monotonic() + 20
-            while not any(line.startswith("ros2: domain 0 namespace /") for line in system.lines):
-                assert time.monotonic() < deadline, system.output()
-                time.sleep(0.05)
+            system.wait_line(lambda line: line.startswith("ros2: domain 0 namespace /"), 20)
         finally:
             obs.close()

@@ -149,10 +149,7 @@ def test_tui_in_a_browser(
 def test_darwin_up_web_serves_the_page() -> None:
     listen = f"127.0.0.1:{free_tcp_port()}"
     with start_system(gateway=False, extra_args=["--web", "--web-listen", listen]) as system:
-        deadline = time.monotonic() + DEADLINE_S
-        while not any(line == f"web: http://{listen}" for line in system.lines):
-            assert system.alive and time.monotonic() < deadline, system.output()
-            time.sleep(0.05)  # the fixture's reader thread owns the output: poll its list
+        system.wait_line(lambda line: line == f"web: http://{listen}", DEADLINE_S)
         with urllib.request.urlopen(f"http://{listen}/", timeout=10) as page:
             html = page.read().decode()
         assert f'data-session-websocket-url="ws://{listen}/ws"' in html
