@@ -9,13 +9,18 @@ It is found, first match wins, at: the ``path`` argument (``--config FILE``), ``
 from __future__ import annotations
 
 import copy
+import dataclasses
+import difflib
 import math
 import os
 import tomllib
+import types
+import typing
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from schemas.errors import ConfigError
 
@@ -79,6 +84,128 @@ def load_section(name: str, path: str | os.PathLike[str] | None = None) -> dict[
     if name not in data:
         raise ConfigError(f"no [{name}] section in the shipped config or {path or 'user file'}")
     return data[name]
+
+
+# -- a config table → a settings dataclass ------------------------------------------------------
+T = TypeVar("T")
+
+
+def nearest(name: str, known: Iterable[str], cutoff: float = 0.0) -> str | None:
+    """The known name most like ``name`` (one differing only in case first), or None when
+    none is at least ``cutoff`` alike (difflib's ratio, 0..1)."""
+    known = list(known)
+    by_lower = {k.lower(): k for k in known}
+    if name.lower() in by_lower:
+        return by_lower[name.lower()]
+    found = difflib.get_close_matches(name, known, n=1, cutoff=cutoff)
+    return found[0] if found else None
+
+
+def refuse_unknown(values: Mapping[str, Any], known: Iterable[str], where: str) -> None:
+    """``ConfigError`` naming the first key of the table ``[where]`` that is not ``known``,
+    and the known key nearest to it (a typo must not silently leave the default in force)."""
+    known = list(known)
+    for name in values:
+        if name not in known:
+            near = nearest(str(name), known)
+            hint = f" (nearest known: {near!r})" if near else ""
+            raise ConfigError(
+                f"[{where}] has an unknown setting {name!r}{hint}; known: {', '.join(known)}"
+            )
+
+
+def section_to(
+    cls: type[T], values: Mapping[str, Any], where: str, skip: Iterable[str] = (), **given: Any
+) -> T:
+    """The dataclass ``cls`` from the config table ``[where]``.
+
+    Every key must name a field (else ``ConfigError`` naming it and the nearest field), and
+    each value must fit the field's type: bool, int, float (an integer is taken), str, a
+    list for a tuple or list of those, a sub-table for a nested dataclass. Missing keys keep
+    the defaults; a field without one must be there. ``given`` are fields the caller fills
+    in (not read from the table); ``skip`` are keys of the table that another reader checks.
+    """
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls) if f.init and f.name not in given]
+    skipped = set(skip)
+    table = {k: v for k, v in values.items() if k not in skipped}
+    refuse_unknown(table, names, where)
+    missing = [
+        f.name
+        for f in dataclasses.fields(cls)
+        if f.name in names
+        and f.name not in table
+        and f.default is dataclasses.MISSING
+        and f.default_factory is dataclasses.MISSING
+    ]
+    if missing:
+        raise ConfigError(f"[{where}] is incomplete: it needs {', '.join(missing)}")
+    out = dict(given)
+    for name, value in table.items():
+        try:
+            out[name] = _convert(value, hints[name], f"{where}.{name}")
+        except _Mismatch as exc:
+            raise ConfigError(f"[{where}] {name} = {value!r} should be {exc}") from None
+    return cls(**out)
+
+
+class _Mismatch(Exception):
+    """A value that does not fit a type; the message says what would."""
+
+
+# What a value of each scalar type is called in an error: (one, several).
+_SCALARS: dict[Any, tuple[str, str]] = {
+    bool: ("true or false", "true/false values"),
+    int: ("an integer", "integers"),
+    float: ("a number", "numbers"),
+    str: ("a string", "strings"),
+}
+
+
+def _describe(hint: Any) -> str:
+    if hint in _SCALARS:
+        return _SCALARS[hint][0]
+    if dataclasses.is_dataclass(hint):
+        return "a table"
+    args = [a for a in typing.get_args(hint) if a is not type(None) and a is not Ellipsis]
+    if typing.get_origin(hint) in (tuple, list):
+        item = _SCALARS.get(args[0], ("", "values"))[1] if args else "values"
+        fixed = typing.get_origin(hint) is tuple and Ellipsis not in typing.get_args(hint)
+        return f"a list of {len(args)} {item}" if fixed and args else f"a list of {item}"
+    return " or ".join(_describe(a) for a in args) or str(hint)
+
+
+def _convert(value: Any, hint: Any, where: str) -> Any:
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if dataclasses.is_dataclass(hint):
+        if not isinstance(value, dict):
+            raise _Mismatch(_describe(hint))
+        return section_to(typing.cast(type, hint), value, where)
+    if origin in (typing.Union, types.UnionType):
+        for arg in args:
+            if arg is not type(None):  # TOML has no null: None is only ever the default
+                try:
+                    return _convert(value, arg, where)
+                except _Mismatch:
+                    pass
+        raise _Mismatch(_describe(hint))
+    if origin in (tuple, list):
+        fixed = origin is tuple and bool(args) and args[-1] is not Ellipsis
+        wanted = _describe(hint)
+        if not isinstance(value, list | tuple) or (fixed and len(value) != len(args)):
+            raise _Mismatch(wanted)
+        kinds = args if fixed else [args[0] if args else Any] * len(value)
+        try:
+            return origin(_convert(v, k, where) for v, k in zip(value, kinds, strict=True))
+        except _Mismatch:
+            raise _Mismatch(wanted) from None
+    if hint is float and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if hint in _SCALARS and (
+        not isinstance(value, hint) or isinstance(value, bool) != (hint is bool)
+    ):
+        raise _Mismatch(_describe(hint))
+    return value
 
 
 @dataclass(frozen=True)

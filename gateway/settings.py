@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 from clients.listen import parse_listen as _parse_listen
-from config.loader import load_section
+from config.loader import load_section, section_to
 from gateway.framing import MAX_DEPTH_LIMIT, MAX_NUMBER_LENGTH_LIMIT, BodyLimits
 from schemas.errors import ConfigError
 
@@ -64,35 +64,8 @@ def parse_listen(listen: str) -> tuple[str, int]:
     return _parse_listen(listen, "gateway", "127.0.0.1:9000")
 
 
-def _typed(cls: type, section: dict[str, Any], where: str) -> dict[str, Any]:
-    known = {f.name: f for f in fields(cls)}
-    out: dict[str, Any] = {}
-    for name, value in section.items():
-        if name not in known:
-            raise ConfigError(
-                f"[{where}] has an unknown setting {name!r}; known: {', '.join(known)}"
-            )
-        default = getattr(cls(), name)
-        if isinstance(default, WalkMapping):
-            continue
-        kind = type(default)
-        if kind is float and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, kind) or isinstance(value, bool) != isinstance(default, bool):
-            raise ConfigError(
-                f"[{where}] {name} = {value!r} should be a {kind.__name__} (like {default!r})"
-            )
-        out[name] = value
-    return out
-
-
 def load_settings(path: str | os.PathLike[str] | None = None) -> GatewaySettings:
-    section = dict(load_section("gateway", path))
-    walk = section.pop("walk", {})
-    values = _typed(GatewaySettings, section, "gateway")
-    settings = GatewaySettings(
-        **values, walk=WalkMapping(**_typed(WalkMapping, walk, "gateway.walk"))
-    )
+    settings = section_to(GatewaySettings, load_section("gateway", path), "gateway")
     return check_settings(settings)
 
 

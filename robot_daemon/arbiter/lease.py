@@ -20,6 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from config.loader import refuse_unknown
 from schemas.commands import TOKEN_BYTES
 from schemas.errors import ErrorCode, Reject
 
@@ -64,6 +65,7 @@ class Lease:
         on_change: Callable[[Holder | None, Holder | None, str], None] | None = None,
     ) -> Lease:
         """From ``[daemon.lease]``: ``idle_timeout`` and ``heartbeat_timeout`` (s, 0 = off)."""
+        refuse_unknown(section, ("idle_timeout", "heartbeat_timeout"), "daemon.lease")
         return cls(
             float(section.get("idle_timeout", 60.0)),
             on_change,

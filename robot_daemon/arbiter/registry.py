@@ -21,12 +21,12 @@ Whether a call needs the lease is decided next, before the handler runs (``needs
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
+from config.loader import nearest
 from schemas.commands import COMMAND_FIELDS, OPS_WITHOUT_LEASE, Field
 from schemas.errors import ErrorCode, Reject, brief
 from schemas.keys import LEASE_FREE_VERBS
@@ -109,10 +109,8 @@ def check_fields(verb_name: str, fields: dict[str, Any]) -> None:
     for name, value in fields.items():
         f = spec.get(name)
         if f is None:
-            lower = {k.lower(): k for k in spec}
-            near = [lower[str(name).lower()]] if str(name).lower() in lower else []
-            near = near or difflib.get_close_matches(str(name), list(spec), n=1)
-            hint = f"; did you mean {near[0]!r}?" if near else ""
+            near = nearest(str(name), spec, cutoff=0.6)
+            hint = f"; did you mean {near!r}?" if near else ""
             known = ", ".join(spec) or "none"
             raise Reject(
                 ErrorCode.INVALID,

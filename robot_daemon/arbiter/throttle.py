@@ -13,6 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, fields
 from typing import Any
 
+from config.loader import section_to
 from schemas.errors import ConfigError
 
 
@@ -33,19 +34,11 @@ class ArbiterLimits:
 
     @classmethod
     def from_config(cls, section: dict[str, Any]) -> ArbiterLimits:
-        known = {f.name: f.type for f in fields(cls)}
-        unknown = set(section) - set(known)
-        if unknown:
-            raise ConfigError(
-                f"[daemon.arbiter] has unknown keys {sorted(unknown)}; known: {sorted(known)}"
-            )
-        values: dict[str, Any] = {}
-        for name, value in section.items():
-            want = int if known[name] == "int" else float
-            if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
-                raise ConfigError(f"[daemon.arbiter] {name} must be a positive number")
-            values[name] = want(value)
-        return cls(**values)
+        limits = section_to(cls, section, "daemon.arbiter")
+        for f in fields(cls):
+            if getattr(limits, f.name) <= 0:
+                raise ConfigError(f"[daemon.arbiter] {f.name} must be a positive number")
+        return limits
 
 
 class Buckets:

@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from config.loader import refuse_unknown
 from robot_daemon.motion.interface import JointFrame, MotionModule
 from schemas.kinematics import HEAD_PAN_ID, HEAD_TILT_ID
 
@@ -26,6 +27,7 @@ class HeadLimits:
     @classmethod
     def from_config(cls, section: dict[str, Any] | None) -> HeadLimits:
         s = section or {}
+        refuse_unknown(s, _HEAD_KEYS, "head")
         d = cls()
         r = math.radians
         return cls(
@@ -39,6 +41,13 @@ class HeadLimits:
             track_p=float(s.get("track_p", d.track_p)),
             track_d=float(s.get("track_d", d.track_d)),
         )
+
+
+# The keys of [head] (config/motion.toml): angles in degrees there, radians here.
+_HEAD_KEYS = (
+    "pan_min_deg", "pan_max_deg", "tilt_min_deg", "tilt_max_deg",
+    "home_pan_deg", "home_tilt_deg", "speed", "track_p", "track_d",
+)
 
 
 class HeadModule(MotionModule):

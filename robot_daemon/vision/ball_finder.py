@@ -20,6 +20,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from config.loader import section_to
 from schemas.errors import ConfigError
 from schemas.messages import BallDetection
 
@@ -45,6 +46,16 @@ class ColorRange:
 
 
 @dataclass(frozen=True)
+class CameraView:
+    """``[ballplay.camera]``: the image the finder expects and the lens's field of view."""
+
+    width: int = 320
+    height: int = 240
+    fov_h_deg: float = 58.0
+    fov_v_deg: float = 46.0
+
+
+@dataclass(frozen=True)
 class FinderSettings:
     color: ColorRange
     min_area_percent: float = 0.07
@@ -59,17 +70,15 @@ class FinderSettings:
     @classmethod
     def from_config(cls, ballplay: dict[str, Any], color: str | None = None) -> FinderSettings:
         """Settings from the ``[ballplay]`` section; ``color`` names one of its colours."""
-        return cls(
+        camera = section_to(CameraView, ballplay.get("camera", {}), "ballplay.camera")
+        return section_to(
+            cls,
+            ballplay.get("finder", {}),
+            "ballplay.finder",
             color=color_range(ballplay, color or str(ballplay.get("color", "red"))),
-            **{k: float(v) for k, v in ballplay.get("finder", {}).items() if k in _FLOATS},
-            **{k: int(v) for k, v in ballplay.get("finder", {}).items() if k in _INTS},
-            fov_h_deg=float(ballplay.get("camera", {}).get("fov_h_deg", 58.0)),
-            fov_v_deg=float(ballplay.get("camera", {}).get("fov_v_deg", 46.0)),
+            fov_h_deg=camera.fov_h_deg,
+            fov_v_deg=camera.fov_v_deg,
         )
-
-
-_FLOATS = {"min_area_percent", "max_area_percent", "min_fill", "max_aspect"}
-_INTS = {"erode", "dilate"}
 
 
 def color_names(ballplay: dict[str, Any]) -> list[str]:
@@ -84,16 +93,7 @@ def color_range(ballplay: dict[str, Any], name: str) -> ColorRange:
             f"unknown ball colour {name!r}: known colours are {', '.join(color_names(ballplay))}"
             " (add one under [ballplay.colors.<name>])"
         )
-    try:
-        return ColorRange(
-            name=name,
-            hue=float(table["hue"]),
-            hue_tolerance=float(table["hue_tolerance"]),
-            min_saturation=float(table["min_saturation"]),
-            min_value=float(table["min_value"]),
-        )
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ConfigError(f"[ballplay.colors.{name}] is incomplete or wrong: {exc}") from exc
+    return section_to(ColorRange, table, f"ballplay.colors.{name}", name=name)
 
 
 @dataclass

@@ -135,8 +135,12 @@ def test_settings_load_and_reject_bad_values(tmp_path) -> None:
     with pytest.raises(ConfigError, match="not HOST:PORT"):
         load_settings(user)
     user.write_text('[gateway]\nmonitor_period = "fast"\n')
-    with pytest.raises(ConfigError, match="should be a float"):
+    with pytest.raises(ConfigError, match="monitor_period = 'fast' should be a number"):
         load_settings(user)
     user.write_text("[gateway]\nspeed = 1\n")
-    with pytest.raises(ConfigError, match="unknown setting 'speed'"):
+    with pytest.raises(ConfigError, match=r"\[gateway\] has an unknown setting 'speed' \(nearest"):
+        load_settings(user)
+    user.write_text("[gateway.walk]\nx_mps_per_unti = 0.01\n")
+    near = r"\[gateway.walk\] .* 'x_mps_per_unti' \(nearest known: 'x_mps_per_unit'\)"
+    with pytest.raises(ConfigError, match=near):
         load_settings(user)

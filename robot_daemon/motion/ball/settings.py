@@ -6,10 +6,10 @@ them; the module converts at its edges (detections and joints are rad).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
-from schemas.errors import ConfigError
+from config.loader import section_to
 
 
 @dataclass(frozen=True)
@@ -65,33 +65,8 @@ class BallPlaySettings:
 
     @classmethod
     def from_config(cls, ballplay: dict[str, Any]) -> BallPlaySettings:
-        try:
-            return cls(
-                color=str(ballplay.get("color", "red")),
-                vision_hz=float(ballplay.get("vision_hz", 30.0)),
-                kicks=int(ballplay.get("kicks", 1)),
-                head=_section(HeadSettings, ballplay.get("head", {})),
-                tracker=_section(TrackerSettings, ballplay.get("tracker", {})),
-                follower=_section(FollowerSettings, ballplay.get("follower", {})),
-            )
-        except (TypeError, ValueError) as exc:
-            raise ConfigError(
-                f"[ballplay] in config/ballplay.toml or the user file: {exc}"
-            ) from exc
+        return section_to(cls, ballplay, "ballplay", skip=VISION_TABLES)
 
 
-def _section(cls: type, values: dict[str, Any]) -> Any:
-    known = {f.name: f for f in fields(cls)}
-    unknown = sorted(set(values) - set(known))
-    if unknown:
-        raise ValueError(f"unknown setting(s) {', '.join(unknown)}; known: {', '.join(known)}")
-    out: dict[str, Any] = {}
-    for name, value in values.items():
-        default = getattr(cls(), name)
-        if isinstance(default, tuple):
-            out[name] = tuple(float(v) for v in value)
-        elif isinstance(default, int) and not isinstance(default, bool):
-            out[name] = int(value)
-        else:
-            out[name] = float(value)
-    return cls(**out)
+# Tables of [ballplay] that the ball finder reads (robot_daemon.vision.ball_finder).
+VISION_TABLES = ("colors", "finder", "camera")

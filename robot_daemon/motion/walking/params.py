@@ -7,6 +7,8 @@ import math
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
+from config.loader import nearest
+
 
 @dataclass
 class WalkParams:
@@ -100,7 +102,11 @@ _TYPES = {f.name: f.type for f in fields(WalkParams)}
 
 def check(name: str, value: Any) -> Any:
     if name not in _TYPES:
-        raise ValueError(f"unknown walking parameter {name!r}; known: {', '.join(_TYPES)}")
+        near = nearest(str(name), _TYPES)
+        raise ValueError(
+            f"unknown walking parameter {name!r} (nearest known: {near!r}); "
+            f"known: {', '.join(_TYPES)}"
+        )
     kind = _TYPES[name]
     if kind in ("bool", bool):
         if not isinstance(value, bool):

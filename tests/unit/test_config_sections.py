@@ -1,0 +1,136 @@
+"""One reader for every settings table: a config table → its dataclass, refusing unknown keys
+(naming the nearest known one) and values of the wrong type, for every settings module."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import pytest
+
+from config.loader import load_all, nearest, refuse_unknown, section_to
+from gateway.settings import load_settings
+from robot_daemon.arbiter.lease import Lease
+from robot_daemon.arbiter.throttle import ArbiterLimits
+from robot_daemon.motion.ball.settings import BallPlaySettings
+from robot_daemon.motion.head import HeadLimits
+from robot_daemon.motion.walking.params import check
+from robot_daemon.vision.ball_finder import FinderSettings
+from schemas.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Inner:
+    gain: float = 1.0
+
+
+@dataclass(frozen=True)
+class Table:
+    label: str
+    count: int = 1
+    rate: float = 2.0
+    enabled: bool = True
+    tilts: tuple[float, ...] = (0.0,)
+    rgb: tuple[int, int, int] = (1, 2, 3)
+    start: tuple[float, float] | None = None
+    ids: list[int] = field(default_factory=list)
+    inner: Inner = Inner()
+
+
+def test_a_table_becomes_its_dataclass_with_values_converted_to_the_field_types() -> None:
+    t = section_to(
+        Table,
+        {"label": "x", "rate": 4, "tilts": [1, 2.5], "rgb": [4, 5, 6], "start": [1, 2]}
+        | {"ids": [7], "inner": {"gain": 3}},
+        "t",
+    )
+    assert t == Table("x", 1, 4.0, True, (1.0, 2.5), (4, 5, 6), (1.0, 2.0), [7], Inner(3.0))
+    assert isinstance(t.rate, float) and isinstance(t.inner.gain, float)
+    assert section_to(Table, {}, "t", label="given").label == "given"
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        (
+            {"label": "x", "cuont": 2},
+            r"\[t\] has an unknown setting 'cuont' \(nearest known: 'count'\)",
+        ),
+        ({"label": "x", "inner": {"gian": 2}}, r"\[t.inner\] .*'gian' \(nearest known: 'gain'\)"),
+        ({"label": "x", "rate": "fast"}, r"\[t\] rate = 'fast' should be a number"),
+        ({"label": "x", "count": 2.5}, r"count = 2.5 should be an integer"),
+        ({"label": "x", "count": True}, r"count = True should be an integer"),
+        ({"label": "x", "enabled": 1}, r"enabled = 1 should be true or false"),
+        ({"label": 3}, r"label = 3 should be a string"),
+        ({"label": "x", "tilts": ["a"]}, r"tilts = \['a'\] should be a list of numbers"),
+        ({"label": "x", "rgb": [1, 2]}, r"rgb = \[1, 2\] should be a list of 3 integers"),
+        ({"label": "x", "start": 3}, r"start = 3 should be a list of 2 numbers"),
+        ({"label": "x", "inner": 3}, r"inner = 3 should be a table"),
+        ({"count": 2}, r"\[t\] is incomplete: it needs label"),
+    ],
+)
+def test_a_bad_table_is_one_clear_error_naming_the_key(values: dict, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        section_to(Table, values, "t")
+
+
+def test_skipped_keys_belong_to_another_reader_and_given_fields_are_not_read() -> None:
+    assert section_to(Table, {"label": "x", "finder": {}}, "t", skip=("finder",)).label == "x"
+    with pytest.raises(ConfigError, match="unknown setting 'label'"):
+        section_to(Table, {"label": "x"}, "t", label="given")
+
+
+def test_nearest_prefers_a_case_only_difference_and_honours_the_cutoff() -> None:
+    assert nearest("COUNT", ["count", "counts"]) == "count"
+    assert nearest("speed", ["max_rate", "burst"]) is not None  # always the nearest one…
+    assert nearest("speed", ["max_rate", "burst"], cutoff=0.6) is None  # …unless asked
+    with pytest.raises(ConfigError, match=r"\[w\] has an unknown setting 'b'.*; known: a"):
+        refuse_unknown({"a": 1, "b": 2}, ["a"], "w")
+
+
+@pytest.mark.parametrize(
+    ("build", "message"),
+    [
+        (
+            lambda c: BallPlaySettings.from_config(c["ballplay"] | {"kiks": 2}),
+            r"\[ballplay\].*'kicks'",
+        ),
+        (
+            lambda c: BallPlaySettings.from_config(c["ballplay"] | {"head": {"pan_limit": 60}}),
+            r"\[ballplay.head\].*'pan_limit_deg'",
+        ),
+        (
+            lambda c: FinderSettings.from_config(c["ballplay"] | {"finder": {"min_fil": 0.5}}),
+            r"\[ballplay.finder\].*'min_fill'",
+        ),
+        (
+            lambda c: FinderSettings.from_config(c["ballplay"] | {"camera": {"fov_h": 60.0}}),
+            r"\[ballplay.camera\].*'fov_h_deg'",
+        ),
+        (
+            lambda c: ArbiterLimits.from_config({"queue_sise": 3}),
+            r"\[daemon.arbiter\].*'queue_size'",
+        ),
+        (lambda c: ArbiterLimits.from_config({"queue_size": 0}), "queue_size must be a positive"),
+        (lambda c: HeadLimits.from_config({"pan_max": 60.0}), r"\[head\].*'pan_max_deg'"),
+        (lambda c: Lease.from_config({"idle_timout": 3.0}), r"\[daemon.lease\].*'idle_timeout'"),
+    ],
+)
+def test_every_settings_module_refuses_a_misspelt_key_naming_the_right_one(
+    build, message: str
+) -> None:
+    with pytest.raises(ConfigError, match=message):
+        build(load_all())
+
+
+def test_the_shipped_config_reads_cleanly_through_every_settings_module() -> None:
+    c = load_all()
+    assert BallPlaySettings.from_config(c["ballplay"]).tracker.search_tilts_deg == (0.0, 25.0)
+    assert FinderSettings.from_config(c["ballplay"], "blue").color.name == "blue"
+    assert ArbiterLimits.from_config(c["daemon"]["arbiter"]).queue_size == 64
+    assert HeadLimits.from_config(c["head"]).speed == 3.0
+    assert load_settings().walk.x_mps_per_unit > 0
+
+
+def test_an_unknown_walking_parameter_names_the_nearest_one() -> None:
+    with pytest.raises(ValueError, match=r"'perid_time' \(nearest known: 'period_time'\)"):
+        check("perid_time", 600.0)
