@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import itertools
-import os
 import statistics
 import subprocess
 import sys
@@ -37,7 +36,7 @@ sys.path.insert(0, str(REPO))
 
 from benchmarks.common import cpu_seconds  # noqa: E402
 from clients.robot import Robot  # noqa: E402
-from tests.fixtures.system import darwin_command, start_system, stop_group  # noqa: E402
+from tests.fixtures.system import spawn_darwin, start_system, stop_group  # noqa: E402
 from tests.foxglove_ws import FoxgloveClient  # noqa: E402
 
 
@@ -54,15 +53,7 @@ def find_child(parent: int, needle: str) -> int:
 
 
 def start(args: list[str], prefix: str) -> tuple[subprocess.Popen[str], str]:
-    proc = subprocess.Popen(
-        darwin_command(*args),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-        cwd=REPO,
-        env=dict(os.environ, PYTHONUNBUFFERED="1"),
-        start_new_session=True,
-    )
+    proc = spawn_darwin(*args, stderr=subprocess.DEVNULL)
     assert proc.stdout is not None
     for line in proc.stdout:
         if line.startswith(prefix):

@@ -174,6 +174,10 @@ class Commander:
         )
         # The arbiter releases our lease (and safely stops the robot) when this token goes.
         self._token = self.session.liveliness().declare_token(self.keys.client(self.client_id))
+        self._open_extra()
+
+    def _open_extra(self) -> None:
+        """What a subclass adds once the session is open (its pair: ``_close_extra``)."""
 
     def close(self) -> None:
         if self._closed:
@@ -360,19 +364,7 @@ class Robot(Commander, TeachMixin):
     """Commands plus the robot's live state and subscriptions; action pages and teach mode
     (:mod:`clients.teach`)."""
 
-    def __init__(
-        self,
-        endpoint: str | None = None,
-        robot: str | None = None,
-        *,
-        name: str | None = None,
-        client_id: str | None = None,
-        timeout: float = 3.0,
-        session: zenoh.Session | None = None,
-    ) -> None:
-        super().__init__(
-            endpoint, robot, name=name, client_id=client_id, timeout=timeout, session=session
-        )
+    def _open_extra(self) -> None:
         self._lock = threading.Lock()
         self._state = RobotState()
         self._listeners: dict[str, list[Subscription]] = {}

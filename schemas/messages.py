@@ -205,6 +205,111 @@ class AlarmInfo(TypedDict):
     bits: int
 
 
+class LedsInfo(TypedDict, total=False):
+    """The CM-730's LEDs as read back (empty before it answered)."""
+
+    head: list[int]  # RGB 0..255
+    eye: list[int]
+    panel: int  # bit mask of the three panel LEDs
+
+
+# ``status.motion``: the joint owners and one map per motion module (robot_daemon/motion/).
+class ActionInfo(TypedDict):
+    active: bool
+    playing: bool
+    page: int | None
+    name: str | None
+    step: int | None  # 1-based
+    stopping: bool
+
+
+class WalkAxes(TypedDict):
+    x_mm: float
+    y_mm: float
+    turn_deg: float
+
+
+class WalkSpeed(TypedDict):
+    x: float  # m/s
+    y: float
+    turn: float  # rad/s
+
+
+class WalkingInfo(TypedDict):
+    active: bool
+    walking: bool
+    stopping: bool
+    command: WalkAxes  # what was asked
+    amplitude: WalkAxes  # what the gait runs now (latched at step boundaries)
+    speed: WalkSpeed
+    phase_ms: float
+    steps: int
+    skipped_ticks: int
+
+
+class HeadInfo(TypedDict):
+    active: bool
+    mode: str  # idle | move | track
+    target_deg: list[float] | None  # [pan, tilt]
+    current_deg: list[float] | None
+
+
+class DirectInfo(TypedDict):
+    active: bool
+    moving: bool
+    joints: list[int]
+
+
+class FallInfo(TypedDict):
+    active: bool
+    state: str
+    falls: int
+    recover: bool
+
+
+class BallSeen(TypedDict):
+    found: bool
+    pan: float  # rad
+    tilt: float
+
+
+class BallStep(TypedDict):
+    step_mm: float
+    turn_deg: float
+
+
+class BallPlayInfo(TypedDict):
+    active: bool
+    phase: str  # the phases of robot_daemon/motion/ball/module.py
+    color: str
+    kicks: int
+    frames: int
+    ball: BallSeen | None
+    walk: BallStep
+
+
+class ChoreographyInfo(TypedDict, total=False):
+    active: bool
+    playing: bool
+    run: int
+    index: int | None
+    count: int
+    item: str | None
+    items: list[str]
+    last_result: str | None
+
+
+class MotionInfo(TypedDict, total=False):
+    owners: dict[str, str]  # joint id → the module that drives it
+    fall: FallInfo
+    action: ActionInfo
+    head: HeadInfo
+    walking: WalkingInfo
+    direct: DirectInfo
+    ball: BallPlayInfo
+    choreography: ChoreographyInfo
+
+
 @dataclass
 class Status(Message):
     """Daemon state, ~10 Hz and on change. Sub-maps are typed above (README, Status)."""
@@ -213,9 +318,10 @@ class Status(Message):
     state: str  # starting | scanning | running | degraded | port_lost | stopping
     robot: str
     lease: LeaseInfo | None = None
-    motion: dict[str, Any] = field(default_factory=dict)  # owners, action, walking, head, ball…
-    choreography: dict[str, Any] = field(default_factory=dict)
-    leds: dict[str, Any] = field(default_factory=dict)
+    motion: MotionInfo = field(default_factory=lambda: MotionInfo())
+    # The daemon fills motion.choreography; this older place stays empty (clients read both).
+    choreography: ChoreographyInfo = field(default_factory=lambda: ChoreographyInfo())
+    leds: LedsInfo = field(default_factory=lambda: LedsInfo())
     buttons: dict[str, bool] = field(default_factory=dict)
     bus: BusInfo = field(default_factory=lambda: BusInfo())
     loop: LoopInfo = field(default_factory=lambda: LoopInfo())

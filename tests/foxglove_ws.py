@@ -201,16 +201,14 @@ class FoxgloveClient:
 
     def get_parameters(self, names: list[str], req_id: str) -> list[dict[str, Any]]:
         self.send({"op": "getParameters", "parameterNames": names, "id": req_id})
-        reply = self.until(
-            lambda c: next(
-                (t for t in c.texts if t.get("op") == "parameterValues" and t.get("id") == req_id),
-                None,
-            )
-        )
-        return reply["parameters"]
+        return self._parameter_values(req_id)
 
     def set_parameters(self, params: list[dict[str, Any]], req_id: str) -> list[dict[str, Any]]:
         self.send({"op": "setParameters", "parameters": params, "id": req_id})
+        return self._parameter_values(req_id)
+
+    def _parameter_values(self, req_id: str) -> list[dict[str, Any]]:
+        """The parameters of the server's ``parameterValues`` answer to request ``req_id``."""
         reply = self.until(
             lambda c: next(
                 (t for t in c.texts if t.get("op") == "parameterValues" and t.get("id") == req_id),

@@ -1,12 +1,16 @@
 import math
+import typing
 
 import pytest
 
 from config import load_robot
+from config.loader import load_all
+from robot_daemon.bus.state import cm730_status
+from robot_daemon.motion.setup import build_manager
 from schemas import units
 from schemas.errors import ProtocolError
 from schemas.keys import Keys
-from schemas.messages import Event, Joints, decode, encode
+from schemas.messages import Event, Joints, LedsInfo, MotionInfo, decode, encode
 
 
 def test_keys_carry_the_robot_name_and_reject_bad_names() -> None:
@@ -64,3 +68,16 @@ def test_robot_config_has_twenty_joints_with_limits() -> None:
     assert robot.joint(20).name == "head_tilt"
     with pytest.raises(KeyError, match="unknown joint"):
         robot.joint("tail")
+
+
+def test_the_status_sub_maps_name_every_key_the_daemon_publishes() -> None:
+    """``status.motion`` and ``status.leds`` are typed: a key a module adds or drops without
+    its type in schemas.messages fails here (clients read the types, not the daemon)."""
+    motion = build_manager(load_robot(), load_all()).status()
+    types = typing.get_type_hints(MotionInfo)
+    assert set(motion) == set(types)
+    for name, value in motion.items():
+        if typing.is_typeddict(types[name]):
+            assert set(value) == set(typing.get_type_hints(types[name])), name
+    leds = cm730_status(bytes(range(1, 80)))["leds"]
+    assert set(leds) == set(typing.get_type_hints(LedsInfo))
