@@ -33,10 +33,7 @@ def number(
         raise Reject(ErrorCode.INVALID, f"{name} must be a number, got {brief(value)}", name)
     if not math.isfinite(value):
         raise Reject(ErrorCode.INVALID, f"{name} must be finite, got {brief(value)}", name)
-    if (low is not None and value < low) or (high is not None and value > high):
-        raise Reject(
-            ErrorCode.OUT_OF_RANGE, f"{name}={brief(value)} is outside {low!r}..{high!r}", name
-        )
+    _within(name, value, low, high)
     return float(value)
 
 
@@ -52,11 +49,15 @@ def integer(
     value = present(fields, name)
     if isinstance(value, bool) or not isinstance(value, int):
         raise Reject(ErrorCode.INVALID, f"{name} must be an integer, got {brief(value)}", name)
+    _within(name, value, low, high)
+    return value
+
+
+def _within(name: str, value: float, low: float | None, high: float | None) -> None:
     if (low is not None and value < low) or (high is not None and value > high):
         raise Reject(
             ErrorCode.OUT_OF_RANGE, f"{name}={brief(value)} is outside {low}..{high}", name
         )
-    return value
 
 
 def boolean(fields: dict[str, Any], name: str, default: Any = _MISSING) -> bool:
