@@ -19,8 +19,10 @@ One event when the robot falls, one when it has been upright for ``settle_ticks`
 from __future__ import annotations
 
 from collections import deque
+from dataclasses import dataclass
 from typing import Any
 
+from config.loader import section_to
 from robot_daemon.motion.interface import JointFrame, MotionModule
 
 UPRIGHT, FORWARD, BACKWARD = "upright", "fallen_forward", "fallen_backward"
@@ -28,19 +30,30 @@ UPRIGHT, FORWARD, BACKWARD = "upright", "fallen_forward", "fallen_backward"
 DIRECTION = {UPRIGHT: "none", FORWARD: "forward", BACKWARD: "backward"}
 
 
+@dataclass(frozen=True)
+class FallRecovery:
+    """``[fall]`` (config/motion.toml); the detection thresholds are in ``[imu]``."""
+
+    recover: bool = True
+    get_up_front_page: int = 10
+    get_up_back_page: int = 11
+    settle_ticks: int = 60
+
+
 class FallMonitor(MotionModule):
     name = "fall"
 
     def __init__(self, imu: dict[str, Any] | None = None, fall: dict[str, Any] | None = None):
         super().__init__()
-        imu, fall = imu or {}, fall or {}
+        imu = imu or {}
         self.forward_below = float(imu.get("fall_forward_below", 390))
         self.backward_above = float(imu.get("fall_backward_above", 580))
         self.window: deque[float] = deque(maxlen=int(imu.get("fall_window", 30)))
-        self.recover = bool(fall.get("recover", True))
-        self.front_page = int(fall.get("get_up_front_page", 10))
-        self.back_page = int(fall.get("get_up_back_page", 11))
-        self.settle_ticks = int(fall.get("settle_ticks", 60))
+        settings = section_to(FallRecovery, fall or {}, "fall")
+        self.recover = settings.recover
+        self.front_page = settings.get_up_front_page
+        self.back_page = settings.get_up_back_page
+        self.settle_ticks = settings.settle_ticks
         self.state = UPRIGHT
         self.now = UPRIGHT  # the present window's classification (state latches until settled)
         self.falls = 0

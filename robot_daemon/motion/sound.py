@@ -12,29 +12,43 @@ import logging
 import shutil
 import subprocess
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from config.loader import section_to
 
 log = logging.getLogger(__name__)
 
 Emit = Callable[..., None]
 
 
+@dataclass(frozen=True)
+class SoundSettings:
+    """``[sound]`` (config/motion.toml)."""
+
+    backend: str = "event"
+    play_command: list[str] = field(default_factory=lambda: ["aplay", "-q", "{file}"])
+    say_command: list[str] = field(default_factory=lambda: ["espeak-ng", "-v", "{lang}", "--stdin"])
+    language: str = "en"
+    sounds_dir: str = ""
+
+
 class SoundPlayer:
     def __init__(self, section: dict[str, Any] | None = None) -> None:
-        s = section or {}
-        self.backend = str(s.get("backend", "event"))
+        s = section_to(SoundSettings, section or {}, "sound")
+        self.backend = s.backend
         if self.backend not in ("event", "command"):
             raise ValueError(f"[sound] backend must be 'event' or 'command', not {self.backend!r}")
-        self.play_command = list(s.get("play_command", ["aplay", "-q", "{file}"]))
-        self.say_command = list(s.get("say_command", ["espeak-ng", "-v", "{lang}", "--stdin"]))
+        self.play_command = list(s.play_command)
+        self.say_command = list(s.say_command)
         if any("{text}" in str(a) for a in self.say_command):
             raise ValueError(
                 "[sound] say_command must not contain {text}: the phrase is written to the "
                 'player\'s stdin, e.g. ["espeak-ng", "-v", "{lang}", "--stdin"]'
             )
-        self.language = str(s.get("language", "en"))
-        self.sounds_dir = Path(s["sounds_dir"]) if s.get("sounds_dir") else None
+        self.language = s.language
+        self.sounds_dir = Path(s.sounds_dir) if s.sounds_dir else None
         self._proc: subprocess.Popen[bytes] | None = None
         self._stopped: list[subprocess.Popen[bytes]] = []  # terminated, reaped by polling
         self.last: dict[str, Any] | None = None

@@ -12,7 +12,9 @@ from gateway.settings import load_settings
 from robot_daemon.arbiter.lease import Lease
 from robot_daemon.arbiter.throttle import ArbiterLimits
 from robot_daemon.motion.ball.settings import BallPlaySettings
+from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.head import HeadLimits
+from robot_daemon.motion.sound import SoundPlayer
 from robot_daemon.motion.walking.params import check
 from robot_daemon.vision.ball_finder import FinderSettings
 from schemas.errors import ConfigError
@@ -113,6 +115,10 @@ def test_nearest_prefers_a_case_only_difference_and_honours_the_cutoff() -> None
         (lambda c: ArbiterLimits.from_config({"queue_size": 0}), "queue_size must be a positive"),
         (lambda c: HeadLimits.from_config({"pan_max": 60.0}), r"\[head\].*'pan_max_deg'"),
         (lambda c: Lease.from_config({"idle_timout": 3.0}), r"\[daemon.lease\].*'idle_timeout'"),
+        (lambda c: FallMonitor(c["imu"], {"recovr": False}), r"\[fall\].*'recover'"),
+        (lambda c: FallMonitor(c["imu"], {"settle_ticks": 1.5}), "settle_ticks = 1.5 should be"),
+        (lambda c: SoundPlayer({"langauge": "pt"}), r"\[sound\].*'language'"),
+        (lambda c: SoundPlayer({"say_command": "espeak"}), "should be a list of strings"),
     ],
 )
 def test_every_settings_module_refuses_a_misspelt_key_naming_the_right_one(
@@ -128,6 +134,8 @@ def test_the_shipped_config_reads_cleanly_through_every_settings_module() -> Non
     assert FinderSettings.from_config(c["ballplay"], "blue").color.name == "blue"
     assert ArbiterLimits.from_config(c["daemon"]["arbiter"]).queue_size == 64
     assert HeadLimits.from_config(c["head"]).speed == 3.0
+    assert FallMonitor(c["imu"], c["fall"]).back_page == 11
+    assert SoundPlayer(c["sound"]).say_command[-1] == "--stdin"
     assert load_settings().walk.x_mps_per_unit > 0
 
 
