@@ -19,6 +19,7 @@ import pytest
 import zenoh
 
 from clients.fleet import discover
+from clients.recording import Replayer, read_recording
 from clients.robot import Robot
 from schemas.keys import every_robot, robot_of
 from schemas.session import open_client
@@ -168,3 +169,37 @@ def test_a_frozen_robot_leaves_the_list_within_its_link_lease(fleet: Fleet) -> N
         # The others were never affected.
         with contextlib.closing(open_client(fleet.endpoint)) as session:
             assert set(fleet.robots) <= {r.name for r in discover(session)}
+
+
+@pytest.mark.parametrize("which", ["named", "every"])
+def test_the_recorder_writes_several_robots_into_one_file(
+    fleet: Fleet, tmp_path: Path, which: str
+) -> None:
+    a, b = fleet.robots
+    chosen = ["--robot", a, "--robot", b] if which == "named" else ["--robot", "*"]
+    out = tmp_path / "fleet.mcap"
+    done = run_darwin(
+        "record", "-o", str(out), "--connect", fleet.endpoint, *chosen,
+        "--topics", "joints", "status", "--duration", "2",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    rec = read_recording(out)
+    assert {a, b} <= set(rec.robots)
+    for name in (a, b):
+        mine = rec.only(name)
+        assert mine.robot == name
+        joints = list(mine.decoded("joints"))
+        assert joints and all(len(j.position) == 20 for j in joints)
+        assert any(s.robot == name for s in mine.decoded("status"))
+    # Replay keeps working: it plays one robot of the file, chosen by name.
+    refused = run_darwin("replay", str(out), "--connect", fleet.endpoint)
+    assert refused.returncode == 2 and "--source" in refused.stderr
+    replay_name = f"{b}-again"
+    with contextlib.closing(open_client(fleet.endpoint)) as session:
+        player = Replayer(rec.only(b), session, replay_name, loop=True)
+        player.start()
+        try:
+            with Robot(fleet.endpoint, replay_name, name="viewer") as viewer:
+                assert len(viewer.wait_for("joints", timeout=10).position) == 20
+        finally:
+            player.stop()
