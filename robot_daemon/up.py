@@ -1,5 +1,9 @@
 """`darwin up`: emulator (unless `--port`), daemon and gateway in one command.
 
+With ``--router ENDPOINT`` the robot joins a fleet: the daemon, the simulated world and the
+adapters connect to that router (``zenoh:`` is then the router's endpoint) and the servers take
+free ports unless told, so several ``darwin up --robot NAME`` share one machine.
+
 Prints where each listens, one line each and flushed — ``zenoh: tcp/HOST:PORT`` and
 ``gateway: HOST:PORT`` (or ``gateway: none (…)``) — then relays the children's output until
 Ctrl-C or SIGTERM, which stop every child (none is left behind; if this process is killed
@@ -24,7 +28,7 @@ from dataclasses import dataclass, field
 
 from config.loader import load_all
 from robot_daemon.children import Child, ChildError, relay_to_stderr
-from robot_daemon.daemon_cli import _resolve_listen
+from robot_daemon.daemon_cli import _resolve_listen, router_of
 
 START_TIMEOUT = 30.0
 RESTART_BACKOFF_MIN = 1.0  # s before an adapter that died is started again, doubling …
@@ -45,6 +49,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", help="robot name in every key (config robot.name)")
     parser.add_argument(
         "--listen", help="Zenoh endpoint of the daemon (config zenoh.listen); port 0 = any free"
+    )
+    parser.add_argument(
+        "--router",
+        metavar="ENDPOINT",
+        help="join this Zenoh router (`darwin router`) instead of being the meeting point: the "
+        "daemon, world and adapters connect there, servers pick free ports unless told "
+        "(config zenoh.router)",
     )
     parser.add_argument(
         "--gateway-listen", help="HOST:PORT of the legacy TCP gateway (config gateway.listen)"
@@ -100,8 +111,12 @@ def gateway_available() -> bool:
         return False
 
 
-def daemon_args(args: argparse.Namespace, listen: str) -> list[str]:
-    out = ["daemon", "--listen", listen]
+def daemon_args(args: argparse.Namespace, listen: str | None, router: str | None) -> list[str]:
+    out = ["daemon"]
+    if listen:
+        out += ["--listen", listen]
+    if router:
+        out += ["--router", router]
     if args.port:
         out += ["--port", args.port]
     else:
@@ -123,9 +138,16 @@ def daemon_args(args: argparse.Namespace, listen: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     settings = load_all(args.config)
-    listen = _resolve_listen(
-        [args.listen or settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]]
-    )[0]
+    router = router_of(args, settings)
+    listen: str | None = None
+    if args.listen or not router:
+        # Joined to a router, the daemon listens only where told (see `darwin daemon`).
+        listen = _resolve_listen(
+            [args.listen or settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]]
+        )[0]
+    # In a fleet several `darwin up` share a machine: their servers take free ports unless
+    # told otherwise (each prints where it listens).
+    free = "127.0.0.1:0" if router else None
     stop = threading.Event()
 
     def on_signal(_signum: int, _frame: object) -> None:
@@ -138,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
     # With the UI in this terminal, the children's chatter would scribble over it.
     relay = None if args.tui else relay_to_stderr
     try:
-        daemon = Child("daemon", daemon_args(args, listen), relay)
+        daemon = Child("daemon", daemon_args(args, listen, router), relay)
         children.append(daemon)
         endpoint = daemon.wait_line("zenoh:", START_TIMEOUT)
         robot = daemon_robot(daemon, args.robot or settings["robot"].get("name", "op1"))
@@ -150,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
             print("gateway: none (not in this build)", flush=True)
         else:
             gw = ["gateway", "--connect", endpoint, "--robot", robot]
-            gw_listen = args.gateway_listen or settings.get("gateway", {}).get("listen")
+            gw_listen = args.gateway_listen or free or settings.get("gateway", {}).get("listen")
             if gw_listen:
                 gw += ["--listen", gw_listen]
             if args.config:
@@ -159,13 +181,13 @@ def run(args: argparse.Namespace) -> int:
             children.append(gateway)
             adapters.append(Adapter(gateway))
             print(f"gateway: {gateway.wait_line('gateway:', START_TIMEOUT)}", flush=True)
-        for name, wanted, listen in (
+        for name, wanted, where in (
             ("ros2", args.ros2, None),
-            ("foxglove", args.foxglove, args.foxglove_listen),
-            ("web", args.web, args.web_listen),
+            ("foxglove", args.foxglove, args.foxglove_listen or free),
+            ("web", args.web, args.web_listen or free),
         ):
             if wanted:
-                extra = ["--listen", listen] if listen else []
+                extra = ["--listen", where] if where else []
                 child = Child(name, [name, "--connect", endpoint, "--robot", robot, *extra], relay)
                 children.append(child)
                 adapters.append(Adapter(child))
