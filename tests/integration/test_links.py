@@ -64,11 +64,12 @@ def assert_safe_stop(observer: Agent, holder: str, cut: float, what: str) -> Non
     stopped = observer.request(
         "wait_event", kind="walk", data={"state": "stopped"}, since=cut, timeout=WAIT
     )
+    # The legs are handed back (holding the pose) on the tick after the last step ends.
     status = observer.request(
-        "wait_status", path="motion.walking.walking", equals=False, timeout=WAIT, fresh=True
+        "wait_status", path="motion.owners", lacks="walking", timeout=WAIT, fresh=True
     )
     assert status["lease"] is None
-    assert "walking" not in status["motion"]["owners"].values()  # handed back: holding the pose
+    assert status["motion"]["walking"]["walking"] is False
     print(
         f"\n{what}: lease ended {ended['stamp'] - cut:.2f} s after the cut "
         f"({ended['data']['reason']}), walk stopped {stopped['stamp'] - cut:.2f} s after it"
