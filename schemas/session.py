@@ -110,7 +110,12 @@ def server_config(
         raise ValueError(f"zenoh mode {mode!r} is not one of {', '.join(SERVER_MODES)}")
     for ep in listen:
         check_endpoint(ep)
-    return _config(mode, listen, [], lease_ms, max_message_bytes)
+    conf = _config(mode, listen, [], lease_ms, max_message_bytes)
+    # A publication (DROP) to a client whose link is congested waits this long (µs) for room
+    # in that link's queue, in the publishing thread: Zenoh's 1000 would let one slow client
+    # hold up the publisher thread (and every other subscriber) for 1 ms per message.
+    conf.insert_json5("transport/link/tx/queue/congestion_control/drop/wait_before_drop", "50")
+    return conf
 
 
 def client_config(endpoint: str, lease_ms: int | None = 3000) -> zenoh.Config:
