@@ -115,6 +115,12 @@ def server_config(
     # in that link's queue, in the publishing thread: Zenoh's 1000 would let one slow client
     # hold up the publisher thread (and every other subscriber) for 1 ms per message.
     conf.insert_json5("transport/link/tx/queue/congestion_control/drop/wait_before_drop", "50")
+    # A message that may not be dropped (a declaration, a reply) to a client whose link is dead
+    # with a full queue blocks for this long (µs) before that client's transport is closed, and
+    # meanwhile the whole session stalls: with Zenoh's 5 s every other client of the robot went
+    # silent (their leases and heartbeats too) after one operator's link was cut.
+    congestion = "transport/link/tx/queue/congestion_control"
+    conf.insert_json5(f"{congestion}/block/wait_before_close", "500000")
     return conf
 
 
