@@ -199,6 +199,7 @@ def summarise(label: str, res: dict, robots_n: int, tick_hz: float) -> dict[str,
         "rate_mean": sum(rates) / len(rates),
         "rate_min": min(rates),
         "delivered_min": min(delivered),
+        "delivered_mean": sum(delivered) / len(delivered),
         "robot_hz": sum(robot_hz) / len(robot_hz),
         "p50_ms": pct(lat, 0.5) * 1000,
         "p99_ms": pct(lat, 0.99) * 1000,
@@ -227,7 +228,8 @@ def project(base: dict[str, float], fleet: dict[str, float], robots_n: int, obs_
     per_msg_us = fleet["router_cores"] / handled * 1e6 if handled else float("nan")
     base_handled = max(1.0, base["in_msgs"] + base["out_msgs"])
     base_us = base["router_cores"] / base_handled * 1e6
-    per_robot = base["per_robot_msgs"]  # what one robot publishes (the baseline gets it all)
+    # What one robot publishes: what the baseline observer got, scaled by the share it got.
+    per_robot = base["per_robot_msgs"] / base["delivered_mean"]
     in_msgs = robots_n * per_robot
     out_msgs = obs_n * per_robot
     cores = (in_msgs + out_msgs) * per_msg_us / 1e6
@@ -285,9 +287,8 @@ def main() -> int:
         res = run(router.endpoint, pid, names, args.observers, args.seconds)
         fleet = summarise(label, res, args.robots, tick_hz)
         # What the robots published into the router (observers may have received less).
-        fleet["in_msgs"] = (
-            args.robots * base["per_robot_msgs"] * fleet["robot_hz"] / base["robot_hz"]
-        )
+        published = base["per_robot_msgs"] / base["delivered_mean"]
+        fleet["in_msgs"] = args.robots * published * fleet["robot_hz"] / base["robot_hz"]
         print(
             f"{'vs baseline':<22} {fleet['rate_mean'] / base['rate_mean']:>7.2f} "
             f"{fleet['rate_min'] / base['rate_mean']:>7.2f} {'':>6} "
