@@ -41,8 +41,11 @@ def resolve(endpoint: str | None = None, robot: str | None = None) -> Target:
     return Target(ep, check_robot_name(name))
 
 
-def add_target_arguments(parser: argparse.ArgumentParser, robot_default: str = "") -> None:
-    """``--connect`` and ``--robot``, the same for every client of the key space."""
+def add_target_arguments(
+    parser: argparse.ArgumentParser, robot_default: str = "", several: bool = False
+) -> None:
+    """``--connect`` and ``--robot``, the same for every client of the key space (``several``:
+    ``--robot`` may repeat, a list of names, for clients of several robots like the recorder)."""
     parser.add_argument(
         "--connect",
         metavar="ENDPOINT",
@@ -52,7 +55,9 @@ def add_target_arguments(parser: argparse.ArgumentParser, robot_default: str = "
     parser.add_argument(
         "--robot",
         metavar="NAME",
-        help=f"robot name (default: {robot_default}${ENV_ROBOT}, else {DEFAULT_ROBOT})",
+        action="append" if several else "store",
+        help=f"robot name (default: {robot_default}${ENV_ROBOT}, else {DEFAULT_ROBOT})"
+        + ("; repeat it for several robots, '*' for every robot" if several else ""),
     )
 
 

@@ -10,6 +10,7 @@ import os
 import signal
 import threading
 import time
+import typing
 import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -19,9 +20,11 @@ import pytest
 import zenoh
 
 from clients.fleet import discover
+from clients.recording import Replayer, read_recording
 from clients.robot import Robot
 from schemas.keys import every_robot, robot_of
-from schemas.session import open_client
+from schemas.messages import NetworkInfo
+from schemas.session import free_tcp_port, open_client
 from tests.fixtures.fleet import RunningRouter, start_router
 from tests.fixtures.system import RunningSystem, run_darwin, start_system
 
@@ -168,3 +171,60 @@ def test_a_frozen_robot_leaves_the_list_within_its_link_lease(fleet: Fleet) -> N
         # The others were never affected.
         with contextlib.closing(open_client(fleet.endpoint)) as session:
             assert set(fleet.robots) <= {r.name for r in discover(session)}
+
+
+@pytest.mark.parametrize("which", ["named", "every"])
+def test_the_recorder_writes_several_robots_into_one_file(
+    fleet: Fleet, tmp_path: Path, which: str
+) -> None:
+    a, b = fleet.robots
+    chosen = ["--robot", a, "--robot", b] if which == "named" else ["--robot", "*"]
+    out = tmp_path / "fleet.mcap"
+    done = run_darwin(
+        "record", "-o", str(out), "--connect", fleet.endpoint, *chosen,
+        "--topics", "joints", "status", "--duration", "2",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    rec = read_recording(out)
+    assert {a, b} <= set(rec.robots)
+    for name in (a, b):
+        mine = rec.only(name)
+        assert mine.robot == name
+        joints = list(mine.decoded("joints"))
+        assert joints and all(len(j.position) == 20 for j in joints)
+        assert any(s.robot == name for s in mine.decoded("status"))
+    # Replay keeps working: it plays one robot of the file, chosen by name.
+    refused = run_darwin("replay", str(out), "--connect", fleet.endpoint)
+    assert refused.returncode == 2 and "--source" in refused.stderr
+    replay_name = f"{b}-again"
+    with contextlib.closing(open_client(fleet.endpoint)) as session:
+        player = Replayer(rec.only(b), session, replay_name, loop=True)
+        player.start()
+        try:
+            with Robot(fleet.endpoint, replay_name, name="viewer") as viewer:
+                assert len(viewer.wait_for("joints", timeout=10).position) == 20
+        finally:
+            player.stop()
+
+
+def test_status_says_where_the_robot_is_reached(fleet: Fleet) -> None:
+    name = next(iter(fleet.robots))
+    with Robot(fleet.endpoint, name, name="network") as robot:
+        status = robot.wait_for("status")
+    assert set(status.network) == set(typing.get_type_hints(NetworkInfo))
+    assert status.network == {"endpoint": fleet.endpoint, "router": fleet.endpoint, "listen": []}
+
+
+def test_router_and_fleet_failures_are_one_line(fleet: Fleet) -> None:
+    busy = run_darwin("router", "--listen", fleet.endpoint)
+    assert busy.returncode == 1
+    assert busy.stderr.strip().count("\n") == 0 and "already in use" in busy.stderr
+    bad = run_darwin("router", "--listen", "localhost:7447")
+    assert bad.returncode == 1 and "not a Zenoh locator" in bad.stderr
+    nobody = f"tcp/127.0.0.1:{free_tcp_port()}"
+    alone = run_darwin("up", "--router", nobody, "--robot", "lonely", "--no-gateway")
+    assert alone.returncode == 1
+    assert f"cannot reach the router at {nobody}" in alone.stderr
+    assert "Traceback" not in alone.stderr
+    listed = run_darwin("list", "--connect", nobody)
+    assert listed.returncode == 1 and "nothing answers" in listed.stderr
