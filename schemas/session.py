@@ -118,17 +118,17 @@ def server_config(
     conf = _config(mode, listen, [], lease_ms, max_message_bytes)
     congestion = "transport/link/tx/queue/congestion_control"
     if mode == "peer":
-        # The daemon publishes every tick from one thread; a publication (DROP) to a client
-        # whose link is congested waits this long (µs) for room in that link's queue, in that
-        # thread: Zenoh's 1000 let one slow client hold up every other subscriber. A router
-        # keeps Zenoh's wait: there a shorter one drops more for slow observers (fleet
-        # benchmark) and the lossy-link tests pass with it.
+        # The daemon's session (a router keeps Zenoh's defaults: with these it closed a lossy
+        # operator's link over and over, and dropped more for slow observers).
+        # It publishes every tick from one thread; a publication (DROP) to a client whose link
+        # is congested waits this long (µs) for room in that link's queue, in that thread:
+        # Zenoh's 1000 let one slow client hold up every other subscriber.
         conf.insert_json5(f"{congestion}/drop/wait_before_drop", "50")
-    # A message that may not be dropped (a declaration, a reply) to a client whose link is dead
-    # with a full queue blocks for this long (µs) before that client's transport is closed, and
-    # meanwhile the whole session stalls: with Zenoh's 5 s every other client of the robot went
-    # silent (their leases and heartbeats too) after one operator's link was cut.
-    conf.insert_json5(f"{congestion}/block/wait_before_close", "500000")
+        # A message that may not be dropped (a declaration, a reply) to a client whose link is
+        # dead with a full queue blocks this long (µs) before that client's transport closes,
+        # and meanwhile the whole session stalls: with Zenoh's 5 s every other client of the
+        # robot went silent (leases and heartbeats too) after one operator's link was cut.
+        conf.insert_json5(f"{congestion}/block/wait_before_close", "500000")
     return conf
 
 

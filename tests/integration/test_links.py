@@ -206,7 +206,8 @@ def test_lossy_slow_operator_link_neither_slows_observers_nor_repeats_commands(
     print(f"impairment by {net.impairment}")
     outcomes = [kind for _, kind in sent]
     print(f"commands: {outcomes.count('ok')} applied, {len(outcomes) - outcomes.count('ok')} "
-          f"errors {sorted(set(outcomes) - {'ok'})}, lease re-taken {lease_lost}×")  # fmt: skip
+          f"errors {sorted(set(outcomes) - {'ok'})}, lease re-taken {lease_lost}×: "
+          f"{' '.join(k.removesuffix('Error') for k in outcomes)}")  # fmt: skip
     # Observers on other links keep the tick rate: a generous bound, the same observer before.
     assert during["rate"] >= 0.8 * before["rate"]
     # Each command applied once (its value shows in one run, in the order sent) or errored
