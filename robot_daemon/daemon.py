@@ -378,7 +378,9 @@ class Daemon:
         self.pub.post("joints", self._joints_message(frame))
         self.pub.post("imu", self._imu_message(frame))
         self._update_state()
-        if self.tick % 25 == 0 and self.lease.expire():
+        # Every tick (a lock and a clock read): a silent holder's lease ends within one tick of
+        # heartbeat_timeout after its last renewal, so a cut link stops the robot within it.
+        if self.lease.expire():
             self._status_dirty = True
         if self._status_dirty or now - self._last_status >= self.status_period:
             self._publish_status(now)

@@ -36,8 +36,12 @@ class Publishers:
                 congestion_control=zenoh.CongestionControl.DROP,
                 express=True,
             )
+        # Events have a queue of their own on every link (a higher priority than the per-tick
+        # topics), so a burst of joints frames waiting for a busy sender never crowds one out.
         self._pubs["events"] = session.declare_publisher(
-            keys.events, congestion_control=zenoh.CongestionControl.DROP
+            keys.events,
+            congestion_control=zenoh.CongestionControl.DROP,
+            priority=zenoh.Priority.DATA_HIGH,
         )
         self._slots: dict[str, Message] = {}
         self._events: deque[Event] = deque(maxlen=1000)

@@ -84,6 +84,14 @@ def _config(
     conf.insert_json5("scouting/multicast/enabled", "false")
     conf.insert_json5("listen/endpoints", json.dumps(listen))
     conf.insert_json5("connect/endpoints", json.dumps(connect))
+    if mode == "client":
+        # A client whose link drops reconnects to its endpoint by itself, forever (Zenoh's
+        # default for a closed session); retry at least every second rather than every 4 s,
+        # so a notebook sees the robot again soon after a cut link comes back.
+        conf.insert_json5(
+            "connect/retry",
+            json.dumps({"period_init_ms": 250, "period_max_ms": 1000, "period_increase_factor": 2}),
+        )
     if lease_ms is not None:
         # A dead client's liveliness token goes after the link lease: keep it short so the
         # arbiter brings the robot to a safe stop quickly when a controller vanishes.
@@ -107,7 +115,21 @@ def server_config(
         raise ValueError(f"zenoh mode {mode!r} is not one of {', '.join(SERVER_MODES)}")
     for ep in listen:
         check_endpoint(ep)
-    return _config(mode, listen, [], lease_ms, max_message_bytes)
+    conf = _config(mode, listen, [], lease_ms, max_message_bytes)
+    congestion = "transport/link/tx/queue/congestion_control"
+    if mode == "peer":
+        # The daemon's session (a router keeps Zenoh's defaults: with these it closed a lossy
+        # operator's link over and over, and dropped more for slow observers).
+        # It publishes every tick from one thread; a publication (DROP) to a client whose link
+        # is congested waits this long (µs) for room in that link's queue, in that thread:
+        # Zenoh's 1000 let one slow client hold up every other subscriber.
+        conf.insert_json5(f"{congestion}/drop/wait_before_drop", "50")
+        # A message that may not be dropped (a declaration, a reply) to a client whose link is
+        # dead with a full queue blocks this long (µs) before that client's transport closes,
+        # and meanwhile the whole session stalls: with Zenoh's 5 s every other client of the
+        # robot went silent (leases and heartbeats too) after one operator's link was cut.
+        conf.insert_json5(f"{congestion}/block/wait_before_close", "500000")
+    return conf
 
 
 def client_config(endpoint: str, lease_ms: int | None = 3000) -> zenoh.Config:
