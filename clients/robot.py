@@ -53,7 +53,10 @@ from schemas.messages import (
     decode,
 )
 from schemas.query import ask
-from schemas.session import Target, open_client, resolve
+from schemas.roles import Role, command_key, discover_role, parse_role, required_role
+from schemas.roles import check as check_role
+from schemas.session import Credentials, Target, open_client, resolve
+from schemas.session import credentials as make_credentials
 
 log = logging.getLogger(__name__)
 
@@ -153,20 +156,38 @@ class Commander:
         client_id: str | None = None,
         timeout: float = 3.0,
         session: zenoh.Session | None = None,
+        user: str | None = None,
+        password: str | None = None,
+        credentials: Credentials | None = None,
+        role: Role | str | None = None,
     ) -> None:
-        self.target: Target = resolve(endpoint, robot)
+        if credentials is None and (user or password):
+            credentials = make_credentials(user=user, password=password)
+        self.target: Target = resolve(endpoint, robot, credentials)
         self.keys = Keys(self.target.robot)
         self.client_id = client_id or uuid.uuid4().hex[:12]
         self.name = name or f"python-{self.client_id[:6]}"
         self.timeout = timeout
         self._own_session = session is None
         try:
-            self.session = session or open_client(self.target.endpoint)
+            self.session = session or open_client(self.target)
         except zenoh.ZError as exc:
+            who = self.target.credentials.identity if self.target.credentials else None
+            login = (
+                f" as {who}: check the user, password or certificate (a robot with --auth or "
+                "--secure refuses a wrong one at connection)"
+                if who
+                else "; if it runs with --auth or --secure, pass --user/--password-file or "
+                "--cert/--key (README, \"Roles and security\")"
+            )
             raise RobotUnreachableError(
                 f"cannot open a Zenoh session to {self.target.endpoint}: {exc}. "
-                "Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT."
+                f"Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT"
+                f"{login}"
             ) from exc
+        # The role is what the robot's access control grants us: learnt from it on first need
+        # (``role``), or given (a gateway running with --role).
+        self._role: Role | None = parse_role(role) if role else None
         self._closed = False
         # The lease secret while we hold the lease, renewed from a thread.
         self._lease = LeaseKeeper(
@@ -206,7 +227,12 @@ class Commander:
         """Send one arbiter command; return its *applied* map or raise."""
         if self._closed:
             raise ClientError("this Robot is closed; create a new one")
-        key = self.keys.cmd(verb)
+        key = command_key(self.keys, verb, fields)
+        if required_role(verb, fields) != Role.OBSERVER:
+            # Refused here at once, naming the role that may: access control would drop the
+            # query silently (no reply), which looks like an unreachable robot.
+            creds = self.target.credentials
+            check_role(self.role, verb, fields, (creds.identity if creds else None) or "")
         envelope: dict[str, Any] = {"client_name": self.name}
         token = self._lease.token
         if token is not None:
@@ -248,6 +274,14 @@ class Commander:
             elif fields.get("op") == "release":
                 self._lease.drop()
         return applied
+
+    @property
+    def role(self) -> Role | None:
+        """This client's role as the robot's access control sees it (None: unknown, e.g. an
+        older daemon): the highest of the daemon's per-role keys that answers us."""
+        if self._role is None:
+            self._role = discover_role(self.session, self.keys, min(self.timeout, 2.0))
+        return self._role
 
     @property
     def holds_lease(self) -> bool:
@@ -369,9 +403,22 @@ class Robot(Commander, TeachMixin):
         client_id: str | None = None,
         timeout: float = 3.0,
         session: zenoh.Session | None = None,
+        user: str | None = None,
+        password: str | None = None,
+        credentials: Credentials | None = None,
     ) -> None:
+        """``user``/``password`` (or ``credentials``) log in to a robot that runs with --auth
+        or --secure; without them the environment's or the client file's are used."""
         super().__init__(
-            endpoint, robot, name=name, client_id=client_id, timeout=timeout, session=session
+            endpoint,
+            robot,
+            name=name,
+            client_id=client_id,
+            timeout=timeout,
+            session=session,
+            user=user,
+            password=password,
+            credentials=credentials,
         )
         self._lock = threading.Lock()
         self._state = RobotState()

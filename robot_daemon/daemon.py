@@ -37,6 +37,7 @@ from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
+from robot_daemon.security.acl import Security, serve_roles
 from robot_daemon.services import DaemonInfo
 from schemas.errors import BusError, DarwinError, ErrorCode, PortError
 from schemas.keys import Keys
@@ -76,6 +77,7 @@ class DaemonOptions:
     allow_eeprom: bool = False
     connect: list[str] = field(default_factory=list)  # peers to join, e.g. the emulator's
     extras: dict[str, Any] = field(default_factory=dict)
+    security: Security | None = None  # --auth/--secure: authentication, TLS, access control
 
 
 class Daemon:
@@ -174,6 +176,8 @@ class Daemon:
         )
         if self.options.connect:
             conf.insert_json5("connect/endpoints", json.dumps(self.options.connect))
+        if self.options.security is not None:
+            self.options.security.apply(conf)
         try:
             self.session = zenoh.open(conf)
         except zenoh.ZError as exc:
@@ -190,6 +194,7 @@ class Daemon:
         self.arbiter.gate = self._outage_gate
         self.arbiter.on_wakeup = self._wake.set
         self._alive = self.session.liveliness().declare_token(self.keys.alive)
+        self._roles = serve_roles(self.session, self.keys)
         if self.options.camera != "none":
             from robot_daemon.camera import CameraThread
 
@@ -237,6 +242,8 @@ class Daemon:
         if self.session is not None:
             with contextlib.suppress(Exception):
                 self.session.close()
+        if self.options.security is not None:
+            self.options.security.close()
 
     def _halt_and_hold(self) -> None:
         """Every module stops now and the present pose is written as the goal, while the bus

@@ -17,6 +17,12 @@ from typing import Any
 from config.loader import load_all, robot_from_dict
 from robot_daemon.children import Child, relay_to_stderr
 from robot_daemon.daemon import Daemon, DaemonOptions
+from robot_daemon.security.options import (
+    add_security_arguments,
+    listen_warnings,
+    secure_listen,
+    security_from_args,
+)
 from robot_daemon.vision.sources import check_spec
 from schemas.errors import ConfigError
 from schemas.keys import check_robot_name
@@ -81,6 +87,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="with --sim: model 1 Mbps wire time in the emulator",
     )
+    add_security_arguments(parser)
 
 
 def _resolve_listen(listen: list[str]) -> list[str]:
@@ -138,9 +145,17 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
     dcfg = settings.get("daemon", {})
     try:
         name = check_robot_name(args.robot or robot.name)
-        listen = _resolve_listen(args.listen or list(settings.get("zenoh", {}).get("listen", [])))
-    except ValueError as exc:  # a bad --robot or --listen names itself
+        security = security_from_args(args)
+        listen = secure_listen(
+            args.listen or list(settings.get("zenoh", {}).get("listen", [])),
+            security,
+            explicit=bool(args.listen),
+        )
+        listen = _resolve_listen(listen)
+    except ValueError as exc:  # a bad --robot, --listen or --mtls names itself
         raise ConfigError(str(exc)) from None
+    for warning in listen_warnings(listen, security):
+        print(f"darwin daemon: {warning}", file=sys.stderr, flush=True)
     camera = check_spec(args.camera or default_camera(args, dcfg))
     opts = DaemonOptions(
         robot=name,
@@ -153,6 +168,7 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
             if args.allow_eeprom is not None
             else dcfg.get("allow_eeprom_writes", False)
         ),
+        security=security,
         extras={
             "allow_hardware_writes": bool(
                 args.allow_hardware_writes
@@ -171,7 +187,13 @@ def run(args: argparse.Namespace) -> int:
         sim_args = list(args.sim_arg)
         if not any(a.startswith("--control-listen") for a in sim_args):
             # The emulator's control ops (faults…) and world, reachable through the daemon.
-            control = f"tcp/127.0.0.1:{free_tcp_port()}"
+            # With access control, over a Unix socket in a private directory: only this user
+            # reaches it, and the daemon's rules give that link (only) every right.
+            control = (
+                f"unixsock-stream/{tempfile.mkdtemp(prefix='darwin-sim-')}/control.sock"
+                if (args.auth or args.secure)
+                else f"tcp/127.0.0.1:{free_tcp_port()}"
+            )
             robot_name = args.robot or load_all(args.config)["robot"].get("name", "op1")
             sim_args += [f"--control-listen={control}", f"--robot={robot_name}"]
             connect.append(control)
