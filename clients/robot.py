@@ -53,7 +53,7 @@ from schemas.messages import (
     decode,
 )
 from schemas.query import ask
-from schemas.roles import Role, command_key, discover_role, parse_role, required_role
+from schemas.roles import LADDER, Role, command_key, discover_role, parse_role, required_role
 from schemas.roles import check as check_role
 from schemas.session import Credentials, Target, open_client, resolve
 from schemas.session import credentials as make_credentials
@@ -161,7 +161,9 @@ class Commander:
         credentials: Credentials | None = None,
         role: Role | str | None = None,
     ) -> None:
-        if credentials is None and (user or password):
+        if session is not None:
+            credentials = Credentials()  # the session is open: who it is was settled there
+        elif credentials is None and (user or password):
             credentials = make_credentials(user=user, password=password)
         self.target: Target = resolve(endpoint, robot, credentials)
         self.keys = Keys(self.target.robot)
@@ -185,9 +187,10 @@ class Commander:
                 f"Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT"
                 f"{login}"
             ) from exc
-        # The role is what the robot's access control grants us: learnt from it on first need
-        # (``role``), or given (a gateway running with --role).
-        self._role: Role | None = parse_role(role) if role else None
+        # The role is what the robot's access control grants us, learnt from it on first need
+        # (``role``); ``role`` given caps it (a gateway running with --role observer).
+        self._role: Role | None = None
+        self._role_cap: Role | None = parse_role(role, people_only=True) if role else None
         self._closed = False
         # The lease secret while we hold the lease, renewed from a thread.
         self._lease = LeaseKeeper(
@@ -281,7 +284,11 @@ class Commander:
         older daemon): the highest of the daemon's per-role keys that answers us."""
         if self._role is None:
             self._role = discover_role(self.session, self.keys, min(self.timeout, 2.0))
-        return self._role
+        if self._role_cap is None:
+            return self._role
+        if self._role is None:
+            return self._role_cap
+        return min(self._role, self._role_cap, key=LADDER.index)
 
     @property
     def holds_lease(self) -> bool:
@@ -406,6 +413,7 @@ class Robot(Commander, TeachMixin):
         user: str | None = None,
         password: str | None = None,
         credentials: Credentials | None = None,
+        role: Role | str | None = None,
     ) -> None:
         """``user``/``password`` (or ``credentials``) log in to a robot that runs with --auth
         or --secure; without them the environment's or the client file's are used."""
@@ -419,6 +427,7 @@ class Robot(Commander, TeachMixin):
             user=user,
             password=password,
             credentials=credentials,
+            role=role,
         )
         self._lock = threading.Lock()
         self._state = RobotState()

@@ -186,6 +186,10 @@ class Daemon:
                 "another daemon or `darwin up` using it? Stop it, or pass --listen "
                 "tcp/127.0.0.1:0 for any free port"
             ) from None
+        finally:
+            if self.options.security is not None:
+                # Zenoh read the plaintext dictionary while opening: it need not stay on disk.
+                self.options.security.close()
         self.pub = Publishers(self.session, self.keys)
         for kind, message, data in self._early_events:
             self.pub.event(kind, message, **data)
@@ -242,8 +246,6 @@ class Daemon:
         if self.session is not None:
             with contextlib.suppress(Exception):
                 self.session.close()
-        if self.options.security is not None:
-            self.options.security.close()
 
     def _halt_and_hold(self) -> None:
         """Every module stops now and the present pose is written as the goal, while the bus

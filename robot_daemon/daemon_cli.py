@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import shutil
 import signal
 import sys
 import tempfile
@@ -182,6 +183,7 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
 
 def run(args: argparse.Namespace) -> int:
     emulator: Child | None = None
+    private: str | None = None  # the emulator's control socket's directory, with access control
     connect: list[str] = []
     if args.sim:
         sim_args = list(args.sim_arg)
@@ -189,11 +191,11 @@ def run(args: argparse.Namespace) -> int:
             # The emulator's control ops (faults…) and world, reachable through the daemon.
             # With access control, over a Unix socket in a private directory: only this user
             # reaches it, and the daemon's rules give that link (only) every right.
-            control = (
-                f"unixsock-stream/{tempfile.mkdtemp(prefix='darwin-sim-')}/control.sock"
-                if (args.auth or args.secure)
-                else f"tcp/127.0.0.1:{free_tcp_port()}"
-            )
+            if args.auth or args.secure:
+                private = tempfile.mkdtemp(prefix="darwin-sim-")
+                control = f"unixsock-stream/{private}/control.sock"
+            else:
+                control = f"tcp/127.0.0.1:{free_tcp_port()}"
             robot_name = args.robot or load_all(args.config)["robot"].get("name", "op1")
             sim_args += [f"--control-listen={control}", f"--robot={robot_name}"]
             connect.append(control)
@@ -234,4 +236,6 @@ def run(args: argparse.Namespace) -> int:
             daemon.close()
         if emulator is not None:
             emulator.stop()
+        if private is not None:
+            shutil.rmtree(private, ignore_errors=True)
         sys.stdout.flush()

@@ -21,10 +21,19 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from config.loader import load_all
 from robot_daemon.children import Child, ChildError, relay_to_stderr
 from robot_daemon.daemon_cli import _resolve_listen
+from robot_daemon.security.internal import Internal
+from robot_daemon.security.options import (
+    add_security_arguments,
+    secure_listen,
+    security_from_args,
+)
+from schemas.errors import ConfigError
+from schemas.roles import LADDER, parse_role
 
 START_TIMEOUT = 30.0
 RESTART_BACKOFF_MIN = 1.0  # s before an adapter that died is started again, doubling …
@@ -91,6 +100,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="model 1 Mbps wire time in the emulator",
     )
+    add_security_arguments(parser)
+    parser.add_argument(
+        "--adapter-role",
+        choices=[str(r) for r in LADDER],
+        default="operator",
+        help="with --auth/--secure: the role of the adapters started here (gateway, ros2, "
+        "foxglove, web), each logging in as darwin-NAME (default operator)",
+    )
 
 
 def gateway_available() -> bool:
@@ -100,8 +117,15 @@ def gateway_available() -> bool:
         return False
 
 
-def daemon_args(args: argparse.Namespace, listen: str) -> list[str]:
+def daemon_args(
+    args: argparse.Namespace, listen: str, internal: Internal | None = None
+) -> list[str]:
     out = ["daemon", "--listen", listen]
+    if internal is not None:
+        sec = internal.security
+        out += ["--auth", str(internal.users_file()), "--certs", str(sec.certs_dir.resolve())]
+        out += ["--secure"] if sec.tls else []
+        out += ["--mtls"] if sec.mtls else []
     if args.port:
         out += ["--port", args.port]
     else:
@@ -123,9 +147,31 @@ def daemon_args(args: argparse.Namespace, listen: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     settings = load_all(args.config)
-    listen = _resolve_listen(
-        [args.listen or settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]]
-    )[0]
+    try:
+        security = security_from_args(args)
+        default_listen = settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]
+        listen = secure_listen([args.listen or default_listen], security, bool(args.listen))
+        listen = _resolve_listen(listen)[0]
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    internal = None
+    if security is not None:
+        internal = Internal(security, parse_role(args.adapter_role, people_only=True))
+    try:
+        return _run(args, settings, listen, internal)
+    finally:
+        if internal is not None:
+            internal.close()
+
+
+def _run(
+    args: argparse.Namespace, settings: dict[str, Any], listen: str, internal: Internal | None
+) -> int:
+    def login(adapter: str) -> list[str]:
+        return internal.identity_args(adapter) if internal is not None else []
+
+    # Identities first: the daemon's merged identities file must list every adapter.
+    logins = {name: login(name) for name in ("gateway", "ros2", "foxglove", "web")}
     stop = threading.Event()
 
     def on_signal(_signum: int, _frame: object) -> None:
@@ -138,7 +184,7 @@ def run(args: argparse.Namespace) -> int:
     # With the UI in this terminal, the children's chatter would scribble over it.
     relay = None if args.tui else relay_to_stderr
     try:
-        daemon = Child("daemon", daemon_args(args, listen), relay)
+        daemon = Child("daemon", daemon_args(args, listen, internal), relay)
         children.append(daemon)
         endpoint = daemon.wait_line("zenoh:", START_TIMEOUT)
         robot = daemon_robot(daemon, args.robot or settings["robot"].get("name", "op1"))
@@ -149,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
         elif not gateway_available():
             print("gateway: none (not in this build)", flush=True)
         else:
-            gw = ["gateway", "--connect", endpoint, "--robot", robot]
+            gw = ["gateway", "--connect", endpoint, "--robot", robot, *logins["gateway"]]
             gw_listen = args.gateway_listen or settings.get("gateway", {}).get("listen")
             if gw_listen:
                 gw += ["--listen", gw_listen]
@@ -166,7 +212,8 @@ def run(args: argparse.Namespace) -> int:
         ):
             if wanted:
                 extra = ["--listen", listen] if listen else []
-                child = Child(name, [name, "--connect", endpoint, "--robot", robot, *extra], relay)
+                command = [name, "--connect", endpoint, "--robot", robot, *logins[name], *extra]
+                child = Child(name, command, relay)
                 children.append(child)
                 adapters.append(Adapter(child))
                 print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)

@@ -28,7 +28,7 @@ from clients.recording.recorder import (
 )
 from clients.robot import TOPICS
 from schemas.errors import ClientError, RobotUnreachableError
-from schemas.session import add_target_arguments, open_client, resolve
+from schemas.session import add_target_arguments, open_client, resolve_args
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -155,7 +155,7 @@ def run_record(args: argparse.Namespace) -> int:
     if problem:
         print(f"darwin record: {problem}", file=sys.stderr)
         return 2
-    target = resolve(args.connect, args.robot)
+    target = resolve_args(args)
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
@@ -167,7 +167,7 @@ def run_record(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     try:
-        session = open_client(target.endpoint)
+        session = open_client(target)
     except zenoh.ZError as exc:
         raise RobotUnreachableError(
             f"cannot open a Zenoh session to {target.endpoint}: {exc}. "

@@ -50,6 +50,7 @@ from clients.tui.widgets.keybar import KeyBar
 from config.loader import RobotConfig, load_robot, robot_from_dict
 from schemas.errors import ClientError, ConfigError
 from schemas.messages import Event
+from schemas.session import Credentials
 
 RENDER_HZ = 15.0
 TABS: tuple[tuple[str, str], ...] = (
@@ -116,6 +117,7 @@ class DarwinApp(App[None]):
         ask: bool = False,
         robot_config: RobotConfig | None = None,
         clock: Callable[[], float] = time.time,
+        credentials: Credentials | None = None,
     ) -> None:
         super().__init__()
         self.clock = clock
@@ -130,7 +132,7 @@ class DarwinApp(App[None]):
         i18n.set_language(lang or saved.lang or i18n.from_environment())
         self.model = Model()
         self.robot_config = robot_config or load_robot()
-        self.link = Link(self, self.settings.name)
+        self.link = Link(self, self.settings.name, credentials)
         self.link_info = LinkInfo(LinkState.IDLE, self.settings.endpoint, self.settings.robot)
         self.active_tab = TABS[0][0]
         self._connect_on_mount = connect
@@ -436,6 +438,7 @@ def create_app(
     connect: bool = True,
     ask: bool = False,
     clock: Callable[[], float] = time.time,
+    credentials: Credentials | None = None,
 ) -> DarwinApp:
     """The app, ready to ``run()`` (CLI) or ``run_test()`` (tests). ``connect=False`` starts
     without a link, for a fixed scene fed by posting messages; ``clock`` stamps the UI's own
@@ -449,6 +452,7 @@ def create_app(
         connect=connect,
         ask=ask,
         clock=clock,
+        credentials=credentials,
     )
 
 
