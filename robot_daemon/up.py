@@ -26,6 +26,7 @@ from typing import Any
 from config.loader import load_all
 from robot_daemon.children import Child, ChildError, relay_to_stderr
 from robot_daemon.daemon_cli import _resolve_listen
+from robot_daemon.security.acl import check_listen
 from robot_daemon.security.internal import Internal
 from robot_daemon.security.options import (
     add_security_arguments,
@@ -152,6 +153,7 @@ def run(args: argparse.Namespace) -> int:
         default_listen = settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]
         listen = secure_listen([args.listen or default_listen], security, bool(args.listen))
         listen = _resolve_listen(listen)[0]
+        check_listen([listen], security)  # a tcp/ endpoint under --secure, before anything
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     internal = None
