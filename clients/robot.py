@@ -28,6 +28,7 @@ from typing import Any, Self
 
 import zenoh
 
+from clients.fleet import RobotRecord, discover_at
 from clients.lease_keeper import LeaseKeeper
 from clients.teach import TeachMixin
 from schemas.errors import (
@@ -438,6 +439,14 @@ class Robot(Commander, TeachMixin):
         self._latest: dict[str, Message] = {}
         for topic in ALWAYS:
             self._ensure_zsub(topic)
+
+    @staticmethod
+    def discover(connect: str | None = None, timeout: float = 2.0) -> list[RobotRecord]:
+        """Every live robot reachable at ``connect`` (a router's endpoint: the whole fleet;
+        default ``DARWIN_ENDPOINT``, else the local one), as ``darwin list`` shows them: name,
+        endpoint, state, lease holder, battery, alarms, loop rate. ``Robot(connect, name)``
+        then reaches any of them through that same endpoint."""
+        return discover_at(resolve(connect).endpoint, timeout)
 
     def _close_extra(self) -> None:
         for sub in list(self._zsubs.values()):

@@ -20,6 +20,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "robot_daemon.daemon_cli",
         "run the robot daemon (owns the bus, publishes, arbiter)",
     ),
+    "router": ("robot_daemon.router", "a Zenoh router: the meeting point of a fleet of robots"),
+    "list": ("clients.fleet_cli", "list every live robot (name, endpoint, lease, battery…)"),
     "sim": ("robot_daemon.sim.cli", "run the hardware emulator on a pseudo-terminal"),
     "scan": ("robot_daemon.bus.scan", "list every device on a serial port (ID, model, firmware)"),
     "gateway": ("gateway.cli", "serve the legacy TCP JSON protocol to any number of clients"),

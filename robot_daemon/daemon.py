@@ -41,7 +41,7 @@ from robot_daemon.security.acl import Security, serve_roles
 from robot_daemon.services import DaemonInfo
 from schemas.errors import BusError, DarwinError, ErrorCode, PortError
 from schemas.keys import Keys
-from schemas.messages import Imu, Joints, Status
+from schemas.messages import Imu, Joints, NetworkInfo, Status
 from schemas.session import MAX_MESSAGE_BYTES, server_config
 
 if TYPE_CHECKING:
@@ -76,6 +76,7 @@ class DaemonOptions:
     camera: str = "none"
     allow_eeprom: bool = False
     connect: list[str] = field(default_factory=list)  # peers to join, e.g. the emulator's
+    router: str | None = None  # a Zenoh router to join (`--router`): the fleet's meeting point
     extras: dict[str, Any] = field(default_factory=dict)
     security: Security | None = None  # --auth/--secure: authentication, TLS, access control
 
@@ -174,13 +175,20 @@ class Daemon:
             max_message_bytes=int(zcfg.get("max_message_bytes", MAX_MESSAGE_BYTES)),
             mode=str(zcfg.get("mode", "peer")),
         )
-        if self.options.connect:
+        if self.options.router:
+            join_router(conf, self.options.router, self.options.connect)
+        elif self.options.connect:
             conf.insert_json5("connect/endpoints", json.dumps(self.options.connect))
         if self.options.security is not None:
             self.options.security.apply(conf)
         try:
             self.session = zenoh.open(conf)
         except zenoh.ZError as exc:
+            if self.options.router and "connect" in str(exc).lower():
+                raise ListenError(
+                    f"cannot reach the router at {self.options.router}: {_zenoh_reason(exc)}; "
+                    "start it first (`darwin router --listen ENDPOINT`) or fix --router"
+                ) from None
             raise ListenError(
                 f"cannot listen on {', '.join(self.options.listen)}: {_zenoh_reason(exc)}; is "
                 "another daemon or `darwin up` using it? Stop it, or pass --listen "
@@ -444,7 +452,15 @@ class Daemon:
             },
             voltage=cm["voltage"],
             alarms=alarms,
+            network=self.network_info(),
             **extra,
+        )
+
+    def network_info(self) -> NetworkInfo:
+        router = self.options.router
+        listen = list(self.options.listen)
+        return NetworkInfo(
+            endpoint=router or (listen[0] if listen else ""), router=router, listen=listen
         )
 
     def _publish_status(self, now: float) -> None:
@@ -497,6 +513,21 @@ class Daemon:
                 self._emit(kind, message, **data)
             self._publish_status(time.monotonic())
             self._wake.wait(min(self.status_period, max(0.0, deadline - time.monotonic())))
+
+
+# How long the daemon waits for its router at start before it says it cannot reach it; later
+# losses are retried for ever (Zenoh re-links by itself).
+ROUTER_CONNECT_TIMEOUT_MS = 5000
+
+
+def join_router(conf: zenoh.Config, router: str, connect: list[str]) -> None:
+    """Make ``conf`` (the daemon's peer session) join ``router``, failing at start when it
+    cannot be reached. Gossip is off: a robot in a fleet talks only through its router, never
+    straight to another robot it might hear about (the router is where access is controlled)."""
+    conf.insert_json5("connect/endpoints", json.dumps([router, *connect]))
+    conf.insert_json5("connect/timeout_ms", str(ROUTER_CONNECT_TIMEOUT_MS))
+    conf.insert_json5("connect/exit_on_failure", "true")
+    conf.insert_json5("scouting/gossip/enabled", "false")
 
 
 def _zenoh_reason(exc: Exception) -> str:

@@ -1,7 +1,8 @@
 """`darwin daemon`: the robot daemon on a serial port (`--port`) or on the emulator (`--sim`).
 
-Prints ``port: PATH`` and then ``zenoh: ENDPOINT`` (flushed) once it serves; SIGINT/SIGTERM
-stop it cleanly (and the emulator it started).
+Prints ``port: PATH`` and then ``zenoh: ENDPOINT`` (flushed) once it serves — with
+``--router`` the router's endpoint first, where clients connect; SIGINT/SIGTERM stop it cleanly
+(and the emulator it started).
 """
 
 from __future__ import annotations
@@ -48,6 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--listen",
         action="append",
         help="Zenoh endpoint to listen on, repeatable (config zenoh.listen); port 0 = any free",
+    )
+    parser.add_argument(
+        "--router",
+        metavar="ENDPOINT",
+        help="join this Zenoh router (`darwin router`) instead of being the meeting point "
+        "(config zenoh.router); listens only where --listen says",
     )
     parser.add_argument("--tick-ms", type=float, help="motion loop period (config daemon.tick_ms)")
     parser.add_argument(
@@ -144,14 +151,14 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
         )
     robot = robot_from_dict(settings["robot"])
     dcfg = settings.get("daemon", {})
+    router = router_of(args, settings)
     try:
         name = check_robot_name(args.robot or robot.name)
         security = security_from_args(args)
-        listen = secure_listen(
-            args.listen or list(settings.get("zenoh", {}).get("listen", [])),
-            security,
-            explicit=bool(args.listen),
-        )
+        # Joined to a router, the daemon listens only where told: two robots on one machine
+        # must not both want the shipped port.
+        default_listen = [] if router else list(settings.get("zenoh", {}).get("listen", []))
+        listen = secure_listen(args.listen or default_listen, security, explicit=bool(args.listen))
         listen = _resolve_listen(listen)
     except ValueError as exc:  # a bad --robot, --listen or --mtls names itself
         raise ConfigError(str(exc)) from None
@@ -162,6 +169,7 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
         robot=name,
         port=port,
         listen=listen,
+        router=router,
         tick_ms=float(args.tick_ms or dcfg.get("tick_ms", 8.0)),
         camera=camera,
         allow_eeprom=bool(
@@ -181,13 +189,31 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
     return Daemon(opts, robot, settings)
 
 
+def router_of(args: argparse.Namespace, settings: dict[str, Any]) -> str | None:
+    """The router to join (``--router``, else config ``zenoh.router``), checked; None: none."""
+    router = args.router or str(settings.get("zenoh", {}).get("router", "") or "") or None
+    if router is not None:
+        try:
+            check_endpoint(router)
+        except ValueError as exc:
+            raise ConfigError(f"{exc} (--router)") from None
+    return router
+
+
 def run(args: argparse.Namespace) -> int:
     emulator: Child | None = None
     private: str | None = None  # the emulator's control socket's directory, with access control
     connect: list[str] = []
     if args.sim:
         sim_args = list(args.sim_arg)
-        if not any(a.startswith("--control-listen") for a in sim_args):
+        router = router_of(args, load_all(args.config))
+        robot_name = args.robot or load_all(args.config)["robot"].get("name", "op1")
+        world = "--no-world" not in sim_args
+        if router and world and not any(a.startswith("--world-connect") for a in sim_args):
+            # In a fleet the world joins the router too, so every client of the router
+            # reaches this robot's world and emulator control under its name.
+            sim_args += [f"--world-connect={router}", f"--robot={robot_name}"]
+        elif not any(a.startswith("--control-listen") for a in sim_args):
             # The emulator's control ops (faults…) and world, reachable through the daemon.
             # With access control, over a Unix socket in a private directory: only this user
             # reaches it, and the daemon's rules give that link (only) every right.
@@ -196,7 +222,6 @@ def run(args: argparse.Namespace) -> int:
                 control = f"unixsock-stream/{private}/control.sock"
             else:
                 control = f"tcp/127.0.0.1:{free_tcp_port()}"
-            robot_name = args.robot or load_all(args.config)["robot"].get("name", "op1")
             sim_args += [f"--control-listen={control}", f"--robot={robot_name}"]
             connect.append(control)
         if not any(a.startswith("--link") for a in sim_args):
@@ -227,7 +252,9 @@ def run(args: argparse.Namespace) -> int:
         daemon.start_network()
         print(f"port: {port}", flush=True)
         print(f"robot: {daemon.options.robot}", flush=True)
-        for ep in daemon.options.listen:
+        # Where clients connect: the router first (what `darwin up` passes on), then our own.
+        router = [daemon.options.router] if daemon.options.router else []
+        for ep in [*router, *daemon.options.listen]:
             print(f"zenoh: {ep}", flush=True)
         daemon.run()
         return 0

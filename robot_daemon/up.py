@@ -1,5 +1,9 @@
 """`darwin up`: emulator (unless `--port`), daemon and gateway in one command.
 
+With ``--router ENDPOINT`` the robot joins a fleet: the daemon, the simulated world and the
+adapters connect to that router (``zenoh:`` is then the router's endpoint) and the servers take
+free ports unless told, so several ``darwin up --robot NAME`` share one machine.
+
 Prints where each listens, one line each and flushed — ``zenoh: tcp/HOST:PORT`` and
 ``gateway: HOST:PORT`` (or ``gateway: none (…)``) — then relays the children's output until
 Ctrl-C or SIGTERM, which stop every child (none is left behind; if this process is killed
@@ -25,7 +29,7 @@ from typing import Any
 
 from config.loader import load_all
 from robot_daemon.children import Child, ChildError, relay_to_stderr
-from robot_daemon.daemon_cli import _resolve_listen
+from robot_daemon.daemon_cli import _resolve_listen, router_of
 from robot_daemon.security.acl import check_listen
 from robot_daemon.security.internal import Internal
 from robot_daemon.security.options import (
@@ -55,6 +59,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", help="robot name in every key (config robot.name)")
     parser.add_argument(
         "--listen", help="Zenoh endpoint of the daemon (config zenoh.listen); port 0 = any free"
+    )
+    parser.add_argument(
+        "--router",
+        metavar="ENDPOINT",
+        help="join this Zenoh router (`darwin router`) instead of being the meeting point: the "
+        "daemon, world and adapters connect there, servers pick free ports unless told "
+        "(config zenoh.router)",
     )
     parser.add_argument(
         "--gateway-listen", help="HOST:PORT of the legacy TCP gateway (config gateway.listen)"
@@ -119,9 +130,13 @@ def gateway_available() -> bool:
 
 
 def daemon_args(
-    args: argparse.Namespace, listen: str, internal: Internal | None = None
+    args: argparse.Namespace, listen: str | None, router: str | None, internal: Internal | None
 ) -> list[str]:
-    out = ["daemon", "--listen", listen]
+    out = ["daemon"]
+    if listen:
+        out += ["--listen", listen]
+    if router:
+        out += ["--router", router]
     if internal is not None:
         sec = internal.security
         out += ["--auth", str(internal.users_file()), "--certs", str(sec.certs_dir.resolve())]
@@ -148,32 +163,43 @@ def daemon_args(
 
 def run(args: argparse.Namespace) -> int:
     settings = load_all(args.config)
+    router = router_of(args, settings)
+    listen: str | None = None
     try:
         security = security_from_args(args)
-        default_listen = settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]
-        listen = secure_listen([args.listen or default_listen], security, bool(args.listen))
-        listen = _resolve_listen(listen)[0]
-        check_listen([listen], security)  # a tcp/ endpoint under --secure, before anything
+        if args.listen or not router:
+            # Joined to a router, the daemon listens only where told (see `darwin daemon`).
+            default_listen = settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]
+            listen = secure_listen([args.listen or default_listen], security, bool(args.listen))
+            listen = _resolve_listen(listen)[0]
+            check_listen([listen], security)  # a tcp/ endpoint under --secure, before anything
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     internal = None
     if security is not None:
         internal = Internal(security, parse_role(args.adapter_role, people_only=True))
     try:
-        return _run(args, settings, listen, internal)
+        return _run(args, settings, listen, router, internal)
     finally:
         if internal is not None:
             internal.close()
 
 
 def _run(
-    args: argparse.Namespace, settings: dict[str, Any], listen: str, internal: Internal | None
+    args: argparse.Namespace,
+    settings: dict[str, Any],
+    listen: str | None,
+    router: str | None,
+    internal: Internal | None,
 ) -> int:
     def login(adapter: str) -> list[str]:
         return internal.identity_args(adapter) if internal is not None else []
 
     # Identities first: the daemon's merged identities file must list every adapter.
     logins = {name: login(name) for name in ("gateway", "ros2", "foxglove", "web")}
+    # In a fleet several `darwin up` share a machine: their servers take free ports unless
+    # told otherwise (each prints where it listens).
+    free = "127.0.0.1:0" if router else None
     stop = threading.Event()
 
     def on_signal(_signum: int, _frame: object) -> None:
@@ -186,7 +212,7 @@ def _run(
     # With the UI in this terminal, the children's chatter would scribble over it.
     relay = None if args.tui else relay_to_stderr
     try:
-        daemon = Child("daemon", daemon_args(args, listen, internal), relay)
+        daemon = Child("daemon", daemon_args(args, listen, router, internal), relay)
         children.append(daemon)
         endpoint = daemon.wait_line("zenoh:", START_TIMEOUT)
         robot = daemon_robot(daemon, args.robot or settings["robot"].get("name", "op1"))
@@ -198,7 +224,7 @@ def _run(
             print("gateway: none (not in this build)", flush=True)
         else:
             gw = ["gateway", "--connect", endpoint, "--robot", robot, *logins["gateway"]]
-            gw_listen = args.gateway_listen or settings.get("gateway", {}).get("listen")
+            gw_listen = args.gateway_listen or free or settings.get("gateway", {}).get("listen")
             if gw_listen:
                 gw += ["--listen", gw_listen]
             if args.config:
@@ -207,13 +233,13 @@ def _run(
             children.append(gateway)
             adapters.append(Adapter(gateway))
             print(f"gateway: {gateway.wait_line('gateway:', START_TIMEOUT)}", flush=True)
-        for name, wanted, listen in (
+        for name, wanted, where in (
             ("ros2", args.ros2, None),
-            ("foxglove", args.foxglove, args.foxglove_listen),
-            ("web", args.web, args.web_listen),
+            ("foxglove", args.foxglove, args.foxglove_listen or free),
+            ("web", args.web, args.web_listen or free),
         ):
             if wanted:
-                extra = ["--listen", listen] if listen else []
+                extra = ["--listen", where] if where else []
                 command = [name, "--connect", endpoint, "--robot", robot, *logins[name], *extra]
                 child = Child(name, command, relay)
                 children.append(child)

@@ -143,6 +143,11 @@ class Keys:
         }
 
 
+def every_robot() -> Keys:
+    """Key expressions matching every robot (``darwin/*/…``): discovery, fleet recording."""
+    return Keys("*")
+
+
 def verb_of(key: str) -> str:
     """The verb at the end of a ``…/cmd/<verb>`` key."""
     return key.rsplit("/", 1)[-1]

@@ -200,6 +200,14 @@ class CameraInfo(TypedDict, total=False):
     readers: int  # in-process frame readers (ball vision)
 
 
+class NetworkInfo(TypedDict, total=False):
+    """Where the daemon is on the network (``darwin list`` shows ``endpoint``)."""
+
+    endpoint: str  # where clients reach this robot: its router when it joined one, else its own
+    router: str | None  # the router it joined (``--router``); None: it is the meeting point
+    listen: list[str]  # its own listen endpoints (none when it only joined a router)
+
+
 class AlarmInfo(TypedDict):
     id: int
     bits: int
@@ -223,6 +231,7 @@ class Status(Message):
     alarms: list[AlarmInfo] = field(default_factory=list)
     stamp: float = field(default_factory=time.time)
     camera: CameraInfo = field(default_factory=lambda: CameraInfo())
+    network: NetworkInfo = field(default_factory=lambda: NetworkInfo())
 
 
 @dataclass

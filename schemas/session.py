@@ -199,8 +199,12 @@ def add_credential_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--ca", help=f"CA certificate that signed the robot's (default: ${ENV_CA})")
 
 
-def add_target_arguments(parser: argparse.ArgumentParser, robot_default: str = "") -> None:
-    """``--connect``, ``--robot`` and the credentials, the same for every client."""
+def add_target_arguments(
+    parser: argparse.ArgumentParser, robot_default: str = "", several: bool = False
+) -> None:
+    """``--connect``, ``--robot`` and the credentials, the same for every client of the key
+    space (``several``: ``--robot`` may repeat, a list of names, for clients of several robots
+    like the recorder)."""
     parser.add_argument(
         "--connect",
         metavar="ENDPOINT",
@@ -210,7 +214,9 @@ def add_target_arguments(parser: argparse.ArgumentParser, robot_default: str = "
     parser.add_argument(
         "--robot",
         metavar="NAME",
-        help=f"robot name (default: {robot_default}${ENV_ROBOT}, else {DEFAULT_ROBOT})",
+        action="append" if several else "store",
+        help=f"robot name (default: {robot_default}${ENV_ROBOT}, else {DEFAULT_ROBOT})"
+        + ("; repeat it for several robots, '*' for every robot" if several else ""),
     )
     add_credential_arguments(parser)
 

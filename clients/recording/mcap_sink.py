@@ -10,7 +10,8 @@ Layout (one file per recording, or per segment with splitting):
   PlotJuggler and ``mcap`` readers show — and a **msgpack channel**
   ``/darwin/<robot>/<topic key>/msgpack`` (no schema, message encoding ``msgpack``) holding the
   publisher's bytes unchanged — what ``darwin replay`` sends, so a replayed session decodes
-  exactly as the live one did, and undecodable payloads are kept.
+  exactly as the live one did, and undecodable payloads are kept. A recording of several robots
+  has these channels per robot (each channel's ``robot`` metadata says whose).
 
 Both channels carry ``darwin_topic`` (``joints``, ``imu``…) and ``kind`` (``json`` | ``msgpack``)
 in their channel metadata. ``log_time`` is the receive time, ``publish_time`` the message's own
@@ -38,6 +39,7 @@ from clients.recording.profile import (
     json_topic,
     raw_topic,
 )
+from schemas.keys import Keys
 
 LIBRARY = "darwin-zenoh recorder"
 CHUNK_BYTES = 256 * 1024  # uncompressed; a chunk also closes at every flush
@@ -65,7 +67,7 @@ class McapSink:
         self._profile = profile
         self._robot = robot
         self._keys = topics
-        self._specs: dict[str, tuple[ChannelSpec, ...]] = {}
+        self._specs: dict[tuple[str, str | None], tuple[ChannelSpec, ...]] = {}
         self._schemas: dict[str, int] = {}
         # one MCAP channel per (topic, encoding): two sources may feed one ROS topic (tf)
         self._channels: dict[tuple[str, str], int] = {}
@@ -109,12 +111,20 @@ class McapSink:
         return cid
 
     def write(
-        self, topic: str, log_ns: int, payload: bytes, decoded: dict[str, Any] | None
+        self,
+        topic: str,
+        log_ns: int,
+        payload: bytes,
+        decoded: dict[str, Any] | None,
+        robot: str | None = None,
     ) -> None:
-        specs = self._specs.get(topic)
+        specs = self._specs.get((topic, robot))
         if specs is None:
-            specs = self._specs[topic] = self._profile.channels(
-                topic, self._keys[topic], self._robot
+            # Several robots in one file: each robot's topic is a channel set of its own,
+            # named by its key (``/darwin/op2/joints``) and carrying its robot in metadata.
+            key = self._keys[topic] if robot is None else self._profile.key(Keys(robot), topic)
+            specs = self._specs[(topic, robot)] = self._profile.channels(
+                topic, key, robot or self._robot
             )
         pub_ns = self._profile.publish_ns(decoded, log_ns)
         for spec in specs:

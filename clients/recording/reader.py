@@ -10,6 +10,7 @@ with :mod:`schemas.messages` like live ones.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import os
@@ -34,6 +35,7 @@ class RecordedMessage:
     log_ns: int  # when the recorder received it (ns since the epoch)
     publish_ns: int  # the message's own stamp
     payload: bytes  # msgpack, exactly as published
+    robot: str = ""  # whose it is (a recording of several robots holds each one's channels)
 
     def decode(self) -> DarwinMessage:
         return decode(self.payload, TOPICS[self.topic])
@@ -66,6 +68,22 @@ class Recording:
     @property
     def duration(self) -> float:
         return (self.end_ns - self.start_ns) / 1e9
+
+    @property
+    def robots(self) -> list[str]:
+        """The robots whose messages the file holds (several with ``darwin record --robot A
+        --robot B`` or ``--robot '*'``), sorted."""
+        return sorted({m.robot for m in self.messages if m.robot})
+
+    def only(self, robot: str) -> Recording:
+        """The messages of one robot of a several-robot recording, as a recording of its own
+        (what ``darwin replay --source`` plays)."""
+        if robot not in self.robots:
+            raise ValueError(
+                f"{self.path} holds no robot {robot!r}; it holds {', '.join(self.robots) or 'none'}"
+            )
+        mine = [m for m in self.messages if m.robot == robot]
+        return dataclasses.replace(self, robot=robot, messages=mine)
 
     def counts(self) -> dict[str, int]:
         return dict(Counter(m.topic for m in self.messages))
@@ -102,20 +120,23 @@ def read_recording(
     recover it) goes to ``on_notice`` (default: logged as a warning)."""
     path = os.fspath(path)
     rec = Recording(path)
-    channels: dict[int, str] = {}
+    channels: dict[int, tuple[str, str]] = {}
     scanner = RecordScanner(path)
     try:
         for record in scanner:
             if isinstance(record, Channel):
                 topic = record.metadata.get("darwin_topic", "")
                 if record.message_encoding == RAW_ENCODING and topic in TOPICS:
-                    channels[record.id] = topic
+                    channels[record.id] = (topic, record.metadata.get("robot", ""))
                     rec.robot = rec.robot or record.metadata.get("robot", "")
             elif isinstance(record, Message):
-                topic = channels.get(record.channel_id)
-                if topic is not None:
+                channel = channels.get(record.channel_id)
+                if channel is not None:
+                    topic, robot = channel
                     rec.messages.append(
-                        RecordedMessage(topic, record.log_time, record.publish_time, record.data)
+                        RecordedMessage(
+                            topic, record.log_time, record.publish_time, record.data, robot
+                        )
                     )
             elif isinstance(record, Metadata):
                 rec.metadata[record.name] = dict(record.metadata)

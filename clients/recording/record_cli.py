@@ -24,6 +24,7 @@ from clients.recording.recorder import (
     FORMATS,
     Recorder,
     check_options,
+    check_robots,
     check_topics,
 )
 from clients.robot import TOPICS
@@ -62,7 +63,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         const="ros2",
         help="write a ROS 2 bag (same as --profile ros2): `ros2 bag info FILE.mcap` opens it",
     )
-    add_target_arguments(parser)
+    # `--robot A --robot B` or `--robot '*'`: several robots into one file.
+    add_target_arguments(parser, several=True)
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     parser.add_argument(
         "--flush",
@@ -155,7 +157,18 @@ def run_record(args: argparse.Namespace) -> int:
     if problem:
         print(f"darwin record: {problem}", file=sys.stderr)
         return 2
-    target = resolve_args(args)
+    robots = args.robot or []
+    several = len(robots) > 1 or "*" in robots
+    try:
+        target = resolve(
+            args.connect,
+            None if several or not robots else robots[0],
+            credentials_from_args(args),
+        )
+        chosen = check_robots(robots) if several else None
+    except ValueError as exc:
+        print(f"darwin record: {exc}", file=sys.stderr)
+        return 2
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
@@ -174,19 +187,25 @@ def run_record(args: argparse.Namespace) -> int:
             "Is the daemon running (`darwin up`)? Check --connect / DARWIN_ENDPOINT."
         ) from exc
     try:
-        rec = Recorder(
-            session,
-            args.output,
-            topics,
-            robot=target.robot,
-            format=args.format,
-            flush_interval=args.flush,
-            chunk_bytes=args.chunk_bytes,
-            split_seconds=args.split_seconds,
-            split_bytes=args.split_bytes,
-            profile=profile,
-            on_notice=notice,
-        )
+        try:
+            rec = Recorder(
+                session,
+                args.output,
+                topics,
+                robot=target.robot,
+                format=args.format,
+                flush_interval=args.flush,
+                chunk_bytes=args.chunk_bytes,
+                split_seconds=args.split_seconds,
+                split_bytes=args.split_bytes,
+                profile=profile,
+                on_notice=notice,
+                robots=chosen,
+            )
+        except ValueError as exc:  # e.g. several robots with the ros2 profile
+            print(f"darwin record: {exc}", file=sys.stderr)
+            return 2
+        who = ", ".join(chosen) if chosen else target.robot
         try:
             rec.start()
         except OSError as exc:
@@ -201,7 +220,7 @@ def run_record(args: argparse.Namespace) -> int:
         if rec.splitting:
             where = f"{rec.stats.segments[0]} and on"
         print(
-            f"recording {target.robot} at {target.endpoint} → {where} ({rec.format}: "
+            f"recording {who} at {target.endpoint} → {where} ({rec.format}: "
             f"{' '.join(rec.topics)}); Ctrl-C to stop",
             file=sys.stderr,
             flush=True,

@@ -41,7 +41,7 @@ from clients.recording.segments import (
 from clients.recording.text_sink import TextSink
 from clients.robot import Commander
 from schemas.errors import ClientError
-from schemas.keys import Keys
+from schemas.keys import Keys, check_robot_name, every_robot, robot_of
 from schemas.session import resolve
 
 log = logging.getLogger(__name__)
@@ -63,6 +63,7 @@ class RecorderStats:
     dropped: int = 0  # samples lost because the writer fell behind (queue full)
     undecodable: int = 0  # kept in the msgpack channel, missing from the JSON one
     duration: float = 0.0
+    by_robot: dict[str, int] = field(default_factory=dict)  # messages per robot (several robots)
 
     @property
     def total(self) -> int:
@@ -72,6 +73,9 @@ class RecorderStats:
         per = ", ".join(f"{t} {n}" for t, n in self.counts.items()) or "nothing"
         extra = f"; {self.dropped} dropped" if self.dropped else ""
         extra += f"; {self.undecodable} undecodable" if self.undecodable else ""
+        if self.by_robot:
+            per_robot = sorted(self.by_robot.items())
+            extra += "; by robot: " + ", ".join(f"{r} {n}" for r, n in per_robot)
         where = self.path
         if self.segments:
             n = len(self.segments)
@@ -107,6 +111,21 @@ def check_options(
     _check_number("split bytes", split_bytes, MIN_SPLIT_BYTES, 2**50)
 
 
+def check_robots(robots: Iterable[str] | None) -> list[str] | None:
+    """The robots of a several-robot recording: names, or ``["*"]`` (every robot); None when
+    not given. Raises ValueError naming a bad name."""
+    if robots is None:
+        return None
+    names = list(dict.fromkeys(robots))
+    if not names:
+        raise ValueError("no robot to record: name one or more (or '*' for every robot)")
+    if "*" in names:
+        return ["*"]
+    for name in names:
+        check_robot_name(name)
+    return names
+
+
 class Recorder:
     """Record ``topics`` of a robot into ``path``.
 
@@ -117,6 +136,9 @@ class Recorder:
     ``profile`` is a :class:`Profile` or its name (``"darwin"``, ``"ros2"``: a ROS 2 bag).
     ``on_notice`` gets each one-line notice about a truncated file found in the output place
     (default: logged as a warning); they are also kept in ``notices``.
+    ``robots`` records several robots into one file (``["op1", "op2"]``, or ``["*"]`` for every
+    robot on the key space, those that appear later too): each robot's topics are channels of
+    their own (``/darwin/op2/joints``…); the ``darwin`` profile only.
     """
 
     def __init__(
@@ -134,16 +156,26 @@ class Recorder:
         profile: Profile | str = DARWIN,
         queue_size: int = 20_000,
         on_notice: Callable[[str], object] | None = None,
+        robots: Iterable[str] | None = None,
     ) -> None:
+        self.robots = check_robots(robots)
         if isinstance(source, Commander):
             self._session = source.session
             name = robot or source.keys.robot
         else:
             self._session = source
             name = resolve(None, robot).robot
-        self.keys = Keys(name)
+        if self.robots is not None:
+            name = ",".join(self.robots)
+        several = self.robots is not None and len(self.robots) > 1
+        self.keys = every_robot() if several else Keys(self.robots[0] if self.robots else name)
         self.path = os.fspath(path)
         self.profile = get_profile(profile)
+        if self.robots is not None and self.profile is not DARWIN:
+            raise ValueError(
+                f"several robots go into one file with the darwin profile only, not "
+                f"{self.profile.name!r}: record each robot's {self.profile.name} bag on its own"
+            )
         self.topics = check_topics(topics, self.profile)
         self.format = format or guess_format(self.path)
         if self.format not in FORMATS:
@@ -156,7 +188,9 @@ class Recorder:
         self.split_bytes = split_bytes
         self.notices: list[str] = []
         self._on_notice = on_notice or log.warning
-        self._queue: queue.Queue[tuple[str, int, bytes] | None] = queue.Queue(queue_size)
+        self._queue: queue.Queue[tuple[str, int, bytes, str | None] | None] = queue.Queue(
+            queue_size
+        )
         self._clock = threading.Lock()
         self._subs: list[Any] = []
         self._thread: threading.Thread | None = None
@@ -201,9 +235,11 @@ class Recorder:
         return (segments[-1][0] + 1) if segments else 1
 
     def _open_sink(self) -> Sink:
-        all_keys = {t: self.profile.key(self.keys, t) for t in self.topics}
+        # Several robots: the topics' key expressions for every robot (``darwin/*/joints``).
+        keys = every_robot() if self.robots is not None else self.keys
+        all_keys = {t: self.profile.key(keys, t) for t in self.topics}
         session = datetime.now(UTC).isoformat()
-        robot = self.keys.robot
+        robot = self.stats.robot
 
         def factory(path: str, metadata: dict[str, str]) -> Sink:
             if self.format == "text":
@@ -243,19 +279,24 @@ class Recorder:
         self._started = time.monotonic()
         self._state = "running"
         self._thread.start()
-        for topic in self.topics:
-            key = self.profile.key(self.keys, topic)
-            self._subs.append(
-                self._session.declare_subscriber(key, lambda s, t=topic: self._on_sample(t, s))
-            )
+        sources = [Keys(r) for r in self.robots] if self.robots is not None else [self.keys]
+        for keys in sources:
+            for topic in self.topics:
+                key = self.profile.key(keys, topic)
+                self._subs.append(
+                    self._session.declare_subscriber(
+                        key, lambda s, t=topic: self._on_sample(t, s)
+                    )
+                )
         return self
 
     def _on_sample(self, topic: str, sample: zenoh.Sample) -> None:
         payload = sample.payload.to_bytes()
+        robot = robot_of(str(sample.key_expr)) if self.robots is not None else None
         # Stamp and enqueue under one lock so the file is in log-time order across topics.
         with self._clock:
             try:
-                self._queue.put_nowait((topic, time.time_ns(), payload))
+                self._queue.put_nowait((topic, time.time_ns(), payload, robot))
             except queue.Full:
                 self.stats.dropped += 1
 
@@ -280,11 +321,17 @@ class Recorder:
         finally:
             sink.close()
 
-    def _write(self, sink: Sink, topic: str, log_ns: int, payload: bytes) -> None:
+    def _write(
+        self, sink: Sink, topic: str, log_ns: int, payload: bytes, robot: str | None
+    ) -> None:
         decoded = self.profile.decode(topic, payload)
         if decoded is None:
             self.stats.undecodable += 1
-        sink.write(topic, log_ns, payload, decoded)
+        if robot is None:
+            sink.write(topic, log_ns, payload, decoded)
+        else:
+            sink.write(topic, log_ns, payload, decoded, robot)
+            self.stats.by_robot[robot] = self.stats.by_robot.get(robot, 0) + 1
         self.stats.counts[topic] += 1
 
     def stop(self) -> RecorderStats:

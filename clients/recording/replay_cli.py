@@ -1,6 +1,6 @@
 """``darwin replay FILE.mcap… [--robot NAME] [--rate 2.0] [--loop]``: republish a recording (or
 the segments of a split one, as one) on the key space under a robot name of its own, controllable
-on ``…/replay/control``."""
+on ``…/replay/control``. A recording of several robots plays one of them: ``--source NAME``."""
 
 from __future__ import annotations
 
@@ -27,6 +27,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--robot", metavar="NAME", help="robot name to publish as (default: <recorded>-replay)"
+    )
+    parser.add_argument(
+        "--source",
+        metavar="NAME",
+        help="which recorded robot to play, when the file holds several (darwin record --robot "
+        "A --robot B)",
     )
     parser.add_argument("--rate", type=float, default=1.0, help="speed factor (1.0 = real time)")
     parser.add_argument("--loop", action="store_true", help="start over at the end, forever")
@@ -66,6 +72,19 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         print(f"darwin replay: unknown topic(s) {unknown}; known: {list(TOPICS)}", file=sys.stderr)
         return 2
+    if args.source or len(rec.robots) > 1:
+        if not args.source:
+            print(
+                f"darwin replay: {rec.path} holds several robots ({', '.join(rec.robots)}); "
+                "choose one with --source NAME",
+                file=sys.stderr,
+            )
+            return 2
+        try:
+            rec = rec.only(args.source)
+        except ValueError as exc:
+            print(f"darwin replay: {exc}", file=sys.stderr)
+            return 2
     robot = args.robot or default_robot_name(rec)
     stop = threading.Event()
 

@@ -21,8 +21,15 @@ from clients.recording.scan import NotMcapError, RecordScanner
 
 class Sink(Protocol):
     def write(
-        self, topic: str, log_ns: int, payload: bytes, decoded: dict[str, Any] | None
-    ) -> None: ...
+        self,
+        topic: str,
+        log_ns: int,
+        payload: bytes,
+        decoded: dict[str, Any] | None,
+        robot: str | None = None,
+    ) -> None:
+        """``robot``: the sample's robot when one file records several (None: the file's)."""
+        ...
 
     def flush(self) -> None: ...
 
@@ -116,13 +123,18 @@ class SegmentedSink:
         return self._bytes is not None and self._sink.size >= self._bytes
 
     def write(
-        self, topic: str, log_ns: int, payload: bytes, decoded: dict[str, Any] | None
+        self,
+        topic: str,
+        log_ns: int,
+        payload: bytes,
+        decoded: dict[str, Any] | None,
+        robot: str | None = None,
     ) -> None:
         if self._due():
             self._sink.close()
             self._index += 1
             self._sink = self._open()
-        self._sink.write(topic, log_ns, payload, decoded)
+        self._sink.write(topic, log_ns, payload, decoded, robot)
         self._wrote = True
 
     def flush(self) -> None:

@@ -71,8 +71,15 @@ class TextSink:
         return self._file.tell()
 
     def write(
-        self, topic: str, log_ns: int, payload: bytes, decoded: dict[str, Any] | None
+        self,
+        topic: str,
+        log_ns: int,
+        payload: bytes,
+        decoded: dict[str, Any] | None,
+        robot: str | None = None,
     ) -> None:
+        if robot is not None:
+            topic = f"{robot}/{topic}"  # several robots in one log: each line says whose
         if decoded is None:
             body = f"undecodable payload of {len(payload)} bytes"
         else:

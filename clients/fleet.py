@@ -1,0 +1,135 @@
+"""Discovery of a fleet: which robots are live on the key space, and their state in one record.
+
+One implementation, used by ``darwin list``, :meth:`clients.robot.Robot.discover` and the TUI's
+connect screen. A robot is live while its daemon's ``darwin/<robot>/alive`` liveliness token
+exists (it goes when the daemon stops, or within the link lease when it dies or its link does);
+the rest of a record comes from the robot's ``status`` publication (~10 Hz): where it is reached
+(``status.network.endpoint``: its router when it joined one), the lease holder, the battery
+voltage, servo alarms and the motion loop's rate.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import zenoh
+
+from schemas.errors import ProtocolError, RobotUnreachableError
+from schemas.keys import every_robot, robot_of
+from schemas.messages import AlarmInfo, Status, decode
+from schemas.session import open_client
+
+# How long discovery waits for each live robot's status (it arrives at ~10 Hz).
+STATUS_WAIT_S = 2.0
+
+
+@dataclass(frozen=True)
+class RobotRecord:
+    """One live robot, as ``darwin list`` shows it (``--json`` prints these fields)."""
+
+    name: str
+    endpoint: str = ""  # where clients reach it (its router's endpoint in a fleet)
+    state: str = "unknown"  # the daemon's state; "unknown" when no status arrived in time
+    lease_holder: str | None = None  # the holder's human name, None when nobody holds it
+    battery: float | None = None  # supply voltage (V)
+    alarms: list[AlarmInfo] = field(default_factory=list)  # servos with alarm bits set
+    loop_hz: float | None = None  # the motion loop's rate (1 / median period)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def line(self) -> str:
+        """``name: endpoint`` and the rest, one line (``darwin list``)."""
+        lease = self.lease_holder or "free"
+        battery = "?" if self.battery is None else f"{self.battery:.1f} V"
+        alarms = ", ".join(f"id {a['id']} bits {a['bits']}" for a in self.alarms) or "none"
+        rate = "?" if self.loop_hz is None else f"{self.loop_hz:.0f} Hz"
+        where = self.endpoint or "?"
+        return (
+            f"{self.name}: {where}  ({self.state}; lease {lease}; battery {battery}; "
+            f"alarms {alarms}; loop {rate})"
+        )
+
+
+def record_from_status(name: str, status: Status | None) -> RobotRecord:
+    if status is None:
+        return RobotRecord(name)
+    lease = status.lease or None
+    period = status.loop.get("period_p50_ms") or 0.0
+    tick = status.loop.get("tick_ms") or 0.0
+    loop_ms = period or tick
+    return RobotRecord(
+        name=name,
+        endpoint=str(status.network.get("endpoint", "")),
+        state=status.state,
+        lease_holder=str(lease.get("name") or lease.get("client")) if lease else None,
+        battery=float(status.voltage),
+        alarms=list(status.alarms),
+        loop_hz=round(1000.0 / loop_ms, 1) if loop_ms > 0 else None,
+    )
+
+
+def live_robots(session: zenoh.Session, timeout: float = 2.0) -> list[str]:
+    """Names of the robots whose ``alive`` token exists, sorted."""
+    names = set()
+    for reply in session.liveliness().get(every_robot().alive, timeout=timeout):
+        if reply.ok is not None:
+            with contextlib.suppress(ValueError):
+                names.add(robot_of(str(reply.ok.key_expr)))
+    return sorted(names)
+
+
+def discover(
+    session: zenoh.Session, timeout: float = STATUS_WAIT_S, pattern: str = "*"
+) -> list[RobotRecord]:
+    """Every live robot (matching ``pattern``, a robot name or ``*``) with its latest status,
+    sorted by name; a robot whose status does not arrive within ``timeout`` is listed with what
+    is known (its name, state ``unknown``)."""
+    statuses: dict[str, Status] = {}
+    cond = threading.Condition()
+
+    def on_status(sample: zenoh.Sample) -> None:
+        try:
+            msg = decode(sample.payload.to_bytes(), Status)
+            name = robot_of(str(sample.key_expr))
+        except (ProtocolError, ValueError):
+            return  # a foreign or newer publisher: not ours to list
+        with cond:
+            statuses[name] = msg  # type: ignore[assignment]
+            cond.notify_all()
+
+    # Subscribe first: a status published while the token query runs is not missed.
+    sub = session.declare_subscriber(every_robot().status, on_status)
+    try:
+        names = [n for n in live_robots(session) if pattern in ("*", n)]
+        deadline = time.monotonic() + timeout
+        with cond:
+            cond.wait_for(
+                lambda: all(n in statuses for n in names), max(0.0, deadline - time.monotonic())
+            )
+            return [record_from_status(n, statuses.get(n)) for n in names]
+    finally:
+        with contextlib.suppress(Exception):
+            sub.undeclare()
+
+
+def discover_at(
+    endpoint: str, timeout: float = STATUS_WAIT_S, pattern: str = "*"
+) -> list[RobotRecord]:
+    """:func:`discover` through a session of its own to ``endpoint`` (a router, or a robot)."""
+    try:
+        session = open_client(endpoint)
+    except zenoh.ZError:
+        raise RobotUnreachableError(
+            f"nothing answers at {endpoint}: is `darwin router` (or `darwin up`) running there? "
+            "Pass the address it printed with --connect"
+        ) from None
+    try:
+        return discover(session, timeout, pattern)
+    finally:
+        with contextlib.suppress(Exception):
+            session.close()

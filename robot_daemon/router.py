@@ -1,0 +1,101 @@
+"""`darwin router`: a Zenoh router (a real router session, in this process) that robots and
+clients join, so a fleet shares one key space and clients need only this one address.
+
+Prints ``router: ENDPOINT`` once per address it listens on (flushed), then routes until Ctrl-C
+or SIGTERM. Robots join with ``darwin up --router ENDPOINT``; clients connect to ENDPOINT
+(``--connect``, ``DARWIN_ENDPOINT``) and name the robot (``--robot``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import signal
+import sys
+import threading
+from typing import Any
+
+import zenoh
+
+from config.loader import load_all
+from robot_daemon.daemon_cli import _resolve_listen
+from schemas.errors import ConfigError, DarwinError
+from schemas.session import server_config
+
+DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
+
+
+class RouterError(DarwinError):
+    """The router cannot listen where it was told to."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--listen",
+        action="append",
+        metavar="ENDPOINT",
+        help=f"where robots and clients connect (repeatable; config router.listen, default "
+        f"{DEFAULT_LISTEN}); port 0 picks a free one",
+    )
+    parser.add_argument("--config", help="user config file (TOML) on top of the shipped one")
+
+
+def listen_endpoints(args: argparse.Namespace, settings: dict[str, Any]) -> list[str]:
+    """The endpoints to listen on, checked, port 0 replaced by a free port."""
+    wanted = args.listen or list(settings.get("router", {}).get("listen", [DEFAULT_LISTEN]))
+    try:
+        return _resolve_listen(wanted)
+    except ValueError as exc:  # a malformed endpoint names itself
+        raise ConfigError(f"{exc} (--listen)") from None
+
+
+def router_config(listen: list[str], settings: dict[str, Any]) -> zenoh.Config:
+    """The router session's configuration. Authentication, TLS and access control are added
+    here (from the ``--auth``/``--secure`` options) by the security work."""
+    rcfg = settings.get("router", {})
+    zcfg = settings.get("zenoh", {})
+    lease = int(rcfg.get("link_lease_ms", zcfg.get("link_lease_ms", 3000)))
+    return server_config(listen, lease, mode="router")
+
+
+def open_router(listen: list[str], conf: zenoh.Config) -> zenoh.Session:
+    from robot_daemon.daemon import _zenoh_reason
+
+    try:
+        return zenoh.open(conf)
+    except zenoh.ZError as exc:
+        reason = _zenoh_reason(exc)
+        if "in use" in reason:
+            fix = (
+                "is another router or `darwin up` using it? Stop it, or pass --listen "
+                "tcp/127.0.0.1:0 for any free port"
+            )
+        else:
+            fix = "pass an address of this machine (tcp/0.0.0.0:7447 for all its interfaces)"
+        raise RouterError(f"cannot listen on {', '.join(listen)}: {reason}; {fix}") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    settings = load_all(args.config)
+    listen = listen_endpoints(args, settings)
+    # Seam for the security work: a warning about open (non-loopback) listen addresses and
+    # `--auth`/`--secure` go here, before the session opens.
+    stop = threading.Event()
+
+    def on_signal(_signum: int, _frame: object) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    session = open_router(listen, router_config(listen, settings))
+    try:
+        for ep in listen:
+            print(f"router: {ep}", flush=True)
+        # With a timeout: a signal handled while the main thread waits must end the wait.
+        while not stop.wait(0.5):
+            pass
+        return 0
+    finally:
+        with contextlib.suppress(Exception):
+            session.close()
+        sys.stdout.flush()
