@@ -29,7 +29,7 @@ from clients.recording.recorder import (
 )
 from clients.robot import TOPICS
 from schemas.errors import ClientError, RobotUnreachableError
-from schemas.session import add_target_arguments, open_client, resolve_args
+from schemas.session import add_target_arguments, credentials_from_args, open_client, resolve
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
