@@ -42,7 +42,7 @@ from robot_daemon.services import DaemonInfo
 from schemas.errors import BusError, DarwinError, ErrorCode, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, NetworkInfo, Status
-from schemas.session import MAX_MESSAGE_BYTES, server_config
+from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config
 
 if TYPE_CHECKING:
     from robot_daemon.camera import CameraThread
@@ -79,6 +79,7 @@ class DaemonOptions:
     router: str | None = None  # a Zenoh router to join (`--router`): the fleet's meeting point
     extras: dict[str, Any] = field(default_factory=dict)
     security: Security | None = None  # --auth/--secure: authentication, TLS, access control
+    credentials: Credentials | None = None  # who this robot is to its router (--user…)
 
 
 class Daemon:
@@ -177,6 +178,8 @@ class Daemon:
         )
         if self.options.router:
             join_router(conf, self.options.router, self.options.connect)
+            if self.options.credentials is not None:
+                self.options.credentials.apply(conf)
         elif self.options.connect:
             conf.insert_json5("connect/endpoints", json.dumps(self.options.connect))
         if self.options.security is not None:

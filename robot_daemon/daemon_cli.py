@@ -14,6 +14,7 @@ import shutil
 import signal
 import sys
 import tempfile
+from pathlib import Path
 from typing import Any
 
 from config.loader import load_all, robot_from_dict
@@ -28,7 +29,14 @@ from robot_daemon.security.options import (
 from robot_daemon.vision.sources import check_spec
 from schemas.errors import ConfigError
 from schemas.keys import check_robot_name
-from schemas.session import check_endpoint, endpoint_host_port, free_tcp_port
+from schemas.session import (
+    add_credential_arguments,
+    check_endpoint,
+    credential_env,
+    credentials_from_args,
+    endpoint_host_port,
+    free_tcp_port,
+)
 
 log = logging.getLogger(__name__)
 
@@ -96,6 +104,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --sim: model 1 Mbps wire time in the emulator",
     )
     add_security_arguments(parser)
+    # Who this robot is to an authenticated router (`darwin users add NAME --role robot`).
+    add_credential_arguments(parser)
 
 
 def _resolve_listen(listen: list[str]) -> list[str]:
@@ -178,6 +188,7 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
             else dcfg.get("allow_eeprom_writes", False)
         ),
         security=security,
+        credentials=credentials_from_args(args) if router else None,
         extras={
             "allow_hardware_writes": bool(
                 args.allow_hardware_writes
@@ -211,8 +222,11 @@ def run(args: argparse.Namespace) -> int:
         world = "--no-world" not in sim_args
         if router and world and not any(a.startswith("--world-connect") for a in sim_args):
             # In a fleet the world joins the router too, so every client of the router
-            # reaches this robot's world and emulator control under its name.
+            # reaches this robot's world and emulator control under its name; it logs in
+            # with the robot's identity (the emulator child reads it from the environment).
             sim_args += [f"--world-connect={router}", f"--robot={robot_name}"]
+            private = tempfile.mkdtemp(prefix="darwin-sim-")
+            os.environ.update(credential_env(credentials_from_args(args), Path(private)))
         elif not any(a.startswith("--control-listen") for a in sim_args):
             # The emulator's control ops (faults…) and world, reachable through the daemon.
             # With access control, over a Unix socket in a private directory: only this user

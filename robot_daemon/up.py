@@ -39,6 +39,7 @@ from robot_daemon.security.options import (
 )
 from schemas.errors import ConfigError
 from schemas.roles import LADDER, parse_role
+from schemas.session import add_credential_arguments, credential_args
 
 START_TIMEOUT = 30.0
 RESTART_BACKOFF_MIN = 1.0  # s before an adapter that died is started again, doubling …
@@ -113,6 +114,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="model 1 Mbps wire time in the emulator",
     )
     add_security_arguments(parser)
+    add_credential_arguments(parser)  # with --router: who this robot (and its adapters) are
     parser.add_argument(
         "--adapter-role",
         choices=[str(r) for r in LADDER],
@@ -136,7 +138,7 @@ def daemon_args(
     if listen:
         out += ["--listen", listen]
     if router:
-        out += ["--router", router]
+        out += ["--router", router, *credential_args(args)]
     if internal is not None:
         sec = internal.security
         out += ["--auth", str(internal.users_file()), "--certs", str(sec.certs_dir.resolve())]
@@ -193,6 +195,8 @@ def _run(
     internal: Internal | None,
 ) -> int:
     def login(adapter: str) -> list[str]:
+        if router:  # through the router, as this robot's identity (the router's rules)
+            return credential_args(args)
         return internal.identity_args(adapter) if internal is not None else []
 
     # Identities first: the daemon's merged identities file must list every adapter.

@@ -185,6 +185,35 @@ def resolve_args(args: argparse.Namespace, robot: str | None = None) -> Target:
     )
 
 
+def credential_args(args: argparse.Namespace) -> list[str]:
+    """The credential options given to this program, for a child program (files absolute)."""
+    out: list[str] = []
+    for opt in ("user", "password_file", "cert", "key", "ca"):
+        value = getattr(args, opt, None)
+        if value:
+            if opt != "user":
+                value = str(Path(value).expanduser().resolve())
+            out += [f"--{opt.replace('_', '-')}", value]
+    return out
+
+
+def credential_env(creds: Credentials, secrets_dir: Path | None = None) -> dict[str, str]:
+    """Environment variables that make a child program log in as ``creds`` (the password as
+    a 0600 file in ``secrets_dir`` when given, never in the environment itself)."""
+    env: dict[str, str] = {}
+    if creds.user:
+        env[ENV_USER] = creds.user
+    if creds.password is not None and secrets_dir is not None:
+        fd = os.open(secrets_dir / "password", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "w") as f:
+            f.write(creds.password)
+        env[ENV_PASSWORD_FILE] = str(secrets_dir / "password")
+    for name, value in ((ENV_CERT, creds.cert), (ENV_KEY, creds.key), (ENV_CA, creds.ca)):
+        if value:
+            env[name] = str(Path(value).resolve())
+    return env
+
+
 def add_credential_arguments(parser: argparse.ArgumentParser) -> None:
     """``--user``/``--password-file``/``--cert``/``--key``/``--ca``, for every client."""
     group = parser.add_argument_group("credentials (see README, \"Roles and security\")")
