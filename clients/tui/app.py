@@ -37,7 +37,7 @@ from clients.tui.messages import (
 from clients.tui.model import Model
 from clients.tui.settings import Settings, default_path
 from clients.tui.tabs.actions import ActionsTab
-from clients.tui.tabs.base import SendCommand, TabView
+from clients.tui.tabs.base import SendCommand, TabView, role_at_least
 from clients.tui.tabs.behaviours import BehavioursTab, library_entries
 from clients.tui.tabs.camera import CameraTab
 from clients.tui.tabs.imu import ImuTab
@@ -50,6 +50,7 @@ from clients.tui.widgets.keybar import KeyBar
 from config.loader import RobotConfig, load_robot, robot_from_dict
 from schemas.errors import ClientError, ConfigError
 from schemas.messages import Event
+from schemas.roles import Role
 from schemas.session import Credentials
 
 RENDER_HZ = 15.0
@@ -209,12 +210,14 @@ class DarwinApp(App[None]):
         self.model.client_id = self.link.client_id or self.model.client_id
         self.model.bump("link")
         if info.state is LinkState.CONNECTED and was is not LinkState.CONNECTED:
+            self.screen.refresh_bindings()  # the role may grey some keys out
             if self.link.robot is not None:
                 # What the tabs need once per connection (the library, the gait).
                 # The daemon's joint limits, not this machine's config, bound what is sent.
                 self.link.send("config", tag="app:config", quiet=True)
                 self.link.send("behaviours", tag="app:library", quiet=True)
-                self.link.send("walk_params", tag="app:walk-params", quiet=True)
+                if role_at_least(self, Role.OPERATOR):  # an observer may not read the gait
+                    self.link.send("walk_params", tag="app:walk-params", quiet=True)
             self.local_event(
                 "link",
                 _("connected to {robot} at {endpoint}").format(
@@ -338,6 +341,12 @@ class DarwinApp(App[None]):
             for tab in screen.query(TabView):
                 if hasattr(tab, "robot"):
                     tab.robot = robot  # type: ignore[attr-defined]
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        # Halt and the lease are command verbs: an observer sees them greyed out.
+        if action in ("halt", "lease") and not role_at_least(self, Role.OPERATOR):
+            return None
+        return True
 
     def action_halt(self) -> None:
         self.link.halt()

@@ -35,6 +35,7 @@ from clients.tui.messages import (
     StatusUpdate,
 )
 from schemas.errors import ClientError, DarwinError
+from schemas.roles import Role
 from schemas.session import Credentials, resolve
 
 log = logging.getLogger(__name__)
@@ -70,6 +71,8 @@ class Link:
         self.app = app
         self.name = name
         self.credentials = credentials  # None: the environment's or the client file's
+        # What the robot's access control lets us do (None: unknown, everything is offered).
+        self.role: Role | None = None
         self.robot: Robot | None = None
         self.info = LinkInfo(LinkState.IDLE, "", "")
         self._stop = threading.Event()
@@ -130,6 +133,10 @@ class Link:
         for topic, make in handlers.items():
             robot.subscribe(topic, lambda m, make=make: self.app.post_message(make(m)))
         ep, name = robot.target.endpoint, robot.target.robot
+        try:
+            self.role = robot.role  # asked here, off the UI thread, before CONNECTED is posted
+        except Exception:  # a session closing under us: the role stays unknown
+            self.role = None
         self._set(LinkState.CONNECTED if robot.alive(1.0) else LinkState.NO_DAEMON, ep, name)
 
         def on_token(sample: zenoh.Sample) -> None:
