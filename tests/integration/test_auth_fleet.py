@@ -3,6 +3,7 @@ access control enforces the roles for everyone who goes through it."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,3 +72,13 @@ def test_an_operator_drives_one_robot_through_the_router(fleet: Fleet) -> None:
 def test_the_router_refuses_a_wrong_password(fleet: Fleet) -> None:
     with pytest.raises(RobotUnreachableError):
         Robot(fleet.router.endpoint, fleet.robots[0].robot, user="op", password="wrong-password")
+
+
+def test_darwin_list_logs_in_to_the_router(fleet: Fleet) -> None:
+    login = ["--user", "obs", "--password-file", str(fleet.directory / "obs.pw")]
+    done = run_darwin("list", "--connect", fleet.router.endpoint, "--json", *login)
+    assert done.returncode == 0, done.stderr
+    names = {r["name"] for r in json.loads(done.stdout)}
+    assert {s.robot for s in fleet.robots} <= names
+    refused = run_darwin("list", "--connect", fleet.router.endpoint, "--json")
+    assert refused.returncode != 0 and "nothing answers" in refused.stderr
