@@ -191,6 +191,11 @@ class Commander:
         # The role is what the robot's access control grants us, learnt from it on first need
         # (``role``); ``role`` given caps it (a gateway running with --role observer).
         self._role: Role | None = None
+        self._identity = ""  # who we logged in as, for messages
+        with contextlib.suppress(OSError, ValueError):
+            creds = self.target.credentials
+            self._identity = (creds.identity if creds else None) or ""
+        self._role_asked = False  # asked once: a daemon without role keys is not asked again
         self._role_cap: Role | None = parse_role(role, people_only=True) if role else None
         self._closed = False
         # The lease secret while we hold the lease, renewed from a thread.
@@ -235,8 +240,7 @@ class Commander:
         if required_role(verb, fields) != Role.OBSERVER:
             # Refused here at once, naming the role that may: access control would drop the
             # query silently (no reply), which looks like an unreachable robot.
-            creds = self.target.credentials
-            check_role(self.role, verb, fields, (creds.identity if creds else None) or "")
+            check_role(self.role, verb, fields, self._identity)
         envelope: dict[str, Any] = {"client_name": self.name}
         token = self._lease.token
         if token is not None:
@@ -283,8 +287,10 @@ class Commander:
     def role(self) -> Role | None:
         """This client's role as the robot's access control sees it (None: unknown, e.g. an
         older daemon): the highest of the daemon's per-role keys that answers us."""
-        if self._role is None:
+        if not self._role_asked:
             self._role = discover_role(self.session, self.keys, min(self.timeout, 2.0))
+            # An answer is final; none (the robot not up yet) is asked again next time.
+            self._role_asked = self._role is not None
         if self._role_cap is None:
             return self._role
         if self._role is None:

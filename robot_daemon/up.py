@@ -31,6 +31,7 @@ from config.loader import load_all
 from robot_daemon.children import Child, ChildError, relay_to_stderr
 from robot_daemon.daemon_cli import _resolve_listen, router_of
 from robot_daemon.security.acl import check_listen
+from robot_daemon.security.certs import ca_paths
 from robot_daemon.security.internal import Internal
 from robot_daemon.security.options import (
     add_security_arguments,
@@ -250,7 +251,12 @@ def _run(
                 adapters.append(Adapter(child))
                 print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
         if args.tui:
-            return run_tui(endpoint, robot)
+            # The UI is a person: it logs in with up's --user… (else DARWIN_USER, the client
+            # file); under --secure it trusts the installation's CA unless told otherwise.
+            login = credential_args(args)
+            if internal is not None and internal.security.tls and not args.ca:
+                login += ["--ca", str(ca_paths(internal.security.certs_dir).cert)]
+            return run_tui(endpoint, robot, login)
         # Run until a signal or the daemon's death; adapters that die are started again.
         while not stop.wait(0.5):
             if not daemon.running():
@@ -304,9 +310,10 @@ def daemon_robot(daemon: Child, default: str) -> str:
     return default
 
 
-def run_tui(endpoint: str, robot: str) -> int:
+def run_tui(endpoint: str, robot: str, login: list[str] | None = None) -> int:
     """The terminal UI in the foreground; everything stops when it exits."""
     cmd = [sys.executable, "-m", "robot_daemon.cli", "tui", "--connect", endpoint, "--robot", robot]
+    cmd += login or []
     # The UI handles Ctrl-C itself; this process waits for it instead of dying first.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     return subprocess.call(cmd)
