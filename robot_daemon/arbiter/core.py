@@ -285,7 +285,8 @@ class Arbiter:
         self._finish_query(pending.query, pending.ok, pending.reply, pending.request.verb)
 
     def _finish_query(self, query: zenoh.Query, ok: bool, reply: bytes, verb: str = "") -> None:
-        answer(query, self.keys.cmd(verb) if ok else "", ok, reply)
+        # On the key the query came on: cmd/<verb>, or admin/<verb> for an admin-only operation.
+        answer(query, str(query.key_expr) if ok else "", ok, reply)
 
     # -- motion-thread side ------------------------------------------------------------------
     def has_pending(self) -> bool:

@@ -104,6 +104,8 @@ def test_an_admin_writes_registers_and_reaches_the_emulator(auth_system: Running
             # (this one runs without --allow-hardware-writes).
             with pytest.raises(RefusedError, match="--allow-hardware-writes"):
                 robot.registers(200, 24, data=[0])  # CM-730 DXL_POWER
+            # An admin-only operation that succeeds is answered on the admin key it came on.
+            assert robot.command("pages", op="reload")["op"] == "reload"
             # The same write sent on cmd/ (where operators may send) is refused by the arbiter:
             # only the admin key, which access control gives to admins, carries it.
             (reply,) = raw_replies(
