@@ -188,9 +188,11 @@ class Daemon:
             self.session = zenoh.open(conf)
         except zenoh.ZError as exc:
             if self.options.router and "connect" in str(exc).lower():
+                wait = ROUTER_CONNECT_TIMEOUT_MS / 1000
                 raise ListenError(
-                    f"cannot reach the router at {self.options.router}: {_zenoh_reason(exc)}; "
-                    "start it first (`darwin router --listen ENDPOINT`) or fix --router"
+                    f"cannot reach the router at {self.options.router}: nothing answered within "
+                    f"{wait:g} s; start it first (`darwin router --listen ENDPOINT`) or fix "
+                    "--router"
                 ) from None
             raise ListenError(
                 f"cannot listen on {', '.join(self.options.listen)}: {_zenoh_reason(exc)}; is "

@@ -18,8 +18,9 @@ from textual.binding import Binding
 from textual.screen import Screen
 from textual.widgets import TabbedContent, TabPane
 
+from clients.fleet import RobotRecord, discover, discover_at
 from clients.tui import i18n
-from clients.tui.connect import ConnectScreen
+from clients.tui.connect import ConnectScreen, RobotFinder
 from clients.tui.help import HelpScreen
 from clients.tui.i18n import N_, _
 from clients.tui.link import CommandDone, Link
@@ -54,6 +55,7 @@ from schemas.roles import Role
 from schemas.session import Credentials
 
 RENDER_HZ = 15.0
+FIND_TIMEOUT_S = 1.0  # how long the robot list waits for each robot's status
 TABS: tuple[tuple[str, str], ...] = (
     ("imu", N_("IMU")),
     ("motors", N_("Motors")),
@@ -97,6 +99,8 @@ class DarwinApp(App[None]):
         Binding("ctrl+x,exclamation_mark", "halt", N_("HALT"), priority=True),
         Binding("l", "lease", N_("Lease take/release")),
         Binding("c", "connect", N_("Connect")),
+        # Not on the key bar (Help must stay there at 80 columns); in the help screen.
+        Binding("f3", "next_robot", N_("Next live robot"), show=False),
         Binding("f1,question_mark", "help", N_("Help")),
         Binding("f2", "language", N_("Language")),
         Binding("ctrl+q", "quit", N_("Quit"), priority=True),
@@ -137,6 +141,9 @@ class DarwinApp(App[None]):
         self.link_info = LinkInfo(LinkState.IDLE, self.settings.endpoint, self.settings.robot)
         self.active_tab = TABS[0][0]
         self._connect_on_mount = connect
+        # The live robots at an endpoint (connect screen, F3); None on a fixed scene (tests
+        # may set a fixed list).
+        self.find_robots: RobotFinder | None = self._find_robots if connect else None
         self._ask = ask
         self._seen: dict[str, int] = {}
         self._recorder: Any = None
@@ -364,7 +371,48 @@ class DarwinApp(App[None]):
             if result is not None:
                 self.connect(result)
 
-        self.push_screen(ConnectScreen(self.settings, detail), done)
+        self.push_screen(ConnectScreen(self.settings, detail, self.find_robots), done)
+
+    # -- a fleet: the robots at this endpoint ----------------------------------------------------
+    def _find_robots(self, endpoint: str) -> list[RobotRecord]:
+        """Live robots at ``endpoint`` (in a worker thread), through the link's session when it
+        goes there (a router's: the fleet), else a session of its own."""
+        robot = self.link.robot
+        if robot is not None and robot.target.endpoint == endpoint:
+            return discover(robot.session, timeout=FIND_TIMEOUT_S)
+        return discover_at(endpoint, timeout=FIND_TIMEOUT_S)
+
+    def action_next_robot(self) -> None:
+        """Switch to the next live robot at the same endpoint (by name, wrapping round)."""
+        finder, endpoint = self.find_robots, self.settings.endpoint
+        if finder is None:
+            self.notify(_("No robot list without a connection."), severity="warning")
+            return
+
+        def find() -> None:
+            try:
+                names = [r.name for r in finder(endpoint)]
+            except Exception as exc:  # unreachable, or the session closed: say so
+                self.call_from_thread(self.notify, str(exc), severity="error", timeout=8)
+                return
+            self.call_from_thread(self._switch_robot, names)
+
+        self.run_worker(find, thread=True, exclusive=True, group="next-robot")
+
+    def _switch_robot(self, names: list[str]) -> None:
+        current = self.settings.robot
+        others = [n for n in names if n != current]
+        if not others:
+            self.notify(
+                _("No other live robot at {endpoint}.").format(endpoint=self.settings.endpoint)
+            )
+            return
+        later = [n for n in others if n > current]
+        nxt = (later or others)[0]
+        self.connect(Settings(self.settings.endpoint, nxt, self.settings.name, self.settings.lang))
+        self.model.status = None  # the previous robot's state must not show as this one's
+        self.model.bump("status")
+        self.notify(_("Switched to {robot}.").format(robot=nxt))
 
     def action_help(self) -> None:
         if isinstance(self.screen, HelpScreen):

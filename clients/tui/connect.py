@@ -1,17 +1,36 @@
-"""The connect screen: endpoint, robot name and your name, remembered between runs."""
+"""The connect screen: endpoint, robot name and your name, remembered between runs, and the live
+robots at that endpoint to pick from (a router's endpoint lists the whole fleet)."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Grid, Horizontal, Vertical
 from textual.screen import ModalScreen
-from textual.widgets import Button, Input, Label, Static
+from textual.widgets import Button, Input, Label, OptionList, Static
+from textual.widgets.option_list import Option
 
+from clients.fleet import RobotRecord
 from clients.tui.i18n import N_, _
 from clients.tui.settings import Settings
+from schemas.errors import DarwinError
 from schemas.keys import check_robot_name
 from schemas.session import check_endpoint
+
+# endpoint → the live robots there (clients.fleet.discover_at, or a fixed list in tests)
+RobotFinder = Callable[[str], list[RobotRecord]]
+
+
+def robot_label(r: RobotRecord) -> str:
+    """One robot in the list: name, state, lease holder, battery."""
+    lease = r.lease_holder or _("free")
+    battery = "?" if r.battery is None else f"{r.battery:.1f} V"
+    alarms = _(", alarms: {n}").format(n=len(r.alarms)) if r.alarms else ""
+    return _("{name}  {state}, lease {lease}, {battery}{alarms}").format(
+        name=r.name, state=r.state, lease=lease, battery=battery, alarms=alarms
+    )
 
 
 class ConnectScreen(ModalScreen[Settings | None]):
@@ -23,16 +42,25 @@ class ConnectScreen(ModalScreen[Settings | None]):
     }
     ConnectScreen Grid { grid-size: 2; grid-columns: 14 1fr; grid-rows: 1; grid-gutter: 1 0;
         height: auto; }
+    ConnectScreen #robots-title { margin-top: 1; }
+    ConnectScreen #robots { height: auto; max-height: 8; border: none; padding: 0; }
     ConnectScreen #connect-error { color: $error; height: auto; margin-top: 1; }
     ConnectScreen Horizontal { height: auto; margin-top: 1; align-horizontal: right; }
     ConnectScreen Button { margin-left: 1; }
     """
-    BINDINGS = [Binding("escape", "cancel", N_("Cancel"))]
+    BINDINGS = [
+        Binding("escape", "cancel", N_("Cancel")),
+        Binding("f5", "find_robots", N_("Refresh the robot list")),
+    ]
 
-    def __init__(self, settings: Settings, detail: str = "") -> None:
+    def __init__(
+        self, settings: Settings, detail: str = "", finder: RobotFinder | None = None
+    ) -> None:
         super().__init__()
         self.settings = settings
         self.detail = detail
+        self.finder = finder
+        self.found: list[RobotRecord] = []
 
     def compose(self) -> ComposeResult:
         with Vertical():
@@ -49,12 +77,67 @@ class ConnectScreen(ModalScreen[Settings | None]):
                 yield Input(self.settings.robot, placeholder="op1", id="robot", compact=True)
                 yield Label(_("Your name"))
                 yield Input(self.settings.name, placeholder="tui", id="name", compact=True)
+            yield Static(_("Live robots (Enter connects, F5 looks again):"), id="robots-title")
+            yield OptionList(id="robots")
             yield Static(self.detail, id="connect-error")
             with Horizontal():
                 yield Button(_("Cancel"), id="cancel")
                 yield Button(_("Connect"), id="connect", variant="primary")
 
-    def on_input_submitted(self) -> None:
+    def on_mount(self) -> None:
+        self.action_find_robots()
+
+    # -- the live robots ---------------------------------------------------------------------
+    def action_find_robots(self) -> None:
+        robots = self.query_one("#robots", OptionList)
+        robots.clear_options()
+        if self.finder is None:
+            robots.add_option(Option(_("(no robot list without a connection)"), disabled=True))
+            return
+        endpoint = self.endpoint()
+        try:
+            check_endpoint(endpoint)
+        except ValueError as exc:
+            robots.add_option(Option(str(exc), disabled=True))
+            return
+        robots.add_option(Option(_("looking for robots at {endpoint}…").format(
+            endpoint=endpoint), disabled=True))
+        finder = self.finder
+        self.run_worker(lambda: self._find(finder, endpoint), thread=True, exclusive=True)
+
+    def _find(self, finder: RobotFinder, endpoint: str) -> None:
+        """In a worker thread: discovery waits on the network."""
+        try:
+            found, error = finder(endpoint), ""
+        except DarwinError as exc:
+            found, error = [], str(exc)
+        except Exception as exc:  # a session closing under us: say so, never end the UI
+            found, error = [], f"{type(exc).__name__}: {exc}"
+        self.app.call_from_thread(self.show_robots, endpoint, found, error)
+
+    def show_robots(self, endpoint: str, found: list[RobotRecord], error: str = "") -> None:
+        self.found = list(found)
+        robots = self.query_one("#robots", OptionList)
+        robots.clear_options()
+        if error or not found:
+            text = error or _("no live robot at {endpoint}").format(endpoint=endpoint)
+            robots.add_option(Option(text, disabled=True))
+            return
+        robots.add_options(Option(robot_label(r), id=r.name) for r in found)
+        current = self.query_one("#robot", Input).value.strip()
+        names = [r.name for r in found]
+        robots.highlighted = names.index(current) if current in names else 0
+
+    def on_option_list_option_selected(self, event: OptionList.OptionSelected) -> None:
+        if event.option.id:
+            self.query_one("#robot", Input).value = event.option.id
+            self.submit()
+
+    # -- connecting --------------------------------------------------------------------------
+    def endpoint(self) -> str:
+        return self.query_one("#endpoint", Input).value.strip() or "tcp/127.0.0.1:7447"
+
+    def on_input_submitted(self, event: Input.Submitted) -> None:
         self.submit()
 
     def on_button_pressed(self, event: Button.Pressed) -> None:
@@ -67,7 +150,7 @@ class ConnectScreen(ModalScreen[Settings | None]):
         self.dismiss(None)
 
     def submit(self) -> None:
-        endpoint = self.query_one("#endpoint", Input).value.strip() or "tcp/127.0.0.1:7447"
+        endpoint = self.endpoint()
         robot = self.query_one("#robot", Input).value.strip() or "op1"
         name = self.query_one("#name", Input).value.strip() or "tui"
         try:

@@ -10,6 +10,7 @@ import os
 import signal
 import threading
 import time
+import typing
 import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -22,7 +23,8 @@ from clients.fleet import discover
 from clients.recording import Replayer, read_recording
 from clients.robot import Robot
 from schemas.keys import every_robot, robot_of
-from schemas.session import open_client
+from schemas.messages import NetworkInfo
+from schemas.session import free_tcp_port, open_client
 from tests.fixtures.fleet import RunningRouter, start_router
 from tests.fixtures.system import RunningSystem, run_darwin, start_system
 
@@ -203,3 +205,26 @@ def test_the_recorder_writes_several_robots_into_one_file(
                 assert len(viewer.wait_for("joints", timeout=10).position) == 20
         finally:
             player.stop()
+
+
+def test_status_says_where_the_robot_is_reached(fleet: Fleet) -> None:
+    name = next(iter(fleet.robots))
+    with Robot(fleet.endpoint, name, name="network") as robot:
+        status = robot.wait_for("status")
+    assert set(status.network) == set(typing.get_type_hints(NetworkInfo))
+    assert status.network == {"endpoint": fleet.endpoint, "router": fleet.endpoint, "listen": []}
+
+
+def test_router_and_fleet_failures_are_one_line(fleet: Fleet) -> None:
+    busy = run_darwin("router", "--listen", fleet.endpoint)
+    assert busy.returncode == 1
+    assert busy.stderr.strip().count("\n") == 0 and "already in use" in busy.stderr
+    bad = run_darwin("router", "--listen", "localhost:7447")
+    assert bad.returncode == 1 and "not a Zenoh locator" in bad.stderr
+    nobody = f"tcp/127.0.0.1:{free_tcp_port()}"
+    alone = run_darwin("up", "--router", nobody, "--robot", "lonely", "--no-gateway")
+    assert alone.returncode == 1
+    assert f"cannot reach the router at {nobody}" in alone.stderr
+    assert "Traceback" not in alone.stderr
+    listed = run_darwin("list", "--connect", nobody)
+    assert listed.returncode == 1 and "nothing answers" in listed.stderr

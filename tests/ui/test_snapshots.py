@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 from textual.pilot import Pilot
 
+from clients.fleet import RobotRecord
 from clients.tui.app import TABS
 
 SIZES = {"80x24": (80, 24), "160x48": (160, 48)}
@@ -35,9 +36,13 @@ def test_help_screen(snap_compare, scene_app) -> None:
 
 
 def test_connect_screen(snap_compare, scene_app) -> None:
-    assert snap_compare(
-        scene_app(tab="imu"), press=["c"], terminal_size=(80, 24), run_before=settle
-    )
+    app = scene_app(tab="imu")
+    # A fleet at the endpoint: the list the connect screen shows to pick from.
+    app.find_robots = lambda endpoint: [
+        RobotRecord("op1", endpoint, "running", "ana", 12.1, [], 125.0),
+        RobotRecord("op2", endpoint, "degraded", None, 11.4, [{"id": 7, "bits": 32}], 124.9),
+    ]
+    assert snap_compare(app, press=["c"], terminal_size=(80, 24), run_before=settle)
 
 
 def test_pose_manipulate(snap_compare, scene_app) -> None:
