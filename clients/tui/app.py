@@ -380,7 +380,7 @@ class DarwinApp(App[None]):
         robot = self.link.robot
         if robot is not None and robot.target.endpoint == endpoint:
             return discover(robot.session, timeout=FIND_TIMEOUT_S)
-        return discover_at(endpoint, timeout=FIND_TIMEOUT_S)
+        return discover_at(endpoint, timeout=FIND_TIMEOUT_S, creds=self.link.credentials)
 
     def action_next_robot(self) -> None:
         """Switch to the next live robot at the same endpoint (by name, wrapping round)."""
