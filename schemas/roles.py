@@ -46,9 +46,6 @@ ADMIN_OPS: dict[str, frozenset[str]] = {
 }
 ADMIN_VERBS: tuple[str, ...] = tuple(ADMIN_OPS)
 
-# Services other than the arbiter, by the lowest role that may query them.
-SERVICE_ROLES: dict[str, Role] = {"replay_control": Role.OPERATOR, "sim_control": Role.ADMIN}
-
 
 def parse_role(text: str, people_only: bool = False) -> Role:
     """The role named ``text``, or ``ValueError`` listing the roles."""
@@ -90,12 +87,6 @@ def allows(role: Role | str | None, verb: str, fields: dict[str, Any] | None = N
         return True
     need = required_role(verb, fields or {})
     return LADDER.index(Role(role)) >= LADDER.index(need)
-
-
-def service_allowed(role: Role | str | None, service: str) -> bool:
-    if role is None or role == Role.ROBOT:
-        return True
-    return LADDER.index(Role(role)) >= LADDER.index(SERVICE_ROLES[service])
 
 
 def check(role: Role | str | None, verb: str, fields: dict[str, Any], user: str = "") -> None:
