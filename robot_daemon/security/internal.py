@@ -22,11 +22,12 @@ from schemas.roles import Role
 class Internal:
     security: Security
     role: Role
-    runtime: Path = field(default_factory=lambda: Path(tempfile.mkdtemp(prefix="darwin-up-")))
+    runtime: Path = field(init=False)
     merged: dict[str, users.User] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.merged = dict(self.security.check())
+        self.merged = dict(self.security.check())  # a missing file fails before anything exists
+        self.runtime = Path(tempfile.mkdtemp(prefix="darwin-up-"))
 
     def identity_args(self, adapter: str) -> list[str]:
         """Make ``darwin-<adapter>`` and return the client options that log in as it."""
