@@ -21,7 +21,7 @@ import zenoh
 from schemas.errors import ProtocolError, RobotUnreachableError
 from schemas.keys import every_robot, robot_of
 from schemas.messages import AlarmInfo, Status, decode
-from schemas.session import open_client
+from schemas.session import Credentials, open_client
 
 # How long discovery waits for each live robot's status (it arrives at ~10 Hz).
 STATUS_WAIT_S = 2.0
@@ -118,11 +118,15 @@ def discover(
 
 
 def discover_at(
-    endpoint: str, timeout: float = STATUS_WAIT_S, pattern: str = "*"
+    endpoint: str,
+    timeout: float = STATUS_WAIT_S,
+    pattern: str = "*",
+    creds: Credentials | None = None,
 ) -> list[RobotRecord]:
-    """:func:`discover` through a session of its own to ``endpoint`` (a router, or a robot)."""
+    """:func:`discover` through a session of its own to ``endpoint`` (a router, or a robot),
+    logged in as ``creds`` (None: the environment's or the client file's)."""
     try:
-        session = open_client(endpoint)
+        session = open_client(endpoint, creds=creds)
     except zenoh.ZError:
         raise RobotUnreachableError(
             f"nothing answers at {endpoint}: is `darwin router` (or `darwin up`) running there? "

@@ -10,7 +10,7 @@ import sys
 
 from clients.fleet import STATUS_WAIT_S, discover_at
 from schemas.keys import check_robot_name
-from schemas.session import add_target_arguments, resolve
+from schemas.session import add_target_arguments, credentials_from_args, resolve
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -28,9 +28,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     # --robot here narrows the list to one name; without it, every robot.
-    endpoint = resolve(args.connect).endpoint
+    target = resolve(args.connect, None, credentials_from_args(args))
+    endpoint = target.endpoint
     pattern = check_robot_name(args.robot) if args.robot else "*"
-    records = discover_at(endpoint, max(0.0, args.wait), pattern)
+    records = discover_at(endpoint, max(0.0, args.wait), pattern, target.credentials)
     if args.json:
         print(json.dumps([r.to_dict() for r in records], indent=2))
     elif not records:

@@ -54,7 +54,10 @@ from schemas.messages import (
     decode,
 )
 from schemas.query import ask
-from schemas.session import Target, open_client, resolve
+from schemas.roles import LADDER, Role, command_key, discover_role, parse_role, required_role
+from schemas.roles import check as check_role
+from schemas.session import Credentials, Target, open_client, resolve
+from schemas.session import credentials as make_credentials
 
 log = logging.getLogger(__name__)
 
@@ -154,20 +157,46 @@ class Commander:
         client_id: str | None = None,
         timeout: float = 3.0,
         session: zenoh.Session | None = None,
+        user: str | None = None,
+        password: str | None = None,
+        credentials: Credentials | None = None,
+        role: Role | str | None = None,
     ) -> None:
-        self.target: Target = resolve(endpoint, robot)
+        if session is not None:
+            credentials = Credentials()  # the session is open: who it is was settled there
+        elif credentials is None and (user or password):
+            credentials = make_credentials(user=user, password=password)
+        self.target: Target = resolve(endpoint, robot, credentials)
         self.keys = Keys(self.target.robot)
         self.client_id = client_id or uuid.uuid4().hex[:12]
         self.name = name or f"python-{self.client_id[:6]}"
         self.timeout = timeout
         self._own_session = session is None
         try:
-            self.session = session or open_client(self.target.endpoint)
+            self.session = session or open_client(self.target)
         except zenoh.ZError as exc:
+            who = self.target.credentials.identity if self.target.credentials else None
+            login = (
+                f" as {who}: check the user, password or certificate (a robot with --auth or "
+                "--secure refuses a wrong one at connection)"
+                if who
+                else "; if it runs with --auth or --secure, pass --user/--password-file or "
+                "--cert/--key (README, \"Roles and security\")"
+            )
             raise RobotUnreachableError(
                 f"cannot open a Zenoh session to {self.target.endpoint}: {exc}. "
-                "Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT."
+                f"Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT"
+                f"{login}"
             ) from exc
+        # The role is what the robot's access control grants us, learnt from it on first need
+        # (``role``); ``role`` given caps it (a gateway running with --role observer).
+        self._role: Role | None = None
+        self._identity = ""  # who we logged in as, for messages
+        with contextlib.suppress(OSError, ValueError):
+            creds = self.target.credentials
+            self._identity = (creds.identity if creds else None) or ""
+        self._role_asked = False  # asked once: a daemon without role keys is not asked again
+        self._role_cap: Role | None = parse_role(role, people_only=True) if role else None
         self._closed = False
         # The lease secret while we hold the lease, renewed from a thread.
         self._lease = LeaseKeeper(
@@ -211,7 +240,11 @@ class Commander:
         """Send one arbiter command; return its *applied* map or raise."""
         if self._closed:
             raise ClientError("this Robot is closed; create a new one")
-        key = self.keys.cmd(verb)
+        key = command_key(self.keys, verb, fields)
+        if required_role(verb, fields) != Role.OBSERVER:
+            # Refused here at once, naming the role that may: access control would drop the
+            # query silently (no reply), which looks like an unreachable robot.
+            check_role(self.role, verb, fields, self._identity)
         envelope: dict[str, Any] = {"client_name": self.name}
         token = self._lease.token
         if token is not None:
@@ -253,6 +286,20 @@ class Commander:
             elif fields.get("op") == "release":
                 self._lease.drop()
         return applied
+
+    @property
+    def role(self) -> Role | None:
+        """This client's role as the robot's access control sees it (None: unknown, e.g. an
+        older daemon): the highest of the daemon's per-role keys that answers us."""
+        if not self._role_asked:
+            self._role = discover_role(self.session, self.keys, min(self.timeout, 2.0))
+            # An answer is final; none (the robot not up yet) is asked again next time.
+            self._role_asked = self._role is not None
+        if self._role_cap is None:
+            return self._role
+        if self._role is None:
+            return self._role_cap
+        return min(self._role, self._role_cap, key=LADDER.index)
 
     @property
     def holds_lease(self) -> bool:
@@ -377,12 +424,20 @@ class Robot(Commander, TeachMixin):
             self._ensure_zsub(topic)
 
     @staticmethod
-    def discover(connect: str | None = None, timeout: float = 2.0) -> list[RobotRecord]:
+    def discover(
+        connect: str | None = None,
+        timeout: float = 2.0,
+        *,
+        user: str | None = None,
+        password: str | None = None,
+    ) -> list[RobotRecord]:
         """Every live robot reachable at ``connect`` (a router's endpoint: the whole fleet;
         default ``DARWIN_ENDPOINT``, else the local one), as ``darwin list`` shows them: name,
         endpoint, state, lease holder, battery, alarms, loop rate. ``Robot(connect, name)``
-        then reaches any of them through that same endpoint."""
-        return discover_at(resolve(connect).endpoint, timeout)
+        then reaches any of them through that same endpoint. ``user``/``password`` log in as
+        ``Robot(user=…, password=…)`` does (else the environment's or the client file's)."""
+        creds = make_credentials(user=user, password=password) if (user or password) else None
+        return discover_at(resolve(connect).endpoint, timeout, creds=creds)
 
     def _close_extra(self) -> None:
         for sub in list(self._zsubs.values()):

@@ -14,7 +14,8 @@ import signal
 
 from gateway.server import Gateway
 from gateway.settings import check_settings, load_settings
-from schemas.session import add_target_arguments, resolve
+from schemas.roles import LADDER, parse_role
+from schemas.session import add_target_arguments, resolve_args
 
 # The limits a client cannot push past; each one a [gateway] setting of the same name.
 LIMIT_OPTIONS: tuple[tuple[str, type, str, str], ...] = (
@@ -60,6 +61,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--monitor-period", type=float, metavar="S", help="default monitoring period in seconds"
     )
+    parser.add_argument(
+        "--role",
+        choices=[str(r) for r in LADDER],
+        help="act as at most this role whatever the identity allows (observer: a watch-only "
+        "gateway whose commands get an error reply); default: the identity's role",
+    )
     limits = parser.add_argument_group("limits (defaults from [gateway] in config/gateway.toml)")
     for flag, kind, metavar, text in LIMIT_OPTIONS:
         limits.add_argument(flag, type=kind, metavar=metavar, help=text)
@@ -70,8 +77,9 @@ async def serve(args: argparse.Namespace) -> int:
         listen=args.listen, monitor_period=args.monitor_period, **_limit_overrides(args)
     )
     check_settings(settings)
-    target = resolve(args.connect, args.robot)
+    target = resolve_args(args)
     gateway = Gateway(settings, target)
+    gateway.role = parse_role(args.role, people_only=True) if args.role else None
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGTERM, signal.SIGINT):

@@ -326,6 +326,7 @@ class Connection:
                     name=f"legacy {self.peer}",
                     timeout=self.settings.command_timeout,
                     session=self.gw.session,
+                    role=self.gw.role,
                 )
             )
         return self.commander

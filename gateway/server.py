@@ -25,6 +25,7 @@ from gateway.messages import error_message
 from gateway.orchestrate import Orchestrator
 from gateway.settings import GatewaySettings
 from schemas.errors import ErrorCode, RobotUnreachableError
+from schemas.roles import Role
 from schemas.session import Target, open_client
 
 log = logging.getLogger(__name__)
@@ -43,6 +44,7 @@ class Gateway:
         self.session: zenoh.Session | None = None
         self.hub: Hub = None  # type: ignore[assignment]  # set in start()
         self.orchestrator = Orchestrator(self)
+        self.role: Role | None = None  # --role: the most this gateway may do (None: its identity's)
         self._server: asyncio.Server | None = None
         self._hub_robot: Robot | None = None
 
@@ -54,7 +56,7 @@ class Gateway:
         """Open the Zenoh session and listen; returns the real (host, port)."""
         loop = asyncio.get_running_loop()
         try:
-            self.session = await self.blocking(lambda: open_client(self.target.endpoint))
+            self.session = await self.blocking(lambda: open_client(self.target))
         except zenoh.ZError as exc:
             raise RobotUnreachableError(
                 f"gateway cannot open a Zenoh session to {self.target.endpoint}: {exc}. Is the "
@@ -68,6 +70,7 @@ class Gateway:
                 name="gateway",
                 timeout=self.settings.command_timeout,
                 session=session,
+                role=self.role,
             )
         )
         self.hub = Hub(self._hub_robot, loop)

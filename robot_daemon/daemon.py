@@ -37,11 +37,12 @@ from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
+from robot_daemon.security.acl import Security, serve_roles
 from robot_daemon.services import DaemonInfo
 from schemas.errors import BusError, DarwinError, ErrorCode, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, NetworkInfo, Status
-from schemas.session import MAX_MESSAGE_BYTES, server_config
+from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config
 
 if TYPE_CHECKING:
     from robot_daemon.camera import CameraThread
@@ -77,6 +78,8 @@ class DaemonOptions:
     connect: list[str] = field(default_factory=list)  # peers to join, e.g. the emulator's
     router: str | None = None  # a Zenoh router to join (`--router`): the fleet's meeting point
     extras: dict[str, Any] = field(default_factory=dict)
+    security: Security | None = None  # --auth/--secure: authentication, TLS, access control
+    credentials: Credentials | None = None  # who this robot is to its router (--user…)
 
 
 class Daemon:
@@ -175,8 +178,12 @@ class Daemon:
         )
         if self.options.router:
             join_router(conf, self.options.router, self.options.connect)
+            if self.options.credentials is not None:
+                self.options.credentials.apply(conf)
         elif self.options.connect:
             conf.insert_json5("connect/endpoints", json.dumps(self.options.connect))
+        if self.options.security is not None:
+            self.options.security.apply(conf)
         try:
             self.session = zenoh.open(conf)
         except zenoh.ZError as exc:
@@ -192,6 +199,10 @@ class Daemon:
                 "another daemon or `darwin up` using it? Stop it, or pass --listen "
                 "tcp/127.0.0.1:0 for any free port"
             ) from None
+        finally:
+            if self.options.security is not None:
+                # Zenoh read the plaintext dictionary while opening: it need not stay on disk.
+                self.options.security.close()
         self.pub = Publishers(self.session, self.keys)
         for kind, message, data in self._early_events:
             self.pub.event(kind, message, **data)
@@ -200,6 +211,7 @@ class Daemon:
         self.arbiter.gate = self._outage_gate
         self.arbiter.on_wakeup = self._wake.set
         self._alive = self.session.liveliness().declare_token(self.keys.alive)
+        self._roles = serve_roles(self.session, self.keys)
         if self.options.camera != "none":
             from robot_daemon.camera import CameraThread
 

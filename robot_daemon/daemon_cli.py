@@ -10,18 +10,33 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import shutil
 import signal
 import sys
 import tempfile
+from pathlib import Path
 from typing import Any
 
 from config.loader import load_all, robot_from_dict
 from robot_daemon.children import Child, relay_to_stderr
 from robot_daemon.daemon import Daemon, DaemonOptions
+from robot_daemon.security.options import (
+    add_security_arguments,
+    listen_warnings,
+    secure_listen,
+    security_from_args,
+)
 from robot_daemon.vision.sources import check_spec
 from schemas.errors import ConfigError
 from schemas.keys import check_robot_name
-from schemas.session import check_endpoint, endpoint_host_port, free_tcp_port
+from schemas.session import (
+    add_credential_arguments,
+    check_endpoint,
+    credential_env,
+    credentials_from_args,
+    endpoint_host_port,
+    free_tcp_port,
+)
 
 log = logging.getLogger(__name__)
 
@@ -88,6 +103,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="with --sim: model 1 Mbps wire time in the emulator",
     )
+    add_security_arguments(parser)
+    # Who this robot is to an authenticated router (`darwin users add NAME --role robot`).
+    add_credential_arguments(parser)
 
 
 def _resolve_listen(listen: list[str]) -> list[str]:
@@ -146,12 +164,16 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
     router = router_of(args, settings)
     try:
         name = check_robot_name(args.robot or robot.name)
+        security = security_from_args(args)
         # Joined to a router, the daemon listens only where told: two robots on one machine
         # must not both want the shipped port.
         default_listen = [] if router else list(settings.get("zenoh", {}).get("listen", []))
-        listen = _resolve_listen(args.listen or default_listen)
-    except ValueError as exc:  # a bad --robot or --listen names itself
+        listen = secure_listen(args.listen or default_listen, security, explicit=bool(args.listen))
+        listen = _resolve_listen(listen)
+    except ValueError as exc:  # a bad --robot, --listen or --mtls names itself
         raise ConfigError(str(exc)) from None
+    for warning in listen_warnings(listen, security):
+        print(f"darwin daemon: {warning}", file=sys.stderr, flush=True)
     camera = check_spec(args.camera or default_camera(args, dcfg))
     opts = DaemonOptions(
         robot=name,
@@ -165,6 +187,8 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
             if args.allow_eeprom is not None
             else dcfg.get("allow_eeprom_writes", False)
         ),
+        security=security,
+        credentials=credentials_from_args(args) if router else None,
         extras={
             "allow_hardware_writes": bool(
                 args.allow_hardware_writes
@@ -189,6 +213,7 @@ def router_of(args: argparse.Namespace, settings: dict[str, Any]) -> str | None:
 
 def run(args: argparse.Namespace) -> int:
     emulator: Child | None = None
+    private: str | None = None  # the emulator's control socket's directory, with access control
     connect: list[str] = []
     if args.sim:
         sim_args = list(args.sim_arg)
@@ -197,11 +222,20 @@ def run(args: argparse.Namespace) -> int:
         world = "--no-world" not in sim_args
         if router and world and not any(a.startswith("--world-connect") for a in sim_args):
             # In a fleet the world joins the router too, so every client of the router
-            # reaches this robot's world and emulator control under its name.
+            # reaches this robot's world and emulator control under its name; it logs in
+            # with the robot's identity (the emulator child reads it from the environment).
             sim_args += [f"--world-connect={router}", f"--robot={robot_name}"]
+            private = tempfile.mkdtemp(prefix="darwin-sim-")
+            os.environ.update(credential_env(credentials_from_args(args), Path(private)))
         elif not any(a.startswith("--control-listen") for a in sim_args):
             # The emulator's control ops (faults…) and world, reachable through the daemon.
-            control = f"tcp/127.0.0.1:{free_tcp_port()}"
+            # With access control, over a Unix socket in a private directory: only this user
+            # reaches it, and the daemon's rules give that link (only) every right.
+            if args.auth or args.secure:
+                private = tempfile.mkdtemp(prefix="darwin-sim-")
+                control = f"unixsock-stream/{private}/control.sock"
+            else:
+                control = f"tcp/127.0.0.1:{free_tcp_port()}"
             sim_args += [f"--control-listen={control}", f"--robot={robot_name}"]
             connect.append(control)
         if not any(a.startswith("--link") for a in sim_args):
@@ -243,4 +277,6 @@ def run(args: argparse.Namespace) -> int:
             daemon.close()
         if emulator is not None:
             emulator.stop()
+        if private is not None:
+            shutil.rmtree(private, ignore_errors=True)
         sys.stdout.flush()

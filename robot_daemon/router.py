@@ -19,6 +19,12 @@ import zenoh
 
 from config.loader import load_all
 from robot_daemon.daemon_cli import _resolve_listen
+from robot_daemon.security.acl import Security, check_listen
+from robot_daemon.security.options import (
+    add_security_arguments,
+    secure_listen,
+    security_from_args,
+)
 from schemas.errors import ConfigError, DarwinError
 from schemas.session import server_config
 
@@ -38,15 +44,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         f"{DEFAULT_LISTEN}); port 0 picks a free one",
     )
     parser.add_argument("--config", help="user config file (TOML) on top of the shipped one")
+    add_security_arguments(parser)
 
 
-def listen_endpoints(args: argparse.Namespace, settings: dict[str, Any]) -> list[str]:
-    """The endpoints to listen on, checked, port 0 replaced by a free port."""
+def listen_endpoints(
+    args: argparse.Namespace, settings: dict[str, Any], security: Security | None = None
+) -> list[str]:
+    """The endpoints to listen on, checked, port 0 replaced by a free port (``tls/`` ones with
+    ``--secure``)."""
     wanted = args.listen or list(settings.get("router", {}).get("listen", [DEFAULT_LISTEN]))
     try:
-        return _resolve_listen(wanted)
+        listen = _resolve_listen(secure_listen(wanted, security, explicit=bool(args.listen)))
     except ValueError as exc:  # a malformed endpoint names itself
         raise ConfigError(f"{exc} (--listen)") from None
+    for warning in check_listen(listen, security):
+        print(f"darwin router: {warning}", file=sys.stderr, flush=True)
+    return listen
 
 
 def router_config(listen: list[str], settings: dict[str, Any]) -> zenoh.Config:
@@ -77,9 +90,16 @@ def open_router(listen: list[str], conf: zenoh.Config) -> zenoh.Session:
 
 def run(args: argparse.Namespace) -> int:
     settings = load_all(args.config)
-    listen = listen_endpoints(args, settings)
-    # Seam for the security work: a warning about open (non-loopback) listen addresses and
-    # `--auth`/`--secure` go here, before the session opens.
+    try:
+        security = security_from_args(args)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    listen = listen_endpoints(args, settings, security)
+    conf = router_config(listen, settings)
+    # The router enforces the roles for everyone who goes through it: robots (role robot)
+    # and every client of the fleet (README, "Roles and security").
+    if security is not None:
+        security.apply(conf)
     stop = threading.Event()
 
     def on_signal(_signum: int, _frame: object) -> None:
@@ -87,7 +107,11 @@ def run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
-    session = open_router(listen, router_config(listen, settings))
+    try:
+        session = open_router(listen, conf)
+    finally:
+        if security is not None:
+            security.close()  # Zenoh read the dictionary while opening
     try:
         for ep in listen:
             print(f"router: {ep}", flush=True)

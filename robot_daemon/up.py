@@ -25,10 +25,22 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from config.loader import load_all
 from robot_daemon.children import Child, ChildError, relay_to_stderr
 from robot_daemon.daemon_cli import _resolve_listen, router_of
+from robot_daemon.security.acl import check_listen
+from robot_daemon.security.certs import ca_paths
+from robot_daemon.security.internal import Internal
+from robot_daemon.security.options import (
+    add_security_arguments,
+    secure_listen,
+    security_from_args,
+)
+from schemas.errors import ConfigError
+from schemas.roles import LADDER, parse_role
+from schemas.session import add_credential_arguments, credential_args
 
 START_TIMEOUT = 30.0
 RESTART_BACKOFF_MIN = 1.0  # s before an adapter that died is started again, doubling …
@@ -102,6 +114,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="model 1 Mbps wire time in the emulator",
     )
+    add_security_arguments(parser)
+    add_credential_arguments(parser)  # with --router: who this robot (and its adapters) are
+    parser.add_argument(
+        "--adapter-role",
+        choices=[str(r) for r in LADDER],
+        default="operator",
+        help="with --auth/--secure: the role of the adapters started here (gateway, ros2, "
+        "foxglove, web), each logging in as darwin-NAME (default operator)",
+    )
 
 
 def gateway_available() -> bool:
@@ -111,12 +132,19 @@ def gateway_available() -> bool:
         return False
 
 
-def daemon_args(args: argparse.Namespace, listen: str | None, router: str | None) -> list[str]:
+def daemon_args(
+    args: argparse.Namespace, listen: str | None, router: str | None, internal: Internal | None
+) -> list[str]:
     out = ["daemon"]
     if listen:
         out += ["--listen", listen]
     if router:
-        out += ["--router", router]
+        out += ["--router", router, *credential_args(args)]
+    if internal is not None:
+        sec = internal.security
+        out += ["--auth", str(internal.users_file()), "--certs", str(sec.certs_dir.resolve())]
+        out += ["--secure"] if sec.tls else []
+        out += ["--mtls"] if sec.mtls else []
     if args.port:
         out += ["--port", args.port]
     else:
@@ -140,11 +168,40 @@ def run(args: argparse.Namespace) -> int:
     settings = load_all(args.config)
     router = router_of(args, settings)
     listen: str | None = None
-    if args.listen or not router:
-        # Joined to a router, the daemon listens only where told (see `darwin daemon`).
-        listen = _resolve_listen(
-            [args.listen or settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]]
-        )[0]
+    try:
+        security = security_from_args(args)
+        if args.listen or not router:
+            # Joined to a router, the daemon listens only where told (see `darwin daemon`).
+            default_listen = settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]
+            listen = secure_listen([args.listen or default_listen], security, bool(args.listen))
+            listen = _resolve_listen(listen)[0]
+            check_listen([listen], security)  # a tcp/ endpoint under --secure, before anything
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    internal = None
+    if security is not None:
+        internal = Internal(security, parse_role(args.adapter_role, people_only=True))
+    try:
+        return _run(args, settings, listen, router, internal)
+    finally:
+        if internal is not None:
+            internal.close()
+
+
+def _run(
+    args: argparse.Namespace,
+    settings: dict[str, Any],
+    listen: str | None,
+    router: str | None,
+    internal: Internal | None,
+) -> int:
+    def login(adapter: str) -> list[str]:
+        if router:  # through the router, as this robot's identity (the router's rules)
+            return credential_args(args)
+        return internal.identity_args(adapter) if internal is not None else []
+
+    # Identities first: the daemon's merged identities file must list every adapter.
+    logins = {name: login(name) for name in ("gateway", "ros2", "foxglove", "web")}
     # In a fleet several `darwin up` share a machine: their servers take free ports unless
     # told otherwise (each prints where it listens).
     free = "127.0.0.1:0" if router else None
@@ -160,7 +217,7 @@ def run(args: argparse.Namespace) -> int:
     # With the UI in this terminal, the children's chatter would scribble over it.
     relay = None if args.tui else relay_to_stderr
     try:
-        daemon = Child("daemon", daemon_args(args, listen, router), relay)
+        daemon = Child("daemon", daemon_args(args, listen, router, internal), relay)
         children.append(daemon)
         endpoint = daemon.wait_line("zenoh:", START_TIMEOUT)
         robot = daemon_robot(daemon, args.robot or settings["robot"].get("name", "op1"))
@@ -171,7 +228,7 @@ def run(args: argparse.Namespace) -> int:
         elif not gateway_available():
             print("gateway: none (not in this build)", flush=True)
         else:
-            gw = ["gateway", "--connect", endpoint, "--robot", robot]
+            gw = ["gateway", "--connect", endpoint, "--robot", robot, *logins["gateway"]]
             gw_listen = args.gateway_listen or free or settings.get("gateway", {}).get("listen")
             if gw_listen:
                 gw += ["--listen", gw_listen]
@@ -188,12 +245,18 @@ def run(args: argparse.Namespace) -> int:
         ):
             if wanted:
                 extra = ["--listen", where] if where else []
-                child = Child(name, [name, "--connect", endpoint, "--robot", robot, *extra], relay)
+                command = [name, "--connect", endpoint, "--robot", robot, *logins[name], *extra]
+                child = Child(name, command, relay)
                 children.append(child)
                 adapters.append(Adapter(child))
                 print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
         if args.tui:
-            return run_tui(endpoint, robot)
+            # The UI is a person: it logs in with up's --user… (else DARWIN_USER, the client
+            # file); under --secure it trusts the installation's CA unless told otherwise.
+            login = credential_args(args)
+            if internal is not None and internal.security.tls and not args.ca:
+                login += ["--ca", str(ca_paths(internal.security.certs_dir).cert)]
+            return run_tui(endpoint, robot, login)
         # Run until a signal or the daemon's death; adapters that die are started again.
         while not stop.wait(0.5):
             if not daemon.running():
@@ -247,9 +310,10 @@ def daemon_robot(daemon: Child, default: str) -> str:
     return default
 
 
-def run_tui(endpoint: str, robot: str) -> int:
+def run_tui(endpoint: str, robot: str, login: list[str] | None = None) -> int:
     """The terminal UI in the foreground; everything stops when it exits."""
     cmd = [sys.executable, "-m", "robot_daemon.cli", "tui", "--connect", endpoint, "--robot", robot]
+    cmd += login or []
     # The UI handles Ctrl-C itself; this process waits for it instead of dying first.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     return subprocess.call(cmd)

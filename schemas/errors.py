@@ -23,6 +23,8 @@ DarwinError
 │   ├── UnavailableError    unavailable: offline joint, lost port, feature off
 │   ├── RefusedError        refused: not allowed here (EEPROM/hardware write without the switch)
 │   ├── RateLimitedError    rate_limited: too many commands; retry after ``retry_after`` s
+│   ├── ForbiddenError      forbidden: the caller's role may not do this; ``role`` names the one
+│   │                       that may (``schemas.roles``)
 │   ├── InternalError       internal: a daemon bug, reported instead of crashing
 │   └── Reject              the daemon side's refusal inside a handler (any code)
 └── ClientError             client side: cannot reach the robot, timed out
@@ -54,6 +56,9 @@ class ErrorCode(StrEnum):
     # the lease, so a client never mistakes a throttled command for a lost lease.
     RATE_LIMITED = "rate_limited"
     INTERNAL = "internal"  # a bug: the daemon says so instead of crashing
+    # The caller's role may not do this (``schemas.roles``); the message names the role that
+    # may. Raised by the client before sending, or by the arbiter for an admin-only op on cmd/.
+    FORBIDDEN = "forbidden"
 
 
 def brief(value: Any, limit: int = 40) -> str:
@@ -190,6 +195,24 @@ class InternalError(CommandError):
     CODE = ErrorCode.INTERNAL
 
 
+class ForbiddenError(CommandError):
+    """The caller's role may not send this; ``role`` is the least role that may."""
+
+    CODE = ErrorCode.FORBIDDEN
+
+    def __init__(
+        self,
+        code: str,
+        message: str,
+        field: str | None = None,
+        verb: str = "",
+        retry_after: float | None = None,
+        role: str = "",
+    ) -> None:
+        super().__init__(code, message, field, verb, retry_after)
+        self.role = role
+
+
 class Reject(CommandError):
     """Refuse a command on the daemon side: becomes an error reply ``{code, message, field}``."""
 
@@ -231,6 +254,7 @@ ERROR_CLASSES: dict[str, type[CommandError]] = {
         RefusedError,
         RateLimitedError,
         InternalError,
+        ForbiddenError,
     )
 }
 

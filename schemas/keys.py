@@ -107,6 +107,18 @@ class Keys:
             raise ValueError(f"unknown command verb {verb!r}; known verbs: {', '.join(VERBS)}")
         return f"{self.prefix}/cmd/{verb}"
 
+    def admin(self, verb: str) -> str:
+        """Where the admin-only operations of ``verb`` go (``schemas.roles.ADMIN_OPS``): a key
+        of their own, so that access control can give it to admins alone."""
+        if verb not in VERBS:
+            raise ValueError(f"unknown command verb {verb!r}; known verbs: {', '.join(VERBS)}")
+        return f"{self.prefix}/admin/{verb}"
+
+    def role(self, role: str) -> str:
+        """A queryable the daemon serves per role; access control lets a caller reach only
+        its own roles' keys, so the ones that answer tell a client what it may do."""
+        return f"{self.prefix}/role/{role}"
+
     @property
     def cmd_all(self) -> str:
         return f"{self.prefix}/cmd/*"

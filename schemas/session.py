@@ -3,6 +3,16 @@
 Resolution order for where to connect and which robot: explicit arguments (``--connect``,
 ``--robot``), then ``DARWIN_ENDPOINT`` / ``DARWIN_ROBOT``, then the local defaults.
 Multicast scouting is always off: robots on one network must never find each other by accident.
+
+Credentials, the same for every client (:class:`Credentials`), first found wins per item:
+``--user`` / ``--password-file`` / ``--cert`` / ``--key`` / ``--ca`` (or ``Robot(user=…,
+password=…)``), then ``DARWIN_USER`` / ``DARWIN_PASSWORD`` / ``DARWIN_PASSWORD_FILE`` /
+``DARWIN_CERT`` / ``DARWIN_KEY`` / ``DARWIN_CA``, then the user's client file
+(``$DARWIN_CLIENT_CONFIG``, else ``$XDG_CONFIG_HOME/darwin/client.toml``, else
+``~/.config/darwin/client.toml``) with keys ``user``, ``password_file`` (or ``password``),
+``cert``, ``key``, ``ca``. A user/password logs in (Zenoh ``transport/auth/usrpwd``); a
+certificate and key make a TLS client certificate (mutual TLS, the common name is the user);
+a CA alone lets a ``tls/`` endpoint check the robot's certificate.
 """
 
 from __future__ import annotations
@@ -11,7 +21,10 @@ import argparse
 import json
 import os
 import socket
-from dataclasses import dataclass
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import zenoh
 
@@ -26,26 +39,201 @@ MAX_MESSAGE_BYTES = 2 * 1024 * 1024
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 ENV_ENDPOINT = "DARWIN_ENDPOINT"
 ENV_ROBOT = "DARWIN_ROBOT"
+ENV_USER = "DARWIN_USER"
+ENV_PASSWORD = "DARWIN_PASSWORD"
+ENV_PASSWORD_FILE = "DARWIN_PASSWORD_FILE"
+ENV_CERT = "DARWIN_CERT"
+ENV_KEY = "DARWIN_KEY"
+ENV_CA = "DARWIN_CA"
+ENV_CLIENT_CONFIG = "DARWIN_CLIENT_CONFIG"
+
+
+@dataclass(frozen=True)
+class Credentials:
+    """Who a client is: a user/password login and/or a TLS client certificate."""
+
+    user: str | None = None
+    password: str | None = field(default=None, repr=False)
+    cert: str | None = None
+    key: str | None = None
+    ca: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.password is not None and not self.user:
+            raise ValueError("a password needs a user name: pass --user (or DARWIN_USER)")
+        if bool(self.cert) != bool(self.key):
+            raise ValueError("a client certificate needs both --cert and --key")
+
+    @property
+    def identity(self) -> str | None:
+        """The name access control knows this client by (user, else the certificate's CN)."""
+        if self.user:
+            return self.user
+        if self.cert:
+            from cryptography import x509
+            from cryptography.x509.oid import NameOID
+
+            cert = x509.load_pem_x509_certificate(Path(self.cert).read_bytes())
+            return str(cert.subject.get_attributes_for_oid(NameOID.COMMON_NAME)[0].value)
+        return None
+
+    def apply(self, conf: zenoh.Config) -> None:
+        if self.user and self.password is not None:
+            conf.insert_json5("transport/auth/usrpwd/user", json.dumps(self.user))
+            conf.insert_json5("transport/auth/usrpwd/password", json.dumps(self.password))
+        if self.ca:
+            conf.insert_json5("transport/link/tls/root_ca_certificate", json.dumps(self.ca))
+        if self.cert and self.key:
+            # Zenoh sends the client certificate only with mTLS on at the connecting side too.
+            conf.insert_json5("transport/link/tls/enable_mtls", "true")
+            conf.insert_json5("transport/link/tls/connect_certificate", json.dumps(self.cert))
+            conf.insert_json5("transport/link/tls/connect_private_key", json.dumps(self.key))
+
+
+def client_config_path() -> Path:
+    explicit = os.environ.get(ENV_CLIENT_CONFIG)
+    if explicit:
+        return Path(explicit)
+    base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
+    return Path(base) / "darwin" / "client.toml"
+
+
+def _read_secret(path: str, what: str) -> str:
+    try:
+        text = Path(path).expanduser().read_text()
+    except OSError as exc:
+        raise ValueError(f"cannot read the {what} {path}: {exc.strerror or exc}") from None
+    secret = text.strip("\r\n")
+    if not secret or "\n" in secret:
+        raise ValueError(f"the {what} {path} must hold the password alone, on one line")
+    return secret
+
+
+def credentials(
+    user: str | None = None,
+    password: str | None = None,
+    password_file: str | None = None,
+    cert: str | None = None,
+    key: str | None = None,
+    ca: str | None = None,
+) -> Credentials:
+    """Credentials from explicit values, else the environment, else the client file."""
+    env = os.environ
+    file_conf: dict[str, Any] = {}
+    path = client_config_path()
+    if path.is_file():
+        try:
+            file_conf = tomllib.loads(path.read_text())
+        except (OSError, tomllib.TOMLDecodeError) as exc:
+            raise ValueError(f"cannot read the client file {path}: {exc}") from None
+
+    def pick(explicit: str | None, env_name: str, file_key: str) -> str | None:
+        value = explicit or env.get(env_name) or file_conf.get(file_key)
+        return str(value) if value else None
+
+    user = pick(user, ENV_USER, "user")
+    if password is None:
+        password_file = pick(password_file, ENV_PASSWORD_FILE, "password_file")
+        if password_file:
+            password = _read_secret(password_file, "password file")
+        else:
+            password = env.get(ENV_PASSWORD) or file_conf.get("password")
+    if user and password is None:
+        raise ValueError(
+            f"user {user!r} has no password: pass --password-file FILE (or {ENV_PASSWORD}, or "
+            f"password_file in {path})"
+        )
+    return Credentials(
+        user, password, pick(cert, ENV_CERT, "cert"), pick(key, ENV_KEY, "key"),
+        pick(ca, ENV_CA, "ca"),
+    )
+
+
+def credentials_from_args(args: argparse.Namespace) -> Credentials:
+    """The credentials of a program with :func:`add_target_arguments`."""
+    return credentials(
+        user=getattr(args, "user", None),
+        password_file=getattr(args, "password_file", None),
+        cert=getattr(args, "cert", None),
+        key=getattr(args, "key", None),
+        ca=getattr(args, "ca", None),
+    )
 
 
 @dataclass(frozen=True)
 class Target:
     endpoint: str
     robot: str
+    credentials: Credentials | None = None
 
 
-def resolve(endpoint: str | None = None, robot: str | None = None) -> Target:
+def resolve(
+    endpoint: str | None = None, robot: str | None = None, creds: Credentials | None = None
+) -> Target:
+    """Where to connect, which robot and as whom (``creds`` None: from the environment)."""
     ep = endpoint or os.environ.get(ENV_ENDPOINT) or DEFAULT_ENDPOINT
     name = robot or os.environ.get(ENV_ROBOT) or DEFAULT_ROBOT
     check_endpoint(ep)
-    return Target(ep, check_robot_name(name))
+    return Target(ep, check_robot_name(name), creds if creds is not None else credentials())
+
+
+def resolve_args(args: argparse.Namespace, robot: str | None = None) -> Target:
+    """:func:`resolve` for a program with :func:`add_target_arguments`."""
+    return resolve(
+        getattr(args, "connect", None), robot or getattr(args, "robot", None),
+        credentials_from_args(args),
+    )
+
+
+def credential_args(args: argparse.Namespace) -> list[str]:
+    """The credential options given to this program, for a child program (files absolute)."""
+    out: list[str] = []
+    for opt in ("user", "password_file", "cert", "key", "ca"):
+        value = getattr(args, opt, None)
+        if value:
+            if opt != "user":
+                value = str(Path(value).expanduser().resolve())
+            out += [f"--{opt.replace('_', '-')}", value]
+    return out
+
+
+def credential_env(creds: Credentials, secrets_dir: Path | None = None) -> dict[str, str]:
+    """Environment variables that make a child program log in as ``creds`` (the password as
+    a 0600 file in ``secrets_dir`` when given, never in the environment itself)."""
+    env: dict[str, str] = {}
+    if creds.user:
+        env[ENV_USER] = creds.user
+    if creds.password is not None and secrets_dir is not None:
+        fd = os.open(secrets_dir / "password", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "w") as f:
+            f.write(creds.password)
+        env[ENV_PASSWORD_FILE] = str(secrets_dir / "password")
+    for name, value in ((ENV_CERT, creds.cert), (ENV_KEY, creds.key), (ENV_CA, creds.ca)):
+        if value:
+            env[name] = str(Path(value).resolve())
+    return env
+
+
+def add_credential_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--user``/``--password-file``/``--cert``/``--key``/``--ca``, for every client."""
+    group = parser.add_argument_group("credentials (see README, \"Roles and security\")")
+    group.add_argument("--user", help=f"user name to log in as (default: ${ENV_USER})")
+    group.add_argument(
+        "--password-file",
+        metavar="FILE",
+        help=f"file holding the password (default: ${ENV_PASSWORD_FILE} or ${ENV_PASSWORD})",
+    )
+    group.add_argument("--cert", help=f"TLS client certificate, CN = user (default: ${ENV_CERT})")
+    group.add_argument("--key", help=f"its private key (default: ${ENV_KEY})")
+    group.add_argument("--ca", help=f"CA certificate that signed the robot's (default: ${ENV_CA})")
 
 
 def add_target_arguments(
     parser: argparse.ArgumentParser, robot_default: str = "", several: bool = False
 ) -> None:
-    """``--connect`` and ``--robot``, the same for every client of the key space (``several``:
-    ``--robot`` may repeat, a list of names, for clients of several robots like the recorder)."""
+    """``--connect``, ``--robot`` and the credentials, the same for every client of the key
+    space (``several``: ``--robot`` may repeat, a list of names, for clients of several robots
+    like the recorder)."""
     parser.add_argument(
         "--connect",
         metavar="ENDPOINT",
@@ -59,6 +247,7 @@ def add_target_arguments(
         help=f"robot name (default: {robot_default}${ENV_ROBOT}, else {DEFAULT_ROBOT})"
         + ("; repeat it for several robots, '*' for every robot" if several else ""),
     )
+    add_credential_arguments(parser)
 
 
 def check_endpoint(endpoint: str) -> str:
@@ -132,17 +321,26 @@ def server_config(
     return conf
 
 
-def client_config(endpoint: str, lease_ms: int | None = 3000) -> zenoh.Config:
-    """A client session that connects to one explicit endpoint."""
-    return _config("client", [], [check_endpoint(endpoint)], lease_ms)
+def client_config(
+    endpoint: str, lease_ms: int | None = 3000, creds: Credentials | None = None
+) -> zenoh.Config:
+    """A client session that connects to one explicit endpoint, as ``creds`` (None: the
+    credentials of the environment and the client file)."""
+    conf = _config("client", [], [check_endpoint(endpoint)], lease_ms)
+    (creds if creds is not None else credentials()).apply(conf)
+    return conf
 
 
 def open_server(listen: list[str], lease_ms: int | None = 3000) -> zenoh.Session:
     return zenoh.open(server_config(listen, lease_ms))
 
 
-def open_client(endpoint: str, lease_ms: int | None = 3000) -> zenoh.Session:
-    return zenoh.open(client_config(endpoint, lease_ms))
+def open_client(
+    endpoint: str | Target, lease_ms: int | None = 3000, creds: Credentials | None = None
+) -> zenoh.Session:
+    if isinstance(endpoint, Target):
+        endpoint, creds = endpoint.endpoint, creds or endpoint.credentials
+    return zenoh.open(client_config(endpoint, lease_ms, creds))
 
 
 def free_tcp_port(host: str = "127.0.0.1") -> int:

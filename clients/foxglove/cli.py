@@ -12,6 +12,7 @@ import threading
 
 from clients.listen import add_server_arguments, parse_listen
 from schemas.errors import ConfigError
+from schemas.session import credentials_from_args
 
 DEFAULT_LISTEN = "127.0.0.1:8765"
 
@@ -37,7 +38,8 @@ def run(args: argparse.Namespace) -> int:
     stop = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
-    with Robot(args.connect, args.robot, name="foxglove") as robot:
+    creds = credentials_from_args(args)
+    with Robot(args.connect, args.robot, name="foxglove", credentials=creds) as robot:
         try:
             bridge = Bridge(robot, host, port, args.tf_rate)
         except RuntimeError as exc:

@@ -29,7 +29,7 @@ from clients.recording.recorder import (
 )
 from clients.robot import TOPICS
 from schemas.errors import ClientError, RobotUnreachableError
-from schemas.session import add_target_arguments, open_client, resolve
+from schemas.session import add_target_arguments, credentials_from_args, open_client, resolve
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -160,7 +160,11 @@ def run_record(args: argparse.Namespace) -> int:
     robots = args.robot or []
     several = len(robots) > 1 or "*" in robots
     try:
-        target = resolve(args.connect, None if several or not robots else robots[0])
+        target = resolve(
+            args.connect,
+            None if several or not robots else robots[0],
+            credentials_from_args(args),
+        )
         chosen = check_robots(robots) if several else None
     except ValueError as exc:
         print(f"darwin record: {exc}", file=sys.stderr)
@@ -176,7 +180,7 @@ def run_record(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     try:
-        session = open_client(target.endpoint)
+        session = open_client(target)
     except zenoh.ZError as exc:
         raise RobotUnreachableError(
             f"cannot open a Zenoh session to {target.endpoint}: {exc}. "

@@ -9,7 +9,7 @@ import signal
 import sys
 import threading
 
-from schemas.session import add_target_arguments
+from schemas.session import add_target_arguments, credentials_from_args
 
 log = logging.getLogger("darwin.ros2")
 
@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from schemas.session import check_endpoint, client_config
 
     domain = _domain(args.domain)
-    robot = Robot(args.connect, args.robot, name="ros2")
+    robot = Robot(args.connect, args.robot, name="ros2", credentials=credentials_from_args(args))
     ros_session = None
     adapter = None
     try:

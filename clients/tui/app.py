@@ -38,7 +38,7 @@ from clients.tui.messages import (
 from clients.tui.model import Model
 from clients.tui.settings import Settings, default_path
 from clients.tui.tabs.actions import ActionsTab
-from clients.tui.tabs.base import SendCommand, TabView
+from clients.tui.tabs.base import SendCommand, TabView, role_at_least
 from clients.tui.tabs.behaviours import BehavioursTab, library_entries
 from clients.tui.tabs.camera import CameraTab
 from clients.tui.tabs.imu import ImuTab
@@ -51,6 +51,8 @@ from clients.tui.widgets.keybar import KeyBar
 from config.loader import RobotConfig, load_robot, robot_from_dict
 from schemas.errors import ClientError, ConfigError
 from schemas.messages import Event
+from schemas.roles import Role
+from schemas.session import Credentials
 
 RENDER_HZ = 15.0
 FIND_TIMEOUT_S = 1.0  # how long the robot list waits for each robot's status
@@ -120,6 +122,7 @@ class DarwinApp(App[None]):
         ask: bool = False,
         robot_config: RobotConfig | None = None,
         clock: Callable[[], float] = time.time,
+        credentials: Credentials | None = None,
     ) -> None:
         super().__init__()
         self.clock = clock
@@ -134,7 +137,7 @@ class DarwinApp(App[None]):
         i18n.set_language(lang or saved.lang or i18n.from_environment())
         self.model = Model()
         self.robot_config = robot_config or load_robot()
-        self.link = Link(self, self.settings.name)
+        self.link = Link(self, self.settings.name, credentials)
         self.link_info = LinkInfo(LinkState.IDLE, self.settings.endpoint, self.settings.robot)
         self.active_tab = TABS[0][0]
         self._connect_on_mount = connect
@@ -214,12 +217,14 @@ class DarwinApp(App[None]):
         self.model.client_id = self.link.client_id or self.model.client_id
         self.model.bump("link")
         if info.state is LinkState.CONNECTED and was is not LinkState.CONNECTED:
+            self.screen.refresh_bindings()  # the role may grey some keys out
             if self.link.robot is not None:
                 # What the tabs need once per connection (the library, the gait).
                 # The daemon's joint limits, not this machine's config, bound what is sent.
                 self.link.send("config", tag="app:config", quiet=True)
                 self.link.send("behaviours", tag="app:library", quiet=True)
-                self.link.send("walk_params", tag="app:walk-params", quiet=True)
+                if role_at_least(self, Role.OPERATOR):  # an observer may not read the gait
+                    self.link.send("walk_params", tag="app:walk-params", quiet=True)
             self.local_event(
                 "link",
                 _("connected to {robot} at {endpoint}").format(
@@ -344,6 +349,12 @@ class DarwinApp(App[None]):
                 if hasattr(tab, "robot"):
                     tab.robot = robot  # type: ignore[attr-defined]
 
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        # Halt and the lease are command verbs: an observer sees them greyed out.
+        if action in ("halt", "lease") and not role_at_least(self, Role.OPERATOR):
+            return None
+        return True
+
     def action_halt(self) -> None:
         self.link.halt()
 
@@ -369,7 +380,7 @@ class DarwinApp(App[None]):
         robot = self.link.robot
         if robot is not None and robot.target.endpoint == endpoint:
             return discover(robot.session, timeout=FIND_TIMEOUT_S)
-        return discover_at(endpoint, timeout=FIND_TIMEOUT_S)
+        return discover_at(endpoint, timeout=FIND_TIMEOUT_S, creds=self.link.credentials)
 
     def action_next_robot(self) -> None:
         """Switch to the next live robot at the same endpoint (by name, wrapping round)."""
@@ -484,6 +495,7 @@ def create_app(
     connect: bool = True,
     ask: bool = False,
     clock: Callable[[], float] = time.time,
+    credentials: Credentials | None = None,
 ) -> DarwinApp:
     """The app, ready to ``run()`` (CLI) or ``run_test()`` (tests). ``connect=False`` starts
     without a link, for a fixed scene fed by posting messages; ``clock`` stamps the UI's own
@@ -497,6 +509,7 @@ def create_app(
         connect=connect,
         ask=ask,
         clock=clock,
+        credentials=credentials,
     )
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 
 from clients.tui import i18n
-from schemas.errors import RobotUnreachableError
-from schemas.session import add_target_arguments
+from schemas.errors import ConfigError, RobotUnreachableError
+from schemas.session import Credentials, add_target_arguments, credentials_from_args
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def check_reachable(endpoint: str) -> None:
+def check_reachable(endpoint: str, creds: Credentials | None = None) -> None:
     """Raise ``RobotUnreachableError`` (one line: cause and fix) if nothing listens there."""
     import zenoh
 
@@ -33,7 +33,7 @@ def check_reachable(endpoint: str) -> None:
     except ValueError as exc:
         raise RobotUnreachableError(f"{exc}; pass e.g. --connect tcp/127.0.0.1:7447") from None
     try:
-        session = zenoh.open(client_config(endpoint))
+        session = zenoh.open(client_config(endpoint, creds=creds))
     except zenoh.ZError:
         raise RobotUnreachableError(
             f"no daemon at {endpoint}: nothing answers there. Is `darwin up` running? Start it, "
@@ -45,12 +45,21 @@ def check_reachable(endpoint: str) -> None:
 def run(args: argparse.Namespace) -> int:
     from clients.tui.app import create_app
 
+    try:
+        creds = credentials_from_args(args)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
     if args.connect and not args.ask:
         # Named on the command line: a wrong address is a one-line error, not a UI that waits.
-        check_reachable(args.connect)
+        check_reachable(args.connect, creds)
 
     app = create_app(
-        endpoint=args.connect, robot=args.robot, name=args.name, lang=args.lang, ask=args.ask
+        endpoint=args.connect,
+        robot=args.robot,
+        name=args.name,
+        lang=args.lang,
+        ask=args.ask,
+        credentials=creds,
     )
     app.run()
     return int(app.return_code or 0)

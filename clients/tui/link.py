@@ -35,7 +35,8 @@ from clients.tui.messages import (
     StatusUpdate,
 )
 from schemas.errors import ClientError, DarwinError
-from schemas.session import resolve
+from schemas.roles import Role
+from schemas.session import Credentials, resolve
 
 log = logging.getLogger(__name__)
 RETRY_S = 2.0
@@ -64,9 +65,14 @@ class _Command:
 
 
 class Link:
-    def __init__(self, app: App[Any], name: str = "tui") -> None:
+    def __init__(
+        self, app: App[Any], name: str = "tui", credentials: Credentials | None = None
+    ) -> None:
         self.app = app
         self.name = name
+        self.credentials = credentials  # None: the environment's or the client file's
+        # What the robot's access control lets us do (None: unknown, everything is offered).
+        self.role: Role | None = None
         self.robot: Robot | None = None
         self.info = LinkInfo(LinkState.IDLE, "", "")
         self._stop = threading.Event()
@@ -85,7 +91,8 @@ class Link:
     # -- connection ------------------------------------------------------------------------------
     def connect(self, endpoint: str, robot: str) -> None:
         """(Re)connect to ``robot`` at ``endpoint``; returns at once, the state is posted."""
-        target = resolve(endpoint or None, robot or None)  # raises ValueError on a bad value
+        # Raises ValueError on a bad value (endpoint, name, credentials).
+        target = resolve(endpoint or None, robot or None, self.credentials)
         self.disconnect()
         self._stop = threading.Event()
         self._set(LinkState.CONNECTING, target.endpoint, target.robot)
@@ -100,7 +107,9 @@ class Link:
     def _connect_loop(self, endpoint: str, robot_name: str, stop: threading.Event) -> None:
         while not stop.is_set():
             try:
-                robot = Robot(endpoint, robot_name, name=self.name, timeout=3.0)
+                robot = Robot(
+                    endpoint, robot_name, name=self.name, timeout=3.0, credentials=self.credentials
+                )
             except ClientError as exc:
                 self._set(LinkState.UNREACHABLE, endpoint, robot_name, str(exc))
                 stop.wait(RETRY_S)
@@ -124,6 +133,10 @@ class Link:
         for topic, make in handlers.items():
             robot.subscribe(topic, lambda m, make=make: self.app.post_message(make(m)))
         ep, name = robot.target.endpoint, robot.target.robot
+        try:
+            self.role = robot.role  # asked here, off the UI thread, before CONNECTED is posted
+        except Exception:  # a session closing under us: the role stays unknown
+            self.role = None
         self._set(LinkState.CONNECTED if robot.alive(1.0) else LinkState.NO_DAEMON, ep, name)
 
         def on_token(sample: zenoh.Sample) -> None:

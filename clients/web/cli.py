@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from pathlib import Path
 
 from clients.listen import add_server_arguments, parse_listen
 
@@ -24,18 +25,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def tui_command(args: argparse.Namespace) -> str:
     """The shell command each tab runs: this interpreter's ``darwin tui``."""
     cmd = [sys.executable, "-m", "robot_daemon.cli", "tui"]
-    for opt in ("connect", "robot", "lang"):
+    for opt in ("connect", "robot", "lang", "user", "password_file", "cert", "key", "ca"):
         value = getattr(args, opt, None)
         if value:
-            cmd += [f"--{opt}", value]
+            # Files as absolute paths: each tab's program may start elsewhere.
+            if opt in ("password_file", "cert", "key", "ca"):
+                value = str(Path(value).resolve())
+            cmd += [f"--{opt.replace('_', '-')}", value]
     return shlex.join(cmd)
 
 
 def run(args: argparse.Namespace) -> int:
     from clients.web.server import serve
-    from schemas.session import resolve
+    from schemas.session import resolve_args
 
     host, port = parse_listen(args.listen, "web", DEFAULT_LISTEN)
-    target = resolve(args.connect, args.robot)  # a bad endpoint or name fails here, once
+    target = resolve_args(args)  # a bad endpoint, name or credential fails here, once
     serve(tui_command(args), host, port, title=f"darwin {target.robot}")
     return 0

@@ -35,6 +35,7 @@ from schemas.errors import CommandError, ErrorCode, ProtocolError, brief
 from schemas.keys import VERBS, Keys, verb_of
 from schemas.messages import error_reply, ok_reply
 from schemas.query import answer, error_payload, request_bytes
+from schemas.roles import ADMIN_VERBS, is_admin_op, op_of
 
 __all__ = ["Arbiter", "Pending", "decode_command", "execute", "parse_request", "request_from"]
 
@@ -104,8 +105,11 @@ class Arbiter:
         # The daemon's say on whether a command may run now (it raises Reject, e.g. while the
         # serial port is lost); checked before the lease and the handler.
         self.gate: Callable[[Request], None] | None = None
+        # Admin-only operations have keys of their own (schemas.roles): access control gives
+        # those to admins alone, and the same operation on cmd/ is refused in _admit.
         self._queryables = [
-            session.declare_queryable(keys.cmd(v), self._incoming.put, complete=True) for v in VERBS
+            session.declare_queryable(key, self._incoming.put, complete=True)
+            for key in [*map(keys.cmd, VERBS), *map(keys.admin, ADMIN_VERBS)]
         ]
         self._threads = [
             threading.Thread(target=self._intake, name="arbiter-intake", daemon=True),
@@ -148,6 +152,13 @@ class Arbiter:
 
     def _admit(self, query: zenoh.Query, verb_name: str) -> None:
         d = decode_command(request_bytes(query, self.limits.max_payload_bytes))
+        key = str(query.key_expr)
+        if is_admin_op(verb_name, d) and key != self.keys.admin(verb_name):
+            raise Reject(
+                ErrorCode.FORBIDDEN,
+                f"{verb_name} {op_of(verb_name, d)} needs the admin role and is served on "
+                f"{self.keys.admin(verb_name)} only (the Robot client sends it there)",
+            )
         client = d.get("client")
         client = client[:MAX_CLIENT_ID] if isinstance(client, str) else "?"
         urgent = verb_name == "halt"
@@ -274,7 +285,8 @@ class Arbiter:
         self._finish_query(pending.query, pending.ok, pending.reply, pending.request.verb)
 
     def _finish_query(self, query: zenoh.Query, ok: bool, reply: bytes, verb: str = "") -> None:
-        answer(query, self.keys.cmd(verb) if ok else "", ok, reply)
+        # On the key the query came on: cmd/<verb>, or admin/<verb> for an admin-only operation.
+        answer(query, str(query.key_expr) if ok else "", ok, reply)
 
     # -- motion-thread side ------------------------------------------------------------------
     def has_pending(self) -> bool:

@@ -11,6 +11,16 @@ from textual.widgets import Checkbox
 
 from clients.tui.i18n import _
 from clients.tui.model import Model
+from schemas.roles import LADDER, Role
+
+
+def role_at_least(app: object, need: Role) -> bool:
+    """True unless the app's link knows a role below ``need`` (unknown: everything offered)."""
+    link = getattr(app, "link", None)
+    role = getattr(link, "role", None)
+    if role is None or role not in LADDER:
+        return True
+    return LADDER.index(role) >= LADDER.index(need)
 
 
 class SendCommand(Message):
@@ -51,6 +61,9 @@ class TabView(Vertical, can_focus=True):
 
     TAB_ID = ""
     WATCHES: tuple[str, ...] = ()  # model streams this tab draws (keys of Model.versions)
+    # Actions that send commands, by the least role that may (schemas.roles): greyed out in
+    # the footer when the connection's role is below.
+    ACTION_ROLES: dict[str, Role] = {}
 
     def __init__(self, model: Model) -> None:
         super().__init__(id=self.TAB_ID)
@@ -60,6 +73,10 @@ class TabView(Vertical, can_focus=True):
     def on_mount(self) -> None:
         # Textual runs this after a subclass's own on_mount (handlers follow the MRO).
         self.ready = True
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        need = self.ACTION_ROLES.get(action)
+        return None if need is not None and not role_at_least(self.app, need) else True
 
     def stream_box(self) -> Checkbox:
         return Checkbox(_("Stream"), value=True, id=f"{self.TAB_ID}-stream", compact=True)

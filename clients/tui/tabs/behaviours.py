@@ -19,6 +19,7 @@ from clients.tui.i18n import N_, _, language
 from clients.tui.model import Model
 from clients.tui.tabs.base import TabView
 from clients.tui.widgets.colours import ColourPicker
+from schemas.roles import Role
 
 DURATION_STEP_S = 0.5
 DEFAULT_WALK_S = 3.0
@@ -66,6 +67,7 @@ class BehavioursTab(TabView):
     BehavioursTab #chor-duration { width: 8; }
     """
     _library_version = -1  # the model version last drawn
+    ACTION_ROLES = {"play": Role.OPERATOR, "stop": Role.OPERATOR}
     BINDINGS = [
         Binding("enter", "add", N_("Add"), show=False),
         Binding("delete,backspace", "remove", N_("Remove")),

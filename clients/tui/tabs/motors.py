@@ -16,6 +16,7 @@ from clients.tui.model import Model
 from clients.tui.tabs.base import TabView
 from clients.tui.widgets.plot import Plot, Series
 from config.loader import RobotConfig
+from schemas.roles import Role
 
 # key, title, width (cells): fixed so updates never re-measure the table.
 COLUMNS: tuple[tuple[str, str, int], ...] = (
@@ -56,6 +57,7 @@ class MotorsTab(TabView):
     MotorsTab #motor-plots { height: 1fr; min-height: 6; }
     MotorsTab #goal-input { width: 12; }
     """
+    ACTION_ROLES = {"step": Role.OPERATOR, "torque": Role.OPERATOR, "type_goal": Role.OPERATOR}
     BINDINGS = [
         Binding("left_square_bracket", "step(-1)", N_("Goal −1°")),
         Binding("right_square_bracket", "step(1)", N_("Goal +1°")),

@@ -16,6 +16,7 @@ from clients.tui.model import Model
 from clients.tui.tabs.base import TabView
 from clients.tui.widgets.figure import StickFigure
 from config.loader import RobotConfig
+from schemas.roles import Role
 
 DEFAULT_DURATION_S = 1.0
 
@@ -30,6 +31,7 @@ class PoseTab(TabView):
     PoseTab Button { min-width: 0; margin-right: 1; }
     PoseTab #pose-duration, PoseTab #pose-value { width: 9; }
     """
+    ACTION_ROLES = {"apply": Role.OPERATOR}
     BINDINGS = [
         Binding("m", "manipulate", N_("Monitor/Manipulate")),
         Binding("r", "get_pose", N_("Get robot pose")),

@@ -15,6 +15,7 @@ from clients.tui.i18n import N_, _
 from clients.tui.model import Model
 from clients.tui.tabs.base import TabView
 from schemas.gait import gait_label
+from schemas.roles import Role
 
 STEP_X = 0.02  # m/s per key press
 STEP_Y = 0.02  # m/s
@@ -66,6 +67,7 @@ class WalkTab(TabView):
     WalkTab Button { min-width: 0; margin-right: 1; }
     """
     _params_version = -1  # the model version last drawn
+    ACTION_ROLES = {"move": Role.OPERATOR, "stop": Role.OPERATOR, "ball": Role.OPERATOR}
     BINDINGS = [
         Binding("w,up", "move(1, 0, 0)", N_("Forward")),
         Binding("s,down", "move(-1, 0, 0)", N_("Back")),

@@ -23,12 +23,16 @@ class KeyBar(Widget):
         seen: set[str] = set()
         for active in self.screen.active_bindings.values():
             binding = active.binding
-            if not binding.show or not binding.description or not active.enabled:
+            if not binding.show or not binding.description:
                 continue
             if binding.description in seen:
                 continue
             seen.add(binding.description)
             label = binding.key_display or self.app.get_key_display(binding)
-            out.append(f" {label} ", style="bold reverse")
-            out.append(f" {_(binding.description)} ")
+            if active.enabled:
+                out.append(f" {label} ", style="bold reverse")
+                out.append(f" {_(binding.description)} ")
+            else:  # greyed: this connection's role may not (schemas.roles)
+                out.append(f" {label} ", style="dim reverse")
+                out.append(f" {_(binding.description)} ", style="dim strike")
         return out

@@ -1,0 +1,56 @@
+"""Identities ``darwin up`` makes for its own adapters (gateway, ros2, foxglove, web) when it
+runs with ``--auth``/``--secure``: each logs in as ``darwin-<name>`` with a random password (or,
+with ``--mtls``, a client certificate from the installation's CA), written 0600 in a private
+directory that goes when ``darwin up`` stops. The daemon reads the people's identities plus
+these (a merged identities file in the same directory)."""
+
+from __future__ import annotations
+
+import secrets
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from robot_daemon.security import certs, users
+from robot_daemon.security.acl import Security
+from robot_daemon.security.certs import write_private
+from schemas.roles import Role
+
+
+@dataclass
+class Internal:
+    security: Security
+    role: Role
+    runtime: Path = field(init=False)
+    merged: dict[str, users.User] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.merged = dict(self.security.check())  # a missing file fails before anything exists
+        self.runtime = Path(tempfile.mkdtemp(prefix="darwin-up-"))
+
+    def identity_args(self, adapter: str) -> list[str]:
+        """Make ``darwin-<adapter>`` and return the client options that log in as it."""
+        name = f"{users.RESERVED_PREFIX}{adapter}"
+        out: list[str] = []
+        if self.security.tls:
+            out += ["--ca", str(certs.ca_paths(self.security.certs_dir).cert)]
+        if self.security.mtls:
+            paths = certs.client_paths(self.runtime, name)
+            certs.issue(self.security.certs_dir, paths, name, [], server=False)
+            self.merged[name] = users.User(name, self.role, None)
+            return [*out, "--cert", str(paths.cert), "--key", str(paths.key)]
+        password = secrets.token_urlsafe(24)
+        pw_file = self.runtime / f"{name}.pw"
+        write_private(pw_file, password.encode())
+        self.merged[name] = users.User(name, self.role, password)
+        return [*out, "--user", name, "--password-file", str(pw_file)]
+
+    def users_file(self) -> Path:
+        """The people's identities plus the adapters', for the daemon's ``--auth``."""
+        path = self.runtime / "users.toml"
+        users.save(path, self.merged)
+        return path
+
+    def close(self) -> None:
+        shutil.rmtree(self.runtime, ignore_errors=True)

@@ -1,0 +1,74 @@
+"""The TUI against a robot with access control (`darwin up --auth`): what the connection's role
+may not do is greyed out in the footer and does nothing; an operator's keys stay live."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from rich.text import Text
+
+from clients.tui.app import DarwinApp, create_app
+from schemas.roles import Role
+from schemas.session import Credentials
+from tests.fixtures.system import RunningSystem, start_system
+from tests.integration.test_auth import PASSWORDS, make_users
+from tests.ui.live import connected, show_tab
+
+
+@pytest.fixture(scope="module")
+def auth_system(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunningSystem]:
+    users = make_users(tmp_path_factory.mktemp("tui-auth"))
+    with start_system(extra_args=["--auth", str(users)], gateway=False) as system:
+        yield system
+
+
+def app_as(system: RunningSystem, settings: Path, user: str) -> DarwinApp:
+    return create_app(
+        endpoint=system.endpoint, robot=system.robot, name=f"tui-{user}", lang="en",
+        settings_path=settings, credentials=Credentials(user, PASSWORDS[user]),
+    )
+
+
+def enabled(app: DarwinApp, action: str) -> bool:
+    found = [a.enabled for a in app.screen.active_bindings.values() if a.binding.action == action]
+    assert found, f"no binding for {action}"
+    return all(found)
+
+
+def greyed(app: DarwinApp) -> set[str]:
+    """Descriptions the footer shows struck through (greyed)."""
+    bar: Text = app.screen.query_one("KeyBar").render()  # type: ignore[assignment]
+    struck = [span for span in bar.spans if "strike" in str(span.style)]
+    return {bar.plain[span.start : span.end].strip() for span in struck}
+
+
+async def test_an_observer_sees_commands_greyed_and_they_do_nothing(
+    auth_system: RunningSystem, settings_file: Path
+) -> None:
+    app = app_as(auth_system, settings_file, "obs")
+    async with app.run_test(size=(140, 40)) as pilot:
+        await connected(pilot)
+        assert app.link.role == Role.OBSERVER
+        assert not enabled(app, "lease") and not enabled(app, "halt")
+        assert {"HALT", "Lease take/release"} <= greyed(app)
+        before = app.model.event_count
+        await pilot.press("l")  # a greyed key does not run: nothing sent, nothing refused
+        await pilot.pause(0.3)
+        assert app.model.status is not None and app.model.status.lease is None
+        assert app.model.event_count == before
+        await show_tab(pilot, 5)  # Walk
+        assert not enabled(app, "move(1, 0, 0)")
+        assert "Forward" in greyed(app)
+
+
+async def test_an_operator_keeps_every_key(
+    auth_system: RunningSystem, settings_file: Path
+) -> None:
+    app = app_as(auth_system, settings_file, "op")
+    async with app.run_test(size=(140, 40)) as pilot:
+        await connected(pilot)
+        assert app.link.role == Role.OPERATOR
+        assert enabled(app, "lease") and enabled(app, "halt")
+        assert greyed(app) == set()
