@@ -209,16 +209,16 @@ class MujocoWorld:
             m.actuator_forcerange[a, 0] = -force
             m.actuator_forcerange[a, 1] = force
             d.ctrl[a] = goal
+            # A push lasts until its end time, which may fall inside this round of steps.
+            k = n
             if self._push_until is not None:
                 k = min(n, max(0, math.ceil((self._push_until - self.time) / ts - 1e-6)))
-                if k:
-                    mj.mj_step(m, d, nstep=k)
+            if k:
+                mj.mj_step(m, d, nstep=k)
+            if k < n:
                 d.xfrc_applied[self._torso, :] = 0.0
                 self._push_until = None
-                if n - k:
-                    mj.mj_step(m, d, nstep=n - k)
-            else:
-                mj.mj_step(m, d, nstep=n)
+                mj.mj_step(m, d, nstep=n - k)
             self.time += n * ts
             self._after_step()
             demand = kp * (goal - d.qpos[self._qadr])
