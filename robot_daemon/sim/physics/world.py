@@ -31,6 +31,7 @@ import numpy as np
 from robot_daemon.sim.physics.model import (
     BALL,
     CAMERA,
+    MJ_CAMERA_IN_CAMERA,
     ROOT,
     PhysicsSettings,
     world_mjcf,
@@ -362,12 +363,10 @@ class MujocoWorld:
             )
 
     def camera_view(self) -> tuple[CameraPose, BallView | None]:
-        from robot_daemon.sim.physics.model import _MJ_CAMERA_IN_CAMERA
-
         with self.lock:
             pos = self.data.cam_xpos[self._camera].copy()
             # Back from MuJoCo's camera axes to the renderer's (x optical axis, z up).
-            r = self.data.cam_xmat[self._camera].reshape(3, 3) @ _MJ_CAMERA_IN_CAMERA.T
+            r = self.data.cam_xmat[self._camera].reshape(3, 3) @ MJ_CAMERA_IN_CAMERA.T
             if self.ball.state is not None:
                 self.ball.state = self._ball_state()
             b = self.ball.state
