@@ -37,12 +37,12 @@ class FallSettings:
     crouch_height: float = 0.195
     stand_height: float = 0.23
     stand_tilt: float = math.radians(20.0)
+    push_fall_impulse: float = 0.5  # N·s: a push this strong tips the kinematic body over
 
 
 @dataclass(frozen=True)
 class ImuSettings:
     gyro_lag_s: float = 0.05
-    gyro_sign: tuple[float, float, float] = (-1.0, -1.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -103,9 +103,6 @@ class WorldSettings:
                 render=render,
                 imu=ImuSettings(
                     gyro_lag_s=float(world.get("imu", {}).get("gyro_lag_s", 0.05)),
-                    gyro_sign=tuple(
-                        float(v) for v in world.get("imu", {}).get("gyro_sign", (-1, -1, 1))
-                    ),
                 ),
             )
         except (TypeError, ValueError) as exc:

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from config.loader import load_all
 from robot_daemon.sim.world.ball import Ball
 from robot_daemon.sim.world.body import Body
 from robot_daemon.sim.world.render import BallView, CameraPose, Renderer
@@ -29,6 +30,30 @@ from schemas.messages import World
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
+
+
+PLANTS = ("kinematic", "mujoco")
+
+
+def make_world(
+    plant: str,
+    settings: WorldSettings | None = None,
+    config: dict[str, Any] | None = None,
+    seed: int | None = None,
+) -> Any:
+    """The world for ``plant`` (``[emulator] physics``): the kinematic :class:`SimWorld`, or the
+    MuJoCo plant (needs the physics extra; a missing one is a RuntimeError naming the fix).
+    ``config`` is the merged config, for ``[physics]``."""
+    if plant == "kinematic":
+        return SimWorld(settings, seed=seed)
+    if plant == "mujoco":
+        from robot_daemon.sim.physics.model import PhysicsSettings
+        from robot_daemon.sim.physics.world import MujocoWorld, import_mujoco
+
+        import_mujoco()
+        physics = PhysicsSettings.from_config(config if config is not None else load_all())
+        return MujocoWorld(settings, seed=seed, physics=physics)
+    raise ValueError(f"unknown physics plant {plant!r}; plants: {', '.join(PLANTS)}")
 
 
 class SimWorld:
@@ -103,6 +128,22 @@ class SimWorld:
     def remove_ball(self) -> None:
         with self.lock:
             self.ball.remove()
+
+    def push(self, force: tuple[float, float, float], duration: float) -> None:
+        """A shove on the torso (N, field frame, for ``duration`` s). The kinematic body has no
+        dynamics: a horizontal impulse above ``[world.falls] push_fall_impulse`` tips it over
+        the way it was pushed (forward or backward relative to its heading), a smaller one does
+        nothing."""
+        with self.lock:
+            if self.body.fallen != "none":
+                return
+            ix, iy = force[0] * duration, force[1] * duration
+            if math.hypot(ix, iy) < self.settings.falls.push_fall_impulse:
+                return
+            heading = self.body.heading()
+            along = ix * math.cos(heading) + iy * math.sin(heading)
+            self.body._fall("forward" if along >= 0 else "backward")
+            self.falls += 1
 
     # -- observing -----------------------------------------------------------------------------
     def snapshot(self) -> World:
