@@ -20,6 +20,8 @@ from tests.unit.arbiter_rig import ArbiterRig
 class Query:
     """The edge: what Zenoh would carry back to the caller."""
 
+    key_expr = "darwin/op1/cmd/halt"  # the arbiter answers on the key a query came on
+
     def __init__(self) -> None:
         self.replies: list[tuple[bool, bytes]] = []
 
