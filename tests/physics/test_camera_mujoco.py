@@ -25,7 +25,11 @@ mujoco = pytest.importorskip(
 )
 cv2 = pytest.importorskip("cv2")
 
-from robot_daemon.sim.physics.camera import GLUnavailableError, MujocoCamera  # noqa: E402
+from robot_daemon.sim.physics.camera import (  # noqa: E402
+    GLUnavailableError,
+    MujocoCamera,
+    WorldCamera,
+)
 from schemas.errors import CameraError  # noqa: E402
 
 W, H, FOVY = 320, 240, 46.0
@@ -199,3 +203,35 @@ def test_without_a_gl_backend_it_says_so_in_one_line() -> None:
     lines = out.stdout.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: no OpenGL backend"), out.stdout
     assert "egl:" in lines[0] and "osmesa:" in lines[0] and "apt-get install" in lines[0]
+
+
+def test_the_world_camera_starts_on_the_first_frame_and_draws_with_mujoco(
+    model: mujoco.MjModel, camera: MujocoCamera
+) -> None:
+    data = mujoco.MjData(model)
+    place_ball(model, data, np.array([1.0, 0.2, RADIUS]))
+    fallbacks: list[int] = []
+    world_cam = WorldCamera(model, W, H, fallback=lambda: fallbacks.append(1) or np.zeros(1))
+    assert world_cam.renderer == "not started" and world_cam.mujoco is None  # no GL thread yet
+    try:
+        frame = world_cam.render(threading.Lock(), data)
+        assert world_cam.renderer == f"mujoco-{camera.backend}" and not fallbacks
+        u, v, _ = red_centroid(frame)
+        eu, ev = expected_pixel(np.array([1.0, 0.2, RADIUS]))
+        assert abs(u - eu) < 2.0 and abs(v - ev) < 2.0
+    finally:
+        world_cam.close()
+
+
+def test_without_gl_the_world_camera_falls_back_to_opencv(
+    model: mujoco.MjModel, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    monkeypatch.setenv("MUJOCO_GL", "disable")
+    opencv = np.full((H, W, 3), 7, dtype=np.uint8)
+    world_cam = WorldCamera(model, W, H, fallback=lambda: opencv)
+    for _ in range(3):
+        assert world_cam.render(threading.Lock(), mujoco.MjData(model)) is opencv
+    assert world_cam.renderer == "opencv"
+    assert "MUJOCO_GL=disable" in (world_cam.unavailable or "")
+    warnings = [r for r in caplog.records if "draws with OpenCV" in r.getMessage()]
+    assert len(warnings) == 1  # said once, not per frame

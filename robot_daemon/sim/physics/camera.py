@@ -18,9 +18,11 @@ and the ``sim`` camera source sends.
 
 from __future__ import annotations
 
+import logging
 import os
 import queue
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -31,10 +33,13 @@ from schemas.errors import CameraError
 if TYPE_CHECKING:
     import mujoco
 
+log = logging.getLogger(__name__)
+
 BACKENDS = ("egl", "osmesa")
 # Long enough for llvmpipe to compile its shaders on a busy machine; a hung driver gives up here.
 START_TIMEOUT_S = 30.0
 FRAME_TIMEOUT_S = 10.0
+_DISABLED = ("disable", "disabled", "off", "false", "0")
 _OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX", "mjRND_HAZE")
 
 
@@ -54,7 +59,10 @@ class CameraState:
 
 def backend_order() -> tuple[str, ...]:
     """The GL backends to try, in order. PyOpenGL binds one platform per process, so an
-    explicit ``MUJOCO_GL`` or ``PYOPENGL_PLATFORM`` is the only one tried."""
+    explicit ``MUJOCO_GL`` or ``PYOPENGL_PLATFORM`` is the only one tried; ``MUJOCO_GL=disable``
+    (MuJoCo's own word) tries none: the world draws with OpenCV."""
+    if os.environ.get("MUJOCO_GL", "").strip().lower() in _DISABLED:
+        return ()
     for var in ("MUJOCO_GL", "PYOPENGL_PLATFORM"):
         chosen = os.environ.get(var, "").strip().lower()
         if chosen in BACKENDS:
@@ -163,7 +171,7 @@ class MujocoCamera:
 
     # -- the render thread -----------------------------------------------------------------------
     def _open_context(self) -> Any:
-        errors = []
+        errors = [] if backend_order() else ["MUJOCO_GL=disable"]
         for backend in backend_order():
             try:
                 ctx = _gl_context_class(backend)(self.width, self.height)
@@ -241,3 +249,54 @@ class MujocoCamera:
         if mjr is not None:
             mjr.free()
         ctx.free()
+
+
+class WorldCamera:
+    """The physics world's head camera: MuJoCo's view while a GL backend works, else the
+    world's OpenCV renderer (``fallback``). The MuJoCo camera and its thread are made on the
+    first frame, so a world nobody watches starts no GL at all; a failure is logged once."""
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        width: int,
+        height: int,
+        fallback: Callable[[], np.ndarray],
+        camera: str = "head_camera",
+    ) -> None:
+        self.model, self.width, self.height, self.camera = model, width, height, camera
+        self.fallback = fallback
+        self.mujoco: MujocoCamera | None = None
+        self.unavailable: str | None = None  # why frames come from OpenCV
+        self._make = threading.Lock()
+
+    @property
+    def renderer(self) -> str:
+        """``mujoco-egl``/``mujoco-osmesa`` once MuJoCo draws, ``opencv`` after a fallback."""
+        if self.mujoco is not None:
+            return f"mujoco-{self.mujoco.backend}"
+        return "opencv" if self.unavailable else "not started"
+
+    def render(self, lock: Any, data: mujoco.MjData) -> np.ndarray:
+        """A frame of ``data``, whose state is copied under ``lock`` (the world's)."""
+        cam = self._camera()
+        if cam is None:
+            return self.fallback()
+        with lock:
+            state = cam.capture(data)
+        return cam.render(state)
+
+    def _camera(self) -> MujocoCamera | None:
+        with self._make:
+            if self.mujoco is None and self.unavailable is None:
+                try:
+                    self.mujoco = MujocoCamera(self.model, self.width, self.height, self.camera)
+                except GLUnavailableError as exc:
+                    self.unavailable = str(exc)
+                    log.warning("%s: the camera draws with OpenCV", exc)
+            return self.mujoco
+
+    def close(self) -> None:
+        with self._make:
+            if self.mujoco is not None:
+                self.mujoco.close()
