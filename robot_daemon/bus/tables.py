@@ -164,17 +164,23 @@ CM730_BULK_LENGTH = 30
 SYNC_WRITE_START = MX28.D_GAIN.reg.address
 SYNC_WRITE_LENGTH = 6
 
-# The CM-730's IMU registers for the robot axes (x forward, y left, z up), with their signs.
-# The framework reads accel Y as front/back and accel X as right/left, gyro Y as the front/back
-# (pitch) rate and gyro X as the right/left (roll) rate; fallen forward is accel Y below centre.
-# The emulator writes body motion through this map and the daemon reads it back through it.
+# The CM-730's IMU registers for the robot axes (x forward, y left, z up), with their signs:
+# register − 512 = sign · (the robot-axis quantity in counts). The real board's convention, as
+# Webots' DARwIn-OP model mounts its devices (gyro X counts the rate about −forward, gyro Y
+# about −left, gyro Z about +up; accel X the specific force along −left, Y along +forward, Z along
+# +up) and feeds them to the unmodified ROBOTIS Walking.cpp (gyro X − 512 as its RL_GYRO, gyro
+# Y − 512 as FB_GYRO) and Walk.cpp (accel Y below 512 − 80 = fallen forward). With the opposite
+# gyro signs the framework's balance feedback is positive feedback and throws the gait over
+# (physics.md; tests/physics pins it). The framework's fall rule (accel Y below centre = lying
+# on its front) follows. The emulator writes body motion through this map and the daemon reads
+# it back through it, so both always agree; the daemon publishes SI in robot axes.
 IMU_GYRO_AXES: tuple[tuple[CM730, int], ...] = (
-    (CM730.GYRO_X, 1),
-    (CM730.GYRO_Y, 1),
+    (CM730.GYRO_X, -1),
+    (CM730.GYRO_Y, -1),
     (CM730.GYRO_Z, 1),
 )
 IMU_ACCEL_AXES: tuple[tuple[CM730, int], ...] = (
     (CM730.ACCEL_Y, 1),
-    (CM730.ACCEL_X, 1),
+    (CM730.ACCEL_X, -1),
     (CM730.ACCEL_Z, 1),
 )

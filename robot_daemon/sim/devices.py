@@ -5,11 +5,17 @@ Each device owns a :class:`ControlTable`; the bus engine calls :meth:`Device.rea
 
 Modelling choices (documented, not firmware-exact):
 
-* A servo with torque on moves its present position toward the goal at the moving speed
-  (0 = the MX-28's maximum, 55 rpm at 12 V, scaled with the supply voltage); torque off leaves it
-  where it is (the world may move it with :meth:`Servo.set_position`).
-* Present load is the external load the world applies plus a share for accelerating the horn;
-  over the torque limit it raises OVERLOAD.
+* The plant: by default (kinematic) a servo with torque on moves its present position toward the
+  goal at the moving speed (0 = the MX-28's maximum, 55 rpm at 12 V, scaled with the supply
+  voltage); torque off leaves it where it is (the world may move it with
+  :meth:`Servo.set_position`). Under a physics plant (``robot_daemon/sim/physics``) the plant
+  reads the registers (goal, gains, torque limit, torque enable) and reports the joint back
+  through :meth:`Servo.plant_update`: position, speed and the motor's torque.
+* Present load is the external load the world applies plus a share for accelerating the horn
+  (kinematic), or the motor's torque over the stall torque at the present voltage (physics: the
+  MX-28's load is its output duty); over the torque limit it raises OVERLOAD. Under physics a
+  motor held at its torque limit for ``OVERLOAD_AFTER_S`` raises OVERLOAD too (the firmware's
+  "the load cannot be controlled with the set maximum torque").
 * Temperature follows a first-order model: it settles at ``ambient + heat_gain · load²`` with
   time constant ``thermal_tau_s``. Above the temperature limit OVERHEATING is raised, and it
   stays until the servo has cooled ``OVERHEAT_HYSTERESIS_C`` below the limit.
@@ -40,6 +46,10 @@ from schemas import units
 
 # The overheating alarm, once raised, lasts until the servo is this much below its limit.
 OVERHEAT_HYSTERESIS_C = 5.0
+# Under a physics plant, a motor saturated at its torque limit this long raises OVERLOAD (s).
+OVERLOAD_AFTER_S = 1.0
+# MX-28 stall torque at 12 V (N·m, ROBOTIS e-manual); the physics plant's load is relative to it.
+STALL_TORQUE_12V = 2.5
 
 
 @dataclass
@@ -123,6 +133,9 @@ class Servo(Device):
         self.forced_temperature: float | None = None
         self.overheated = False
         self.powered = False
+        # Set by a physics plant (plant_update): the motor's torque (N·m); None = kinematic plant.
+        self.plant_torque: float | None = None
+        self.saturated_s = 0.0  # how long the physics motor has been held at its limit
         self._sync_registers()
 
     # ---- alarms -----------------------------------------------------------------------------
@@ -141,7 +154,8 @@ class Servo(Device):
         if self.overheated:
             bits |= ErrorBit.OVERHEATING
         load = abs(self.load_fraction()) * MX28.TORQUE_LIMIT.reg.high
-        if load > t[MX28.TORQUE_LIMIT] and t[MX28.TORQUE_ENABLE]:
+        saturated = self.saturated_s >= OVERLOAD_AFTER_S
+        if (load > t[MX28.TORQUE_LIMIT] or saturated) and t[MX28.TORQUE_ENABLE]:
             bits |= ErrorBit.OVERLOAD
         return bits
 
@@ -182,6 +196,9 @@ class Servo(Device):
     def load_fraction(self) -> float:
         if not (self.powered and self.table[MX28.TORQUE_ENABLE]):
             return 0.0
+        if self.plant_torque is not None:
+            stall = STALL_TORQUE_12V * max(self.env.voltage, 1e-3) / 12.0
+            return max(-1.0, min(1.0, self.plant_torque / stall))
         top = units.MX28_MAX_RPM * units.UNITS_PER_REV / 60.0
         return max(-1.0, min(1.0, self.external_load + 0.15 * self.velocity / top))
 
@@ -189,7 +206,9 @@ class Servo(Device):
         if dt <= 0:
             return
         t = self.table
-        if self.powered and t[MX28.TORQUE_ENABLE]:
+        if self.plant_torque is not None:
+            pass  # the physics plant moved the horn (plant_update)
+        elif self.powered and t[MX28.TORQUE_ENABLE]:
             goal = float(t[MX28.GOAL_POSITION])
             limit = self.max_speed() * dt
             move = max(-limit, min(limit, goal - self.position))
@@ -209,6 +228,17 @@ class Servo(Device):
         env = self.env
         target = env.ambient_c + env.heat_gain_c * self.load_fraction() ** 2
         self.temperature += (target - self.temperature) * (1 - math.exp(-dt / env.thermal_tau_s))
+
+    def plant_update(
+        self, raw: float, velocity: float, torque: float, saturated: bool, dt: float
+    ) -> None:
+        """A physics plant's joint state: position (raw units), velocity (raw units/s), the
+        motor's torque (N·m) and whether it was held at its torque limit over ``dt`` s."""
+        self.position = min(float(units.POSITION_MAX), max(0.0, float(raw)))
+        self.velocity = float(velocity) if self.powered else 0.0
+        self.plant_torque = float(torque)
+        self.saturated_s = self.saturated_s + dt if saturated else 0.0
+        self._sync_registers()
 
     def set_position(self, raw: float) -> None:
         """The world moves the horn (a limp joint pushed, a robot placed)."""

@@ -34,6 +34,9 @@ class EmulatorSettings:
     # SCHED_FIFO priority of the serving thread, so replies leave when the wire model says;
     # 0 = normal scheduling (the default for an emulator inside another program, e.g. tests).
     realtime_priority: int = 0
+    # The plant behind the servos: "kinematic" (no extra dependency) or "mujoco" (physics,
+    # `pip install -e '.[physics]'`; its numbers in config/physics.toml).
+    physics: str = "kinematic"
     # Not in the config file: how the emulator is reached and clocked.
     link: str | None = None
     realtime: bool = True  # False: time moves only through Emulator.advance(dt)

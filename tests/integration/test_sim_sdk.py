@@ -203,7 +203,8 @@ def test_imu_follows_body_motion(emulator: Emulator, dxl: SDK) -> None:
     emulator.set_body_motion(gyro_rad_s=(0.0, 1.0, 0.0), accel_ms2=(-units.GRAVITY, 0.0, 0.0))
     gyro_y = ph.read2ByteTxRx(port, CM730_ID, CM730.GYRO_Y.reg.address)[0]
     accel_y = ph.read2ByteTxRx(port, CM730_ID, CM730.ACCEL_Y.reg.address)[0]
-    assert units.gyro_raw_to_rad_s(gyro_y) == pytest.approx(1.0, abs=0.05)
+    # Gyro Y counts the rate about −left (the real CM-730's sign, IMU_GYRO_AXES).
+    assert units.gyro_raw_to_rad_s(gyro_y) == pytest.approx(-1.0, abs=0.05)
     assert accel_y < 390  # lying on its face: the framework's "fallen forward"
 
 

@@ -108,7 +108,8 @@ def test_physics_hooks_see_each_step_and_feed_the_imu() -> None:
     emu.advance(0.025)
     assert steps == pytest.approx([0.01, 0.01, 0.005])
     assert emu.sim_time == pytest.approx(0.025)
-    assert units.gyro_raw_to_rad_s(emu.register(CM730_ID, "GYRO_X")) == pytest.approx(0.5, 0.02)
+    # The CM-730 counts the rate about −forward on gyro X (IMU_GYRO_AXES, the real board's sign).
+    assert units.gyro_raw_to_rad_s(emu.register(CM730_ID, "GYRO_X")) == pytest.approx(-0.5, 0.02)
     assert emu.register(CM730_ID, "ACCEL_Z") == units.ms2_to_accel_raw(units.GRAVITY)
     with pytest.raises(ValueError, match="3 values"):
         emu.set_body_motion(gyro_rad_s=(1.0, 2.0))

@@ -211,7 +211,7 @@ class Body:
     def imu(self) -> tuple[np.ndarray, np.ndarray]:
         """(gyro rad/s, specific force m/s²) in robot axes, as the CM-730 feels them."""
         accel = self.T_wb[:3, :3].T @ np.array([0.0, 0.0, units.GRAVITY])
-        return self._gyro_felt * np.array(self.imu_settings.gyro_sign), accel
+        return self._gyro_felt.copy(), accel
 
 
 def _convex_hull(points: np.ndarray) -> np.ndarray:

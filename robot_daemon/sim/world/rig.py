@@ -29,7 +29,7 @@ from robot_daemon.sim.emulator import Emulator
 from robot_daemon.sim.link import EmulatorLink
 from robot_daemon.sim.settings import EmulatorSettings
 from robot_daemon.sim.world.settings import WorldSettings
-from robot_daemon.sim.world.world import SimWorld
+from robot_daemon.sim.world.world import SimWorld, make_world
 from robot_daemon.vision.ball_finder import BallFinder, FinderSettings
 from schemas.messages import BallDetection
 
@@ -44,6 +44,7 @@ class SimRig:
         world: WorldSettings | None = None,
         initial_positions: dict[int, float] | None = None,
         vision_fps: float | None = None,
+        physics: str | None = None,
     ) -> None:
         settings = copy.deepcopy(settings if settings is not None else load_all())
         # The simulated servos answer as soon as they are powered: nothing to wait for.
@@ -62,8 +63,11 @@ class SimRig:
                 initial_positions=raw,
             ),
         )
-        self.world = SimWorld(
-            world or WorldSettings.from_config(self.settings.get("world", {})), seed=seed
+        self.world = make_world(
+            physics or self.emulator.settings.physics,
+            world or WorldSettings.from_config(self.settings.get("world", {})),
+            self.settings,
+            seed=seed,
         )
         self.world.attach(self.emulator)
         self.manager = build_manager(self.robot, self.settings)
@@ -84,7 +88,8 @@ class SimRig:
         self.bus.power_on()
         self.bus.scan()
         self.bus.initial_read()
-        self.world.step(0.0, self.emulator.present_positions())
+        if isinstance(self.world, SimWorld):  # the kinematic body learns its legs
+            self.world.step(0.0, self.emulator.present_positions())
 
     def _emit(self, kind: str, message: str, **data: Any) -> None:
         self.events.append((kind, message, data))

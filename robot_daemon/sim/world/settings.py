@@ -42,7 +42,6 @@ class FallSettings:
 @dataclass(frozen=True)
 class ImuSettings:
     gyro_lag_s: float = 0.05
-    gyro_sign: tuple[float, float, float] = (-1.0, -1.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -103,9 +102,6 @@ class WorldSettings:
                 render=render,
                 imu=ImuSettings(
                     gyro_lag_s=float(world.get("imu", {}).get("gyro_lag_s", 0.05)),
-                    gyro_sign=tuple(
-                        float(v) for v in world.get("imu", {}).get("gyro_sign", (-1, -1, 1))
-                    ),
                 ),
             )
         except (TypeError, ValueError) as exc:

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from config.loader import load_all
 from robot_daemon.sim.world.ball import Ball
 from robot_daemon.sim.world.body import Body
 from robot_daemon.sim.world.render import BallView, CameraPose, Renderer
@@ -29,6 +30,30 @@ from schemas.messages import World
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
+
+
+PLANTS = ("kinematic", "mujoco")
+
+
+def make_world(
+    plant: str,
+    settings: WorldSettings | None = None,
+    config: dict[str, Any] | None = None,
+    seed: int | None = None,
+) -> Any:
+    """The world for ``plant`` (``[emulator] physics``): the kinematic :class:`SimWorld`, or the
+    MuJoCo plant (needs the physics extra; a missing one is a RuntimeError naming the fix).
+    ``config`` is the merged config, for ``[physics]``."""
+    if plant == "kinematic":
+        return SimWorld(settings, seed=seed)
+    if plant == "mujoco":
+        from robot_daemon.sim.physics.model import PhysicsSettings
+        from robot_daemon.sim.physics.world import MujocoWorld, import_mujoco
+
+        import_mujoco()
+        physics = PhysicsSettings.from_config(config if config is not None else load_all())
+        return MujocoWorld(settings, seed=seed, physics=physics)
+    raise ValueError(f"unknown physics plant {plant!r}; plants: {', '.join(PLANTS)}")
 
 
 class SimWorld:
