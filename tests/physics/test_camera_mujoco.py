@@ -9,6 +9,7 @@ it) for a person to look at.
 
 from __future__ import annotations
 
+import gc
 import math
 import os
 import subprocess
@@ -235,3 +236,14 @@ def test_without_gl_the_world_camera_falls_back_to_opencv(
     assert "MUJOCO_GL=disable" in (world_cam.unavailable or "")
     warnings = [r for r in caplog.records if "draws with OpenCV" in r.getMessage()]
     assert len(warnings) == 1  # said once, not per frame
+
+
+def test_a_camera_nobody_holds_any_more_ends_its_thread(model: mujoco.MjModel) -> None:
+    """Worlds come and go (every SimRig makes one): their GL threads must not pile up."""
+    cam = MujocoCamera(model, 32, 24)
+    cam.render(mujoco.MjData(model))
+    thread = cam._thread
+    del cam
+    gc.collect()
+    thread.join(timeout=10.0)
+    assert not thread.is_alive()

@@ -22,6 +22,7 @@ import logging
 import os
 import queue
 import threading
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -90,7 +91,6 @@ class MujocoCamera:
             raise GLUnavailableError(
                 f"the MuJoCo camera needs mujoco ({exc}); install it: pip install -e '.[physics]'"
             ) from None
-        self._mj = mujoco
         self.model = model
         self.width, self.height = int(width), int(height)
         self.camera_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
@@ -104,23 +104,31 @@ class MujocoCamera:
         self._requests: queue.Queue[tuple[CameraState, queue.Queue[Any]] | None] = queue.Queue()
         self._lock = threading.Lock()  # one frame at a time: callers queue behind each other
         self._closed = False
-        started: queue.Queue[BaseException | None] = queue.Queue()
+        started: queue.Queue[BaseException | str] = queue.Queue()
+        # The thread holds the model and the queue, never this object: a camera nobody holds
+        # any more is collected, and the finalizer tells the thread to free GL and end.
+        server = _RenderThread(mujoco, model, self.width, self.height, self.camera_id)
         self._thread = threading.Thread(
-            target=self._run, args=(started,), name=f"mujoco-camera-{camera}", daemon=True
+            target=server.run,
+            args=(self._requests, started),
+            name=f"mujoco-camera-{camera}",
+            daemon=True,
         )
         self._thread.start()
         try:
-            error = started.get(timeout=START_TIMEOUT_S)
+            outcome = started.get(timeout=START_TIMEOUT_S)
         except queue.Empty:
             self._closed = True
             raise GLUnavailableError(
                 f"the GL context did not start within {START_TIMEOUT_S:.0f} s "
                 "(a hung GL driver?); set MUJOCO_GL=osmesa or run without the MuJoCo camera"
             ) from None
-        if error is not None:
+        if isinstance(outcome, BaseException):
             self._closed = True
             self._thread.join(timeout=5.0)
-            raise error
+            raise outcome
+        self.backend = outcome
+        weakref.finalize(self, self._requests.put, None)
 
     def __repr__(self) -> str:
         state = "closed" if self._closed else f"{self.frames} frames"
@@ -169,8 +177,15 @@ class MujocoCamera:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    # -- the render thread -----------------------------------------------------------------------
-    def _open_context(self) -> Any:
+
+class _RenderThread:
+    """The camera's own thread: it makes the GL context current and draws every frame."""
+
+    def __init__(self, mj: Any, model: Any, width: int, height: int, camera_id: int) -> None:
+        self.mj, self.model, self.width, self.height = mj, model, width, height
+        self.camera_id = camera_id
+
+    def _open_context(self) -> tuple[Any, str]:
         errors = [] if backend_order() else ["MUJOCO_GL=disable"]
         for backend in backend_order():
             try:
@@ -180,19 +195,17 @@ class MujocoCamera:
                 first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
                 errors.append(f"{backend}: {first}")
                 continue
-            self.backend = backend
-            return ctx
+            return ctx, backend
         raise GLUnavailableError(
             f"no OpenGL backend for the MuJoCo camera ({'; '.join(errors)}); install EGL or "
             "OSMesa (apt-get install libegl1 libgl1-mesa-dri libosmesa6) and PyOpenGL, or the "
             "world uses its OpenCV renderer"
         )
 
-    def _run(self, started: queue.Queue[BaseException | None]) -> None:
-        mj = self._mj
-        model = self.model
+    def run(self, requests: queue.Queue[Any], started: queue.Queue[BaseException | str]) -> None:
+        mj, model = self.mj, self.model
         try:
-            ctx = self._open_context()
+            ctx, backend = self._open_context()
         except BaseException as exc:
             started.put(exc)
             return
@@ -215,12 +228,12 @@ class MujocoCamera:
             rect = mj.MjrRect(0, 0, self.width, self.height)
             rgb = np.empty((self.height, self.width, 3), dtype=np.uint8)
         except BaseException as exc:
-            started.put(GLUnavailableError(f"the {self.backend} GL context is unusable: {exc}"))
-            self._free(ctx, mjr)
+            started.put(GLUnavailableError(f"the {backend} GL context is unusable: {exc}"))
+            _free(ctx, mjr)
             return
-        started.put(None)
+        started.put(backend)
         try:
-            while (item := self._requests.get()) is not None:
+            while (item := requests.get()) is not None:
                 state, reply = item
                 try:
                     data.qpos[:] = state.qpos
@@ -240,15 +253,15 @@ class MujocoCamera:
                 except Exception as exc:
                     reply.put(exc)
         finally:
-            self._free(ctx, mjr)
+            _free(ctx, mjr)
 
-    @staticmethod
-    def _free(ctx: Any, mjr: Any) -> None:
-        # Freed here, by the thread whose context is current: a context freed by the garbage
-        # collector at exit raises from OSMesa's destructor.
-        if mjr is not None:
-            mjr.free()
-        ctx.free()
+
+def _free(ctx: Any, mjr: Any) -> None:
+    # Freed by the thread whose context is current: a context freed by the garbage collector
+    # at exit raises from OSMesa's destructor.
+    if mjr is not None:
+        mjr.free()
+    ctx.free()
 
 
 class WorldCamera:

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from robot_daemon.sim.physics.camera import WorldCamera
 from robot_daemon.sim.physics.model import (
     BALL,
     CAMERA,
@@ -129,6 +130,8 @@ class MujocoWorld:
             seed=seed,
         )
         self._render_lock = threading.Lock()
+        cam = s.render.camera
+        self.camera = WorldCamera(self.model, cam.width, cam.height, self._render_opencv, CAMERA)
         self._positions = np.zeros(len(self.servo_ids))  # servo angles (rad) the robot stands in
         self._pose = s.robot_start
         self._place_robot_now(*s.robot_start)
@@ -364,7 +367,11 @@ class MujocoWorld:
             return CameraPose(pos, r), ball
 
     def render(self) -> np.ndarray:
-        """The camera image (BGR, uint8): the OpenCV renderer at MuJoCo's camera pose."""
+        """The camera image (BGR, uint8): MuJoCo's offscreen view (EGL/OSMesa), or the OpenCV
+        renderer at MuJoCo's camera pose where no GL backend works (:mod:`.camera`)."""
+        return self.camera.render(self.lock, self.data)
+
+    def _render_opencv(self) -> np.ndarray:
         pose, ball = self.camera_view()
         with self._render_lock:
             return self._renderer.render(pose, ball)
