@@ -201,13 +201,15 @@ class MujocoWorld:
             m.actuator_forcerange[a, 1] = force
             d.ctrl[a] = goal
             if self._push_until is not None:
-                k = min(n, max(0, math.ceil((self._push_until - self.time) / ts - 1e-6)))
+                left = max(0, math.ceil((self._push_until - self.time) / ts - 1e-6))
+                k = min(n, left)
                 if k:
                     mj.mj_step(m, d, nstep=k)
-                d.xfrc_applied[self._torso, :] = 0.0
-                self._push_until = None
-                if n - k:
-                    mj.mj_step(m, d, nstep=n - k)
+                if k == left:  # the push ends within this slice; else it goes on in the next
+                    d.xfrc_applied[self._torso, :] = 0.0
+                    self._push_until = None
+                    if n - k:
+                        mj.mj_step(m, d, nstep=n - k)
             else:
                 mj.mj_step(m, d, nstep=n)
             self.time += n * ts
