@@ -140,7 +140,12 @@ def main() -> int:
     if not args.skip_stack:
         for p in PLANTS:
             print(f"darwin up ({p}) for {args.stack_seconds:.0f} s …", flush=True)
-            stacks[p] = stack(p, args.stack_seconds)
+            try:
+                stacks[p] = stack(p, args.stack_seconds)
+            except RuntimeError as exc:  # it did not start: its output says why
+                print(f"  darwin up ({p}) did not start: {str(exc).splitlines()[-1]}")
+                stacks.clear()
+                break
 
     print()
     print(f"{'':34}{'kinematic':>12}{'mujoco':>12}{'ratio':>10}")

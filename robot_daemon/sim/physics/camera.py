@@ -186,7 +186,9 @@ class _RenderThread:
         self.camera_id = camera_id
 
     def _open_context(self) -> tuple[Any, str]:
-        errors = [] if backend_order() else ["MUJOCO_GL=disable"]
+        if not backend_order():
+            raise GLUnavailableError("MUJOCO_GL=disable turns the MuJoCo camera off")
+        errors = []
         for backend in backend_order():
             try:
                 ctx = _gl_context_class(backend)(self.width, self.height)
