@@ -41,9 +41,13 @@ class Run:
 
 
 def ball_xy(rig: SimRig) -> np.ndarray:
-    state = rig.world.ball.state
-    assert state is not None
-    return np.array([state.x, state.y])
+    ball = rig.world.snapshot().ball  # the snapshot reads the ball's body now
+    return np.array([ball["x"], ball["y"]])
+
+
+def ball_speed(rig: SimRig) -> float:
+    ball = rig.world.snapshot().ball
+    return math.hypot(ball["vx"], ball["vy"])
 
 
 def one_run(seed: int, rng: np.random.Generator) -> Run:
@@ -69,7 +73,7 @@ def one_run(seed: int, rng: np.random.Generator) -> Run:
 
     rig.ball_play.start()
     rig.run_until(watch, timeout=PLAY_S)
-    rig.run_until(lambda r: r.world.ball.state is None or r.world.ball.state.speed < 0.01, 5.0)
+    rig.run_until(lambda r: ball_speed(r) < 0.01, timeout=5.0)
     moved = float(np.linalg.norm(ball_xy(rig) - lay))
     ok = (
         rig.ball_play.phase == "done"
