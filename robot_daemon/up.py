@@ -72,6 +72,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="extra emulator argument (repeatable), e.g. --sim-arg=--drop=0.05",
     )
     parser.add_argument(
+        "--physics",
+        choices=("kinematic", "mujoco"),
+        help="the emulator's plant: kinematic (default) or mujoco (rigid-body physics; "
+        "needs pip install -e '.[physics]')",
+    )
+    parser.add_argument(
         "--tui", action="store_true", help="open the terminal UI here once everything runs"
     )
     parser.add_argument(
@@ -106,6 +112,8 @@ def daemon_args(args: argparse.Namespace, listen: str) -> list[str]:
         out += ["--port", args.port]
     else:
         out += ["--sim", *(f"--sim-arg={a}" for a in args.sim_arg)]
+        if args.physics:
+            out.append(f"--sim-arg=--physics={args.physics}")
         if args.wire_timing is not None:
             out.append("--wire-timing" if args.wire_timing else "--no-wire-timing")
     for opt in ("robot", "camera", "config"):
@@ -121,7 +129,27 @@ def daemon_args(args: argparse.Namespace, listen: str) -> list[str]:
     return out
 
 
+def _physics_problem(args: argparse.Namespace) -> str | None:
+    """Why ``--physics`` cannot run, as one line naming the fix, or None."""
+    if args.physics is None:
+        return None
+    if args.port:
+        return "--physics chooses the emulator's plant; it does not apply with --port"
+    if args.physics == "mujoco":
+        from robot_daemon.sim.physics.world import import_mujoco
+
+        try:
+            import_mujoco()
+        except RuntimeError as exc:
+            return str(exc)
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
+    problem = _physics_problem(args)
+    if problem:
+        print(f"darwin up: {problem}", file=sys.stderr)
+        return 2
     settings = load_all(args.config)
     listen = _resolve_listen(
         [args.listen or settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]]

@@ -112,6 +112,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="SCHED_FIFO priority of the serving thread, 1..99 (0: normal scheduling)",
     )
     parser.add_argument(
+        "--physics",
+        choices=("kinematic", "mujoco"),
+        help="the plant behind the servos: kinematic (default) or mujoco (rigid-body physics; "
+        "needs pip install -e '.[physics]')",
+    )
+    parser.add_argument(
         "--link", metavar="PATH", help="keep a symlink to the pty at this path (stable port path)"
     )
     parser.add_argument(
@@ -140,12 +146,21 @@ def settings_from_args(args: argparse.Namespace) -> EmulatorSettings:
         "power_on_delay_s",
         "realtime_priority",
         "link",
+        "physics",
     )
     return EmulatorSettings.load(args.config, **{n: getattr(args, n) for n in names})
 
 
 def run(args: argparse.Namespace) -> int:
     settings = settings_from_args(args)
+    if settings.physics == "mujoco":
+        from robot_daemon.sim.physics.world import import_mujoco
+
+        try:
+            import_mujoco()
+        except RuntimeError as exc:
+            print(f"darwin sim: {exc}", file=sys.stderr)
+            return 2
     stop = threading.Event()
 
     def on_signal(signum: int, frame: Any) -> None:

@@ -67,4 +67,9 @@ class EmulatorSettings:
                 f"unknown [emulator] setting(s) {', '.join(unknown)}; "
                 f"known: {', '.join(sorted(known))}"
             )
-        return cls(**values)
+        settings = cls(**values)
+        if settings.physics not in ("kinematic", "mujoco"):
+            raise ConfigError(
+                f"[emulator] physics={settings.physics!r} is not a plant; use kinematic or mujoco"
+            )
+        return settings

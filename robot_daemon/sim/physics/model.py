@@ -39,13 +39,14 @@ class PhysicsSettings:
     stall_torque: float = 2.5
     no_load_rpm: float = 55.0
     stiffness_per_p: float = 12.6 / 32
-    armature: float = 0.012
-    frictionloss: float = 0.3
+    armature: float = 0.02
+    frictionloss: float = 0.025
     damping: float = 0.05
     foot_friction: tuple[float, float, float] = (1.0, 0.02, 0.0001)
+    foot_condim: int = 3
     ball_friction: tuple[float, float, float] = (0.8, 0.005, 0.002)
     ball_mass: float = 0.045
-    solref: tuple[float, float] = (0.005, 1.0)
+    solref: tuple[float, float] = (0.02, 1.0)
     fall_tilt_deg: float = 60.0
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -73,6 +74,8 @@ class PhysicsSettings:
             for key in ("foot_friction", "ball_friction"):
                 if key in contact:
                     values[key] = tuple(float(v) for v in contact.pop(key))
+            if "foot_condim" in contact:
+                values["foot_condim"] = int(contact.pop("foot_condim"))
             if "solref" in contact:
                 values["solref"] = tuple(float(v) for v in contact.pop("solref"))
             if "ball_mass" in contact:
@@ -191,7 +194,7 @@ def _link_contents(el: ET.Element, link: Any, foot: bool = False, s: Any = None)
     }
     if foot:
         attrs["friction"] = _fmt(s.foot_friction)
-        attrs["condim"] = "6"
+        attrs["condim"] = str(s.foot_condim)
     ET.SubElement(el, "geom", attrs)
 
 
@@ -248,7 +251,7 @@ def world_mjcf(
         friction="1 0.02 0.0001",
         contype="1",
         conaffinity="1",
-        condim="6",
+        condim="3",  # a pair uses the larger condim: the feet and the ball say theirs
     )
     robot_mjcf(body, s, world)
     ball = ET.SubElement(world, "body", name=BALL, pos=f"0 0 {ball_radius:.9g}")

@@ -91,6 +91,7 @@ class MujocoWorld:
         self.frames_rendered = 0
         self.pushes = 0
         self._push_until: float | None = None
+        self.released = False  # False: held in place until a servo first has torque on
         self._debt = 0.0  # time handed to step() not yet simulated (s)
         self._hook: Any = None
         m = self.model
@@ -187,6 +188,15 @@ class MujocoWorld:
         goal, kp, kd, force = self._commands(emulator)
         m, d, mj = self.model, self.data, self.mj
         ts = m.opt.timestep
+        if not self.released:
+            # Held where it was placed (on its stand, as a robot being switched on) until a
+            # servo first has torque: a limp robot would otherwise crumple before the daemon
+            # powers the bus and holds the pose.
+            if not (kp > 0).any():
+                with self.lock:
+                    self.time += dt
+                return
+            self.released = True
         with self.lock:
             self._debt += dt
             n = int(self._debt / ts + 1e-6)
@@ -196,7 +206,9 @@ class MujocoWorld:
             a = self._act
             m.actuator_gainprm[a, 0] = kp
             m.actuator_biasprm[a, 1] = -kp
-            m.actuator_biasprm[a, 2] = -kd
+            # Back-EMF outside the torque clip, as in the motor (torque = stall · (duty − ω/ω₀)):
+            # it caps the speed at the no-load speed; MuJoCo integrates joint damping implicitly.
+            m.dof_damping[self._dadr] = self.physics.damping + kd
             m.actuator_forcerange[a, 0] = -force
             m.actuator_forcerange[a, 1] = force
             d.ctrl[a] = goal
@@ -214,7 +226,7 @@ class MujocoWorld:
                 mj.mj_step(m, d, nstep=n)
             self.time += n * ts
             self._after_step()
-            demand = kp * (goal - d.qpos[self._qadr]) - kd * d.qvel[self._dadr]
+            demand = kp * (goal - d.qpos[self._qadr])
             saturated = (np.abs(demand) > force + 1e-9) & (force > 0)
         self._report(emulator, n * ts, saturated)
 

@@ -6,7 +6,12 @@
 | `place_robot` | `x`, `y` (m), `yaw` (rad, default 0) | stands the robot there (clears a fall) |
 | `place_ball` | `x`, `y` (m), `vx`, `vy` (m/s, default 0) | puts the ball there |
 | `remove_ball` | | takes the ball off the field |
+| `push` | `fx`, `fy`, `fz` (N, field; fz default 0), `duration` (s, default 0.1) | a shove |
 | `render` | | one camera frame: `bgr` (raw bytes, row-major), `width`, `height`, `seq` |
+
+`push`: the MuJoCo plant applies the force at the torso's centre of mass for ``duration`` s of
+simulated time; the kinematic body tips over the way it was pushed when the horizontal impulse
+reaches ``[world.falls] push_fall_impulse``. Forces within ±200 N, duration within (0, 1] s.
 
 The ops find the world through the emulator (``emulator.world``, set by :func:`install`), so
 they answer "no world" clearly on an emulator started with ``--no-world``.
@@ -69,6 +74,30 @@ def remove_ball(emulator: Emulator, request: dict[str, Any]) -> dict[str, Any]:
     return {"ball": {"present": False}}
 
 
+# A push is a shove by hand, not a cannon (N, s).
+MAX_PUSH_N = 200.0
+MAX_PUSH_S = 1.0
+
+
+def push(emulator: Emulator, request: dict[str, Any]) -> dict[str, Any]:
+    force = []
+    for name in ("fx", "fy", "fz"):
+        value = field(request, name, float) if name != "fz" else field(request, name, float, 0.0)
+        if not math.isfinite(value) or abs(value) > MAX_PUSH_N:
+            raise FieldError(
+                name, f"{name}={brief(value)} must be finite and within ±{MAX_PUSH_N} N"
+            )
+        force.append(value)
+    duration = field(request, "duration", float, 0.1)
+    if not math.isfinite(duration) or not 0.0 < duration <= MAX_PUSH_S:
+        raise FieldError(
+            "duration", f"duration={brief(duration)} must be in (0, {MAX_PUSH_S}] s"
+        )
+    world = world_of(emulator)
+    world.push((force[0], force[1], force[2]), duration)
+    return {"impulse": [f * duration for f in force], "fallen": world.snapshot().fallen}
+
+
 def render(emulator: Emulator, request: dict[str, Any]) -> dict[str, Any]:
     world = world_of(emulator)
     img = world.render()
@@ -84,6 +113,7 @@ def install() -> None:
         ("place_robot", place_robot),
         ("place_ball", place_ball),
         ("remove_ball", remove_ball),
+        ("push", push),
         ("render", render),
     ):
         register_control_op(name, fn)

@@ -22,9 +22,10 @@ from typing import TYPE_CHECKING, Any
 
 import zenoh
 
+from config.loader import load_all
 from robot_daemon.sim.world import control
 from robot_daemon.sim.world.settings import WorldSettings
-from robot_daemon.sim.world.world import SimWorld
+from robot_daemon.sim.world.world import SimWorld, make_world
 from schemas.keys import Keys
 from schemas.messages import encode
 
@@ -59,9 +60,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def world_from_args(args: argparse.Namespace) -> SimWorld:
-    settings = WorldSettings.load(getattr(args, "config", None))
-    world = SimWorld(settings, seed=getattr(args, "seed", None) or None)
+def world_from_args(args: argparse.Namespace, plant: str = "kinematic") -> Any:
+    """The world for ``plant`` (the emulator's ``physics`` setting), placed as ``args`` say."""
+    config = load_all(getattr(args, "config", None))
+    settings = WorldSettings.from_config(config.get("world", {}))
+    world = make_world(plant, settings, config, seed=getattr(args, "seed", None) or None)
     pose = getattr(args, "robot_pose", None)
     if pose:
         world.place_robot(pose[0], pose[1], math.radians(pose[2]))
@@ -77,7 +80,7 @@ def attach(
 ) -> Callable[[], None] | None:
     if getattr(args, "no_world", False):
         return None
-    world = world_from_args(args)
+    world = world_from_args(args, emulator.settings.physics)
     world.attach(emulator)
     emulator.world = world  # type: ignore[attr-defined]  # the control ops find it here
     control.install()

@@ -37,6 +37,7 @@ class FallSettings:
     crouch_height: float = 0.195
     stand_height: float = 0.23
     stand_tilt: float = math.radians(20.0)
+    push_fall_impulse: float = 0.5  # N·s: a push this strong tips the kinematic body over
 
 
 @dataclass(frozen=True)

@@ -129,6 +129,22 @@ class SimWorld:
         with self.lock:
             self.ball.remove()
 
+    def push(self, force: tuple[float, float, float], duration: float) -> None:
+        """A shove on the torso (N, field frame, for ``duration`` s). The kinematic body has no
+        dynamics: a horizontal impulse above ``[world.falls] push_fall_impulse`` tips it over
+        the way it was pushed (forward or backward relative to its heading), a smaller one does
+        nothing."""
+        with self.lock:
+            if self.body.fallen != "none":
+                return
+            ix, iy = force[0] * duration, force[1] * duration
+            if math.hypot(ix, iy) < self.settings.falls.push_fall_impulse:
+                return
+            heading = self.body.heading()
+            along = ix * math.cos(heading) + iy * math.sin(heading)
+            self.body._fall("forward" if along >= 0 else "backward")
+            self.falls += 1
+
     # -- observing -----------------------------------------------------------------------------
     def snapshot(self) -> World:
         """The World message (field frame, metres, radians)."""
