@@ -2,7 +2,13 @@
 
 The mean of the last ``fall_window`` (30) accel Y samples (the CM-730 register; the robot's
 fore/aft axis, ``JointFrame.accel_raw[0]``) below ``fall_forward_below`` (390)
-means fallen forward, above ``fall_backward_above`` (580) fallen backward ([imu] config). A fall
+means fallen forward, above ``fall_backward_above`` (580) fallen backward ([imu] config). Ours,
+not the framework's: only samples whose accel Z (the up axis) is below ``fall_lying_z_below``
+(590; upright reads 512 + 1 g = 640, lying 512) count, and an upright sample empties the window.
+A shove accelerates an upright body along its fore/aft axis for longer than the window (the
+MuJoCo plant: 40 N for 0.2 s reads accel Y ~250 while the body is still upright), and on the
+framework's rule alone the detector latched the wrong direction before the robot landed on the
+other side. A fall
 stops every module (walking, behaviours), publishes an event, and when ``[fall] recover`` is on,
 plays the matching get-up page (10 front, 11 back).
 
@@ -36,6 +42,7 @@ class FallMonitor(MotionModule):
         imu, fall = imu or {}, fall or {}
         self.forward_below = float(imu.get("fall_forward_below", 390))
         self.backward_above = float(imu.get("fall_backward_above", 580))
+        self.lying_z_below = float(imu.get("fall_lying_z_below", 590))
         self.window: deque[float] = deque(maxlen=int(imu.get("fall_window", 30)))
         self.recover = bool(fall.get("recover", True))
         self.front_page = int(fall.get("get_up_front_page", 10))
@@ -64,7 +71,10 @@ class FallMonitor(MotionModule):
     def observe(self, frame: JointFrame) -> None:
         # The framework's "accel Y" register is the robot's fore/aft axis, which JointFrame
         # holds first (robot axes x y z; see IMU_ACCEL_AXES in bus/tables.py).
-        self.window.append(float(frame.accel_raw[0]))
+        if float(frame.accel_raw[2]) >= self.lying_z_below:
+            self.window.clear()  # gravity along the up axis: upright, whatever shoves it
+        else:
+            self.window.append(float(frame.accel_raw[0]))
         now = self.now = self.classify()
         if now == UPRIGHT:
             self._upright_ticks += 1

@@ -153,9 +153,11 @@ class Servo(Device):
             self.overheated = False
         if self.overheated:
             bits |= ErrorBit.OVERHEATING
-        load = abs(self.load_fraction()) * MX28.TORQUE_LIMIT.reg.high
-        saturated = self.saturated_s >= OVERLOAD_AFTER_S
-        if (load > t[MX28.TORQUE_LIMIT] or saturated) and t[MX28.TORQUE_ENABLE]:
+        if self.plant_torque is None:  # kinematic: the world's load against the limit
+            over = abs(self.load_fraction()) * MX28.TORQUE_LIMIT.reg.high > t[MX28.TORQUE_LIMIT]
+        else:  # physics: the motor cannot exceed its limit, it stays saturated at it
+            over = self.saturated_s >= OVERLOAD_AFTER_S
+        if over and t[MX28.TORQUE_ENABLE]:
             bits |= ErrorBit.OVERLOAD
         return bits
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 from robot_daemon.bus.tables import MX28
 from robot_daemon.motion.interface import Targets
 from robot_daemon.sim.world.rig import TICK_S, SimRig
@@ -69,5 +71,21 @@ def test_low_voltage_weakens_the_servo() -> None:
         forces[volts] = abs(float(rig.world.data.actuator("servo_19").force[0]))
         load = rig.emulator.register(PAN, "PRESENT_LOAD") & 0x3FF
         assert load > 900
-    assert forces[6.0] == __import__("pytest").approx(forces[12.0] / 2, rel=0.05)
+    assert forces[6.0] == pytest.approx(forces[12.0] / 2, rel=0.05)
     assert MX28.TORQUE_LIMIT  # the torque limit register scales the same range
+
+
+def test_moving_speed_register_paces_the_move() -> None:
+    """A client that sets MOVING_SPEED (as pypot or the SDK may) gets a move at that speed."""
+    rig = SimRig(seed=3, physics="mujoco", vision_fps=1.0)
+    servo = rig.emulator.bus.servo(PAN)
+    rad_s = 50 * 0.114 * 2 * math.pi / 60  # 50 units of 0.114 rpm ≈ 0.6 rad/s
+    with rig.emulator.lock:
+        assert servo.write(MX28.MOVING_SPEED.reg.address, (50).to_bytes(2, "little")) == 0
+        goal = 2048 + 400  # ≈ 0.61 rad
+        assert servo.write(MX28.GOAL_POSITION.reg.address, goal.to_bytes(2, "little")) == 0
+    rig.emulator.advance(0.5)
+    halfway = float(rig.world.data.joint("j_pan").qpos[0])
+    assert halfway == pytest.approx(0.5 * rad_s, abs=0.05)
+    rig.emulator.advance(1.0)
+    assert abs(float(rig.world.data.joint("j_pan").qpos[0]) - 400 * 2 * math.pi / 4096) < 0.02

@@ -28,7 +28,8 @@ class Rig:
         for _ in range(ticks):
             f = JointFrame(self.tick, self.tick * DT, DT, position=self.pos.copy())
             f.online[:] = True
-            f.accel_raw = np.array([self.accel_y, 512, 700])  # robot x = the CM-730's accel Y
+            # Robot x = the CM-730's accel Y; lying (accel Y off centre) gravity leaves accel Z.
+            f.accel_raw = np.array([self.accel_y, 512, 640 if self.accel_y == 512 else 512])
             out = self.manager.step(f)
             for j, g in out.goal.items():
                 self.pos[j] = g
@@ -124,3 +125,16 @@ def test_sound_is_an_event_in_the_simulator_and_a_subprocess_on_the_robot() -> N
     with pytest.raises(ValueError, match="does not exist"):
         cmd.play(emit, file="/nonexistent/a.wav")
     cmd.close()
+
+
+def test_a_shove_of_an_upright_body_is_not_a_fall() -> None:
+    """Pushed hard, an upright body reads accel Y far off centre for longer than the window
+    (the MuJoCo plant: 60 N for 0.2 s reads ~225), but gravity is still along its up axis
+    (accel Z at 1 g): not a fall, so the direction is decided once it lies."""
+    rig = Rig()
+    fall = rig.m("fall")
+    for tick in range(60):
+        f = JointFrame(tick, tick * DT, DT, position=rig.pos.copy())
+        f.accel_raw = np.array([225, 512, 640])
+        fall.observe(f)
+    assert fall.state == "upright" and fall.falls == 0

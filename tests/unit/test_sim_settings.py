@@ -28,3 +28,13 @@ def test_unknown_settings_are_named(tmp_path: Path) -> None:
     user.write_text("[emulator]\nwire_timming = false\n")
     with pytest.raises(ConfigError, match="wire_timming"):
         EmulatorSettings.load(str(user))
+
+
+def test_physics_plant_is_checked() -> None:
+    from robot_daemon.sim.settings import EmulatorSettings
+    from schemas.errors import ConfigError
+
+    assert EmulatorSettings.from_dict({}).physics == "kinematic"
+    assert EmulatorSettings.from_dict({"physics": "mujoco"}).physics == "mujoco"
+    with pytest.raises(ConfigError, match="physics='bullet' is not a plant"):
+        EmulatorSettings.from_dict({"physics": "bullet"})

@@ -225,3 +225,19 @@ def test_render_op_gives_a_frame_with_the_ball() -> None:
     assert ok and img.shape == (240, 320, 3)
     red = (img[..., 2] > 120) & (img[..., 1] < 80) & (img[..., 0] < 80)
     assert red.sum() > 30
+
+
+def test_push_tips_the_kinematic_body_the_way_it_was_pushed_above_the_threshold() -> None:
+    w = world()
+    for _ in range(10):
+        w.step(DT, stance())
+    w.push((2.0, 0.0, 0.0), 0.1)  # 0.2 N·s: below push_fall_impulse, nothing happens
+    assert w.snapshot().fallen == "none"
+    w.push((-10.0, 0.0, 0.0), 0.1)  # 1 N·s toward its back
+    assert w.snapshot().fallen == "backward" and w.falls == 1
+    _, accel = w.step(DT, stance())
+    assert units.ms2_to_accel_raw(accel[0]) > 580  # the framework's "fallen backward"
+    w.place_robot(0.0, 0.0, math.pi / 2)  # facing +y
+    w.step(DT, stance())
+    w.push((0.0, 10.0, 0.0), 0.1)
+    assert w.snapshot().fallen == "forward"

@@ -17,12 +17,12 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from schemas.body import Body, default_body
+from schemas.body import Body, Link, default_body
 
 ROOT = "torso"
 CAMERA = "head_camera"
@@ -48,7 +48,6 @@ class PhysicsSettings:
     ball_mass: float = 0.045
     solref: tuple[float, float] = (0.02, 1.0)
     fall_tilt_deg: float = 60.0
-    extra: dict[str, Any] = field(default_factory=dict)
 
     @property
     def emf_damping(self) -> float:
@@ -113,7 +112,7 @@ def _quat(r: np.ndarray) -> np.ndarray:
 
 # The MJCF camera looks along its −z with y up; the body's camera frame has x along the optical
 # axis and z up: camera = body camera frame · R, R's columns being the MJCF axes in that frame.
-_MJ_CAMERA_IN_CAMERA = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+MJ_CAMERA_IN_CAMERA = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 _SITES = {"imu": IMU_SITE, "l_sole": "l_sole", "r_sole": "r_sole", "camera": CAMERA}
 
 
@@ -127,7 +126,7 @@ def robot_mjcf(body: Body, s: PhysicsSettings, parent: ET.Element) -> None:
     root = ET.SubElement(parent, "body", name=ROOT, pos="0 0 0.3")
     ET.SubElement(root, "freejoint", name="root")
     elements[body.root] = root
-    _link_contents(root, links[body.root])
+    _link_contents(root, links[body.root], s)
     for j in body.joints:
         if j.parent in carried:
             owner, pose = carried[j.parent]
@@ -141,7 +140,7 @@ def robot_mjcf(body: Body, s: PhysicsSettings, parent: ET.Element) -> None:
                 r = pose[:3, :3]
                 tag = "camera" if j.child == "camera" else "site"
                 if tag == "camera":
-                    r = r @ _MJ_CAMERA_IN_CAMERA
+                    r = r @ MJ_CAMERA_IN_CAMERA
                 attrs = {"name": _SITES[j.child], "pos": _fmt(pose[:3, 3]), "quat": _fmt(_quat(r))}
                 if tag == "camera":
                     attrs["fovy"] = "46"
@@ -170,10 +169,10 @@ def robot_mjcf(body: Body, s: PhysicsSettings, parent: ET.Element) -> None:
                 frictionloss=f"{s.frictionloss:.9g}",
                 damping=f"{s.damping:.9g}",
             )
-        _link_contents(el, child, foot=j.child.endswith("_foot"), s=s)
+        _link_contents(el, child, s, foot=j.child.endswith("_foot"))
 
 
-def _link_contents(el: ET.Element, link: Any, foot: bool = False, s: Any = None) -> None:
+def _link_contents(el: ET.Element, link: Link, s: PhysicsSettings, foot: bool = False) -> None:
     if link.box is None or link.mass <= 0:
         return
     ET.SubElement(

@@ -5,7 +5,8 @@ interface (place robot and ball, snapshot, camera view, render, ``attach``), so 
 the World publication, the camera source and the rig work unchanged. Attached to an
 :class:`~robot_daemon.sim.emulator.Emulator`, every physics step of the emulator
 
-1. reads each servo's registers under the emulator's lock: goal, torque enable and power, P gain
+1. reads each servo's registers under the emulator's lock: goal (approached at the moving speed
+   register's rate, 0 = at once), torque enable and power, P gain
    (→ stiffness, ``[physics.servo] stiffness_per_p``), torque limit and the supply voltage
    (→ the actuator's force range, stall 2.5 N·m at 12 V), back-EMF damping while torque is on;
 2. steps MuJoCo in ``timestep`` (1 ms) steps without any lock but the world's (``mj_step``
@@ -32,6 +33,7 @@ from robot_daemon.sim.physics.camera import WorldCamera
 from robot_daemon.sim.physics.model import (
     BALL,
     CAMERA,
+    MJ_CAMERA_IN_CAMERA,
     ROOT,
     PhysicsSettings,
     world_mjcf,
@@ -134,6 +136,7 @@ class MujocoWorld:
         cam = s.render.camera
         self.camera = WorldCamera(self.model, cam.width, cam.height, self._render_opencv, CAMERA)
         self._positions = np.zeros(len(self.servo_ids))  # servo angles (rad) the robot stands in
+        self._setpoint = np.zeros(len(self.servo_ids))  # each servo's profile set point (rad)
         self._pose = s.robot_start
         self._place_robot_now(*s.robot_start)
         if s.ball_start is not None:
@@ -149,6 +152,7 @@ class MujocoWorld:
         with self.lock:
             self._positions = np.array([positions[i] for i in self.servo_ids])
             self._place_robot_now(*self._pose)
+            self._setpoint = self._positions.copy()
         self._report(emulator, 0.0, np.zeros(len(self.servo_ids), dtype=bool))
 
         def hook(dt: float, emu: Emulator) -> None:
@@ -170,6 +174,7 @@ class MujocoWorld:
 
         n = len(self.servo_ids)
         goal, kp, on, limit = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
+        speed = np.full(n, np.inf)
         with emulator.lock:
             volts = max(emulator.env.voltage, 0.0)
             for k, i in enumerate(self.servo_ids):
@@ -180,12 +185,15 @@ class MujocoWorld:
                 on[k] = 1.0 if enabled else 0.0
                 kp[k] = t[MX28.P_GAIN] * self.physics.stiffness_per_p
                 limit[k] = t[MX28.TORQUE_LIMIT] / 1023.0
+                if t[MX28.MOVING_SPEED]:  # 0 = no profile: the motor's own top speed
+                    rpm = t[MX28.MOVING_SPEED] * units.RPM_PER_SPEED_UNIT
+                    speed[k] = rpm * 2 * math.pi / 60.0
         stall = self.physics.stall_torque * volts / 12.0
-        return goal, kp * on, self.physics.emf_damping * on, limit * stall * on
+        return goal, speed, kp * on, self.physics.emf_damping * on, limit * stall * on
 
     def step_plant(self, dt: float, emulator: Emulator) -> None:
         """Simulate ``dt`` s of the emulator's clock with its servos' present commands."""
-        goal, kp, kd, force = self._commands(emulator)
+        goal, speed, kp, kd, force = self._commands(emulator)
         m, d, mj = self.model, self.data, self.mj
         ts = m.opt.timestep
         if not self.released:
@@ -211,22 +219,25 @@ class MujocoWorld:
             m.dof_damping[self._dadr] = self.physics.damping + kd
             m.actuator_forcerange[a, 0] = -force
             m.actuator_forcerange[a, 1] = force
-            d.ctrl[a] = goal
+            # The firmware moves its set point toward the goal at the moving speed (register
+            # 32); a limp servo's set point follows the horn, so torque on never jumps.
+            q = d.qpos[self._qadr]
+            move = np.clip(goal - self._setpoint, -speed * n * ts, speed * n * ts)
+            self._setpoint = np.where(kp > 0, self._setpoint + move, q)
+            d.ctrl[a] = self._setpoint
+            # A push lasts until its end time, which may fall inside this round of steps.
+            k = n
             if self._push_until is not None:
-                left = max(0, math.ceil((self._push_until - self.time) / ts - 1e-6))
-                k = min(n, left)
-                if k:
-                    mj.mj_step(m, d, nstep=k)
-                if k == left:  # the push ends within this slice; else it goes on in the next
-                    d.xfrc_applied[self._torso, :] = 0.0
-                    self._push_until = None
-                    if n - k:
-                        mj.mj_step(m, d, nstep=n - k)
-            else:
-                mj.mj_step(m, d, nstep=n)
+                k = min(n, max(0, math.ceil((self._push_until - self.time) / ts - 1e-6)))
+            if k:
+                mj.mj_step(m, d, nstep=k)
+            if k < n:
+                d.xfrc_applied[self._torso, :] = 0.0
+                self._push_until = None
+                mj.mj_step(m, d, nstep=n - k)
             self.time += n * ts
             self._after_step()
-            demand = kp * (goal - d.qpos[self._qadr])
+            demand = kp * (self._setpoint - d.qpos[self._qadr])
             saturated = (np.abs(demand) > force + 1e-9) & (force > 0)
         self._report(emulator, n * ts, saturated)
 
@@ -367,12 +378,10 @@ class MujocoWorld:
             )
 
     def camera_view(self) -> tuple[CameraPose, BallView | None]:
-        from robot_daemon.sim.physics.model import _MJ_CAMERA_IN_CAMERA
-
         with self.lock:
             pos = self.data.cam_xpos[self._camera].copy()
             # Back from MuJoCo's camera axes to the renderer's (x optical axis, z up).
-            r = self.data.cam_xmat[self._camera].reshape(3, 3) @ _MJ_CAMERA_IN_CAMERA.T
+            r = self.data.cam_xmat[self._camera].reshape(3, 3) @ MJ_CAMERA_IN_CAMERA.T
             if self.ball.state is not None:
                 self.ball.state = self._ball_state()
             b = self.ball.state

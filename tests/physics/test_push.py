@@ -1,0 +1,45 @@
+"""The `push` op in physics: a shove on the torso knocks the robot over the way it was pushed,
+and the daemon's fall detector (motion/fall.py, on the CM-730's accelerometer registers) says
+the same direction as the world."""
+
+from __future__ import annotations
+
+import pytest
+
+from robot_daemon.sim.control import run_op
+from robot_daemon.sim.world import control
+from robot_daemon.sim.world.rig import SimRig
+
+
+@pytest.fixture(autouse=True)
+def _world_ops() -> None:
+    control.install()  # what the sim plugin does when it attaches a world
+
+
+@pytest.mark.parametrize(
+    ("fx", "direction"), [(-40.0, "backward"), (40.0, "forward")], ids=["back", "front"]
+)
+def test_a_push_knocks_the_robot_over_and_the_detector_agrees(fx: float, direction: str) -> None:
+    rig = SimRig(seed=1, physics="mujoco", vision_fps=1.0)
+    rig.emulator.world = rig.world  # type: ignore[attr-defined]  # as the sim plugin does
+    rig.run(0.5)
+    reply = run_op(rig.emulator, {"op": "push", "fx": fx, "fy": 0.0, "duration": 0.2})
+    assert reply["impulse"] == pytest.approx([fx * 0.2, 0.0, 0.0])
+    rig.run(2.0)
+    assert rig.world.snapshot().fallen == direction
+    assert rig.world.falls == 1
+    assert rig.manager.module("fall").state == f"fallen_{direction}"
+
+
+def test_push_arguments_are_checked() -> None:
+    rig = SimRig(seed=1, physics="mujoco", vision_fps=1.0)
+    rig.emulator.world = rig.world  # type: ignore[attr-defined]
+    for bad, word in (
+        ({"fx": 1e6, "fy": 0.0}, "fx"),
+        ({"fx": 1.0}, "fy"),
+        ({"fx": 1.0, "fy": float("nan")}, "fy"),
+        ({"fx": 1.0, "fy": 0.0, "duration": 0.0}, "duration"),
+    ):
+        with pytest.raises(Exception, match=word):
+            run_op(rig.emulator, {"op": "push", **bad})
+    assert rig.world.pushes == 0
