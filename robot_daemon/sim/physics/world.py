@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from robot_daemon.sim.physics.camera import WorldCamera
 from robot_daemon.sim.physics.model import (
     BALL,
     CAMERA,
@@ -132,6 +133,8 @@ class MujocoWorld:
             seed=seed,
         )
         self._render_lock = threading.Lock()
+        cam = s.render.camera
+        self.camera = WorldCamera(self.model, cam.width, cam.height, self._render_opencv, CAMERA)
         self._positions = np.zeros(len(self.servo_ids))  # servo angles (rad) the robot stands in
         self._setpoint = np.zeros(len(self.servo_ids))  # each servo's profile set point (rad)
         self._pose = s.robot_start
@@ -387,7 +390,11 @@ class MujocoWorld:
             return CameraPose(pos, r), ball
 
     def render(self) -> np.ndarray:
-        """The camera image (BGR, uint8): the OpenCV renderer at MuJoCo's camera pose."""
+        """The camera image (BGR, uint8): MuJoCo's offscreen view (EGL/OSMesa), or the OpenCV
+        renderer at MuJoCo's camera pose where no GL backend works (:mod:`.camera`)."""
+        return self.camera.render(self.lock, self.data)
+
+    def _render_opencv(self) -> np.ndarray:
         pose, ball = self.camera_view()
         with self._render_lock:
             return self._renderer.render(pose, ball)
