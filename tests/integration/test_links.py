@@ -208,8 +208,15 @@ def test_lossy_slow_operator_link_neither_slows_observers_nor_repeats_commands(
     print(f"commands: {outcomes.count('ok')} applied, {len(outcomes) - outcomes.count('ok')} "
           f"errors {sorted(set(outcomes) - {'ok'})}, lease re-taken {lease_lost}×: "
           f"{' '.join(k.removesuffix('Error') for k in outcomes)}")  # fmt: skip
-    # Observers on other links keep the tick rate: a generous bound, the same observer before.
-    assert during["rate"] >= 0.8 * before["rate"]
+    # Observers on other links are not slowed: they still get (nearly) every tick the robot
+    # publishes. Measured as a share of the robot's own ticks, not a rate: on a loaded host the
+    # user-space impairment and every process here share two cores, which slows the robot's
+    # clock for everyone alike (the fleet benchmark measures rates).
+    assert during["got"] >= 0.8 * before["got"]
+    if through == "daemon":
+        # Straight to the daemon, its publisher serves the slow link itself: a wait for room on
+        # that link's queue would slow every tick (Zenoh's default 1 ms wait did: 0.6×).
+        assert during["robot_rate"] >= 0.8 * before["robot_rate"]
     # Each command applied once (its value shows in one run, in the order sent) or errored
     # (shown at most once): nothing is applied twice, nothing reported applied is missing.
     runs = {tuple(expected_head(v)): shown.count(expected_head(v)) for v, _ in sent}

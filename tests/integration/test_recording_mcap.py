@@ -14,6 +14,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+import zenoh
 from mcap.exceptions import McapError
 from mcap.reader import NonSeekingReader, make_reader
 
@@ -72,7 +73,12 @@ class Source:
         self.endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
         self.session = open_server([self.endpoint])
         self.keys = Keys(ROBOT)
-        self.pubs = {t: self.session.declare_publisher(k) for t, k in self.keys.topics().items()}
+        # BLOCK, not the daemon's DROP: the tests count every message sent, and a burst of
+        # camera frames on a loaded host would otherwise be dropped at the source.
+        self.pubs = {
+            t: self.session.declare_publisher(k, congestion_control=zenoh.CongestionControl.BLOCK)
+            for t, k in self.keys.topics().items()
+        }
         self.sent: dict[str, list[bytes]] = {}
 
     def put(self, topic: str, payload: bytes) -> None:
