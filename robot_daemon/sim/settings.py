@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
-from config.loader import load_all
+from config.loader import load_all, section_to
 from schemas.errors import ConfigError
 
 
@@ -60,14 +59,7 @@ class EmulatorSettings:
 
     @classmethod
     def from_dict(cls, values: dict[str, Any]) -> EmulatorSettings:
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            raise ConfigError(
-                f"unknown [emulator] setting(s) {', '.join(unknown)}; "
-                f"known: {', '.join(sorted(known))}"
-            )
-        settings = cls(**values)
+        settings = section_to(cls, values, "emulator")
         if settings.physics not in ("kinematic", "mujoco"):
             raise ConfigError(
                 f"[emulator] physics={settings.physics!r} is not a plant; use kinematic or mujoco"

@@ -18,6 +18,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from config.loader import section_to
+
 _GRASS = np.array([40, 140, 50], dtype=np.float32)  # BGR
 _CARPET = np.array([35, 95, 40], dtype=np.float32)
 _LINE = np.array([235, 235, 235], dtype=np.float32)
@@ -48,8 +50,7 @@ class FieldGeometry:
 
     @classmethod
     def from_config(cls, field: dict[str, Any]) -> FieldGeometry:
-        names = cls.__dataclass_fields__
-        return cls(**{k: float(v) for k, v in field.items() if k in names})
+        return section_to(cls, field, "world.field")
 
 
 @dataclass(frozen=True)
