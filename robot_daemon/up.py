@@ -38,6 +38,7 @@ from robot_daemon.security.options import (
     secure_listen,
     security_from_args,
 )
+from robot_daemon.sim.settings import add_physics_option
 from schemas.errors import ConfigError
 from schemas.roles import LADDER, parse_role
 from schemas.session import add_credential_arguments, credential_args
@@ -94,12 +95,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="ARG",
         help="extra emulator argument (repeatable), e.g. --sim-arg=--drop=0.05",
     )
-    parser.add_argument(
-        "--physics",
-        choices=("kinematic", "mujoco"),
-        help="the emulator's plant: kinematic (default) or mujoco (rigid-body physics; "
-        "needs pip install -e '.[physics]')",
-    )
+    add_physics_option(parser, "the emulator's plant")
     parser.add_argument(
         "--tui", action="store_true", help="open the terminal UI here once everything runs"
     )

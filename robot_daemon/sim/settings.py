@@ -2,11 +2,25 @@
 
 from __future__ import annotations
 
+import argparse
 from dataclasses import dataclass, field
 from typing import Any
 
 from config.loader import load_all, section_to
 from schemas.errors import ConfigError
+
+# The plants that can stand behind the servos ([emulator] physics, --physics).
+PLANTS = ("kinematic", "mujoco")
+
+
+def add_physics_option(parser: argparse.ArgumentParser, help_start: str) -> None:
+    """``--physics``: the one option choosing the plant (``darwin sim`` and ``darwin up``)."""
+    parser.add_argument(
+        "--physics",
+        choices=PLANTS,
+        help=f"{help_start}: kinematic (default) or mujoco (rigid-body physics; "
+        "needs pip install -e '.[physics]')",
+    )
 
 
 @dataclass
@@ -60,8 +74,8 @@ class EmulatorSettings:
     @classmethod
     def from_dict(cls, values: dict[str, Any]) -> EmulatorSettings:
         settings = section_to(cls, values, "emulator")
-        if settings.physics not in ("kinematic", "mujoco"):
+        if settings.physics not in PLANTS:
             raise ConfigError(
-                f"[emulator] physics={settings.physics!r} is not a plant; use kinematic or mujoco"
+                f"[emulator] physics={settings.physics!r} is not a plant; use {' or '.join(PLANTS)}"
             )
         return settings

@@ -90,3 +90,16 @@ def test_physics_sub_tables_fill_the_flat_settings_and_refuse_strangers() -> Non
         PhysicsSettings.from_config({"physics": {"servo": {"stall_torqe": 2.0}}})
     with pytest.raises(ConfigError, match=r"\[physics\] has an unknown setting 'timestpe'"):
         PhysicsSettings.from_config({"physics": {"timestpe": 0.001}})
+
+
+@pytest.mark.parametrize("command", ["robot_daemon.sim.cli", "robot_daemon.up"])
+def test_darwin_sim_and_up_take_the_same_physics_option(command: str) -> None:
+    import argparse
+    import importlib
+
+    parser = argparse.ArgumentParser()
+    importlib.import_module(command).add_arguments(parser)
+    assert parser.parse_args(["--physics", "mujoco"]).physics == "mujoco"
+    assert parser.parse_args([]).physics is None  # the config's [emulator] physics decides
+    with pytest.raises(SystemExit):
+        parser.parse_args(["--physics", "bullet"])

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from config.loader import load_all
+from robot_daemon.sim.settings import PLANTS
 from robot_daemon.sim.world.ball import Ball, BallState
 from robot_daemon.sim.world.body import Body
 from robot_daemon.sim.world.render import CameraPose
@@ -29,9 +30,6 @@ from schemas.kinematics import SIDES, camera_pose
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
-
-
-PLANTS = ("kinematic", "mujoco")
 
 
 def make_world(
