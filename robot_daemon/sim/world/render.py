@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from config.loader import section_to
+from robot_daemon.vision.ball_finder import CameraView
 
 _GRASS = np.array([40, 140, 50], dtype=np.float32)  # BGR
 _CARPET = np.array([35, 95, 40], dtype=np.float32)
@@ -54,11 +55,8 @@ class FieldGeometry:
 
 
 @dataclass(frozen=True)
-class CameraModel:
-    width: int = 320
-    height: int = 240
-    fov_h_deg: float = 58.0
-    fov_v_deg: float = 46.0
+class CameraModel(CameraView):
+    """The robot's lens (the vision's :class:`CameraView`), with what rendering needs."""
 
     @property
     def fx(self) -> float:

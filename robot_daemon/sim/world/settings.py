@@ -64,7 +64,7 @@ class _WorldTable:
 
 
 _READ_HERE = ("field", "ball", "feet", "falls", "camera", "imu")
-_CAMERA_MODEL = ("width", "height", "fov_h_deg", "fov_v_deg")
+_CAMERA_MODEL = [f.name for f in fields(CameraModel)]
 
 
 @dataclass(frozen=True)
