@@ -23,6 +23,24 @@ def add_physics_option(parser: argparse.ArgumentParser, help_start: str) -> None
     )
 
 
+def add_forwarded_options(parser: argparse.ArgumentParser, when: str = "") -> None:
+    """``--sim-arg`` and ``--wire-timing``: what a program starting the emulator (``darwin
+    daemon --sim``, ``darwin up``) forwards to it; ``when`` starts each help ("with --sim: ")."""
+    parser.add_argument(
+        "--sim-arg",
+        action="append",
+        default=[],
+        metavar="ARG",
+        help=f"{when}extra emulator argument (repeatable), e.g. --sim-arg=--drop=0.05",
+    )
+    parser.add_argument(
+        "--wire-timing",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help=f"{when}model 1 Mbps wire time in the emulator",
+    )
+
+
 @dataclass
 class EmulatorSettings:
     seed: int = 0  # 0: a fresh seed, logged so the run can be replayed

@@ -103,3 +103,16 @@ def test_darwin_sim_and_up_take_the_same_physics_option(command: str) -> None:
     assert parser.parse_args([]).physics is None  # the config's [emulator] physics decides
     with pytest.raises(SystemExit):
         parser.parse_args(["--physics", "bullet"])
+
+
+@pytest.mark.parametrize("command", ["robot_daemon.daemon_cli", "robot_daemon.up"])
+def test_programs_starting_the_emulator_forward_the_same_options(command: str) -> None:
+    import argparse
+    import importlib
+
+    parser = argparse.ArgumentParser()
+    importlib.import_module(command).add_arguments(parser)
+    args = parser.parse_args(["--sim-arg=--drop=0.1", "--sim-arg=--seed=3", "--no-wire-timing"])
+    assert (args.sim_arg, args.wire_timing) == (["--drop=0.1", "--seed=3"], False)
+    args = parser.parse_args([])
+    assert (args.sim_arg, args.wire_timing) == ([], None)  # None: the emulator's own default
