@@ -26,6 +26,7 @@ from robot_daemon.security.options import (
     secure_listen,
     security_from_args,
 )
+from robot_daemon.sim.settings import add_forwarded_options
 from robot_daemon.vision.sources import check_spec
 from schemas.errors import ConfigError
 from schemas.keys import check_robot_name
@@ -90,19 +91,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="time allowed for a reply beyond its wire time and return delay (config "
         "bus.reply_margin_ms, with --sim bus.sim_reply_margin_ms)",
     )
-    parser.add_argument(
-        "--sim-arg",
-        action="append",
-        default=[],
-        metavar="ARG",
-        help="extra argument for the emulator with --sim (repeatable), e.g. --sim-arg=--drop=0.05",
-    )
-    parser.add_argument(
-        "--wire-timing",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="with --sim: model 1 Mbps wire time in the emulator",
-    )
+    add_forwarded_options(parser, "with --sim: ")
     add_security_arguments(parser)
     # Who this robot is to an authenticated router (`darwin users add NAME --role robot`).
     add_credential_arguments(parser)

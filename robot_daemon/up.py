@@ -38,6 +38,7 @@ from robot_daemon.security.options import (
     secure_listen,
     security_from_args,
 )
+from robot_daemon.sim.settings import add_forwarded_options, add_physics_option
 from schemas.errors import ConfigError
 from schemas.roles import LADDER, parse_role
 from schemas.session import add_credential_arguments, credential_args
@@ -87,19 +88,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="allow register writes that can disable or lose hardware (power, IDs, limits)",
     )
     parser.add_argument("--config", help="user config file (TOML), passed to every child")
-    parser.add_argument(
-        "--sim-arg",
-        action="append",
-        default=[],
-        metavar="ARG",
-        help="extra emulator argument (repeatable), e.g. --sim-arg=--drop=0.05",
-    )
-    parser.add_argument(
-        "--physics",
-        choices=("kinematic", "mujoco"),
-        help="the emulator's plant: kinematic (default) or mujoco (rigid-body physics; "
-        "needs pip install -e '.[physics]')",
-    )
+    add_forwarded_options(parser)
+    add_physics_option(parser, "the emulator's plant")
     parser.add_argument(
         "--tui", action="store_true", help="open the terminal UI here once everything runs"
     )
@@ -114,12 +104,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--web", action="store_true", help="also serve the terminal UI to browsers (darwin web)"
     )
     parser.add_argument("--web-listen", metavar="HOST:PORT", help="where browsers connect")
-    parser.add_argument(
-        "--wire-timing",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="model 1 Mbps wire time in the emulator",
-    )
     add_security_arguments(parser)
     add_credential_arguments(parser)  # with --router: who this robot (and its adapters) are
     parser.add_argument(

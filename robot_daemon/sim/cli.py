@@ -23,7 +23,7 @@ from types import ModuleType
 from typing import Any
 
 from robot_daemon.sim.emulator import Emulator
-from robot_daemon.sim.settings import EmulatorSettings
+from robot_daemon.sim.settings import EmulatorSettings, add_physics_option
 
 log = logging.getLogger(__name__)
 PLUGIN = "robot_daemon.sim.world.plugin"
@@ -111,12 +111,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="SCHED_FIFO priority of the serving thread, 1..99 (0: normal scheduling)",
     )
-    parser.add_argument(
-        "--physics",
-        choices=("kinematic", "mujoco"),
-        help="the plant behind the servos: kinematic (default) or mujoco (rigid-body physics; "
-        "needs pip install -e '.[physics]')",
-    )
+    add_physics_option(parser, "the plant behind the servos")
     parser.add_argument(
         "--link", metavar="PATH", help="keep a symlink to the pty at this path (stable port path)"
     )

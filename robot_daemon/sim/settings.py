@@ -2,12 +2,43 @@
 
 from __future__ import annotations
 
-import dataclasses
+import argparse
 from dataclasses import dataclass, field
 from typing import Any
 
-from config.loader import load_all
+from config.loader import load_all, section_to
 from schemas.errors import ConfigError
+
+# The plants that can stand behind the servos ([emulator] physics, --physics).
+PLANTS = ("kinematic", "mujoco")
+
+
+def add_physics_option(parser: argparse.ArgumentParser, help_start: str) -> None:
+    """``--physics``: the one option choosing the plant (``darwin sim`` and ``darwin up``)."""
+    parser.add_argument(
+        "--physics",
+        choices=PLANTS,
+        help=f"{help_start}: kinematic (default) or mujoco (rigid-body physics; "
+        "needs pip install -e '.[physics]')",
+    )
+
+
+def add_forwarded_options(parser: argparse.ArgumentParser, when: str = "") -> None:
+    """``--sim-arg`` and ``--wire-timing``: what a program starting the emulator (``darwin
+    daemon --sim``, ``darwin up``) forwards to it; ``when`` starts each help ("with --sim: ")."""
+    parser.add_argument(
+        "--sim-arg",
+        action="append",
+        default=[],
+        metavar="ARG",
+        help=f"{when}extra emulator argument (repeatable), e.g. --sim-arg=--drop=0.05",
+    )
+    parser.add_argument(
+        "--wire-timing",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help=f"{when}model 1 Mbps wire time in the emulator",
+    )
 
 
 @dataclass
@@ -60,16 +91,9 @@ class EmulatorSettings:
 
     @classmethod
     def from_dict(cls, values: dict[str, Any]) -> EmulatorSettings:
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(values) - known)
-        if unknown:
+        settings = section_to(cls, values, "emulator")
+        if settings.physics not in PLANTS:
             raise ConfigError(
-                f"unknown [emulator] setting(s) {', '.join(unknown)}; "
-                f"known: {', '.join(sorted(known))}"
-            )
-        settings = cls(**values)
-        if settings.physics not in ("kinematic", "mujoco"):
-            raise ConfigError(
-                f"[emulator] physics={settings.physics!r} is not a plant; use kinematic or mujoco"
+                f"[emulator] physics={settings.physics!r} is not a plant; use {' or '.join(PLANTS)}"
             )
         return settings

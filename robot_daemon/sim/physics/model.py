@@ -31,6 +31,26 @@ FLOOR = "floor"
 IMU_SITE = "imu"
 
 
+# Each sub-table of [physics]: its keys → the PhysicsSettings fields they set.
+_TABLES: dict[str, dict[str, str]] = {
+    "servo": {
+        k: k
+        for k in (
+            "stall_torque",
+            "no_load_rpm",
+            "stiffness_per_p",
+            "armature",
+            "frictionloss",
+            "damping",
+        )
+    },
+    "contact": {
+        k: k for k in ("foot_friction", "foot_condim", "ball_friction", "ball_mass", "solref")
+    },
+    "falls": {"tilt_deg": "fall_tilt_deg"},
+}
+
+
 @dataclass(frozen=True)
 class PhysicsSettings:
     """The ``[physics]`` section (config/physics.toml), with sources there."""
@@ -56,37 +76,20 @@ class PhysicsSettings:
 
     @classmethod
     def from_config(cls, data: dict[str, Any]) -> PhysicsSettings:
+        from config.loader import refuse_unknown, section_to
         from schemas.errors import ConfigError
 
+        # config/physics.toml groups the fields in sub-tables; the settings are one flat table.
         p = dict(data.get("physics", {}))
-        try:
-            servo = dict(p.pop("servo", {}))
-            contact = dict(p.pop("contact", {}))
-            falls = dict(p.pop("falls", {}))
-            values: dict[str, Any] = {"timestep": float(p.pop("timestep", 0.001))}
-            for key in ("stall_torque", "no_load_rpm", "stiffness_per_p", "armature"):
-                if key in servo:
-                    values[key] = float(servo.pop(key))
-            for key in ("frictionloss", "damping"):
-                if key in servo:
-                    values[key] = float(servo.pop(key))
-            for key in ("foot_friction", "ball_friction"):
-                if key in contact:
-                    values[key] = tuple(float(v) for v in contact.pop(key))
-            if "foot_condim" in contact:
-                values["foot_condim"] = int(contact.pop("foot_condim"))
-            if "solref" in contact:
-                values["solref"] = tuple(float(v) for v in contact.pop("solref"))
-            if "ball_mass" in contact:
-                values["ball_mass"] = float(contact.pop("ball_mass"))
-            if "tilt_deg" in falls:
-                values["fall_tilt_deg"] = float(falls.pop("tilt_deg"))
-            left = {**p, **servo, **contact, **falls}
-            if left:
-                raise ValueError(f"unknown setting(s) {', '.join(sorted(left))}")
-            s = cls(**values)
-        except (TypeError, ValueError) as exc:
-            raise ConfigError(f"[physics] in config/physics.toml or the user file: {exc}") from exc
+        refuse_unknown(p, ("timestep", *_TABLES), "physics")
+        flat = {k: v for k, v in p.items() if k not in _TABLES}
+        for table, keys in _TABLES.items():
+            sub = p.get(table, {})
+            if not isinstance(sub, dict):
+                raise ConfigError(f"[physics] {table} should be a table [physics.{table}]")
+            refuse_unknown(sub, keys, f"physics.{table}")
+            flat.update({keys[k]: v for k, v in sub.items()})
+        s = section_to(cls, flat, "physics")
         if not 0 < s.timestep <= 0.005:
             raise ConfigError(f"[physics] timestep={s.timestep} s must be in (0, 0.005]")
         if s.solref[0] < 2 * s.timestep:

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -39,11 +38,11 @@ from robot_daemon.sim.physics.model import (
     world_mjcf,
 )
 from robot_daemon.sim.world.ball import BallState
-from robot_daemon.sim.world.render import BallView, CameraPose, Renderer
+from robot_daemon.sim.world.render import CameraPose
 from robot_daemon.sim.world.settings import WorldSettings
+from robot_daemon.sim.world.views import WorldViews
 from schemas import units
 from schemas.body import Body, default_body
-from schemas.messages import World
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
@@ -70,7 +69,7 @@ class _Ball:
     touches: int = 0
 
 
-class MujocoWorld:
+class MujocoWorld(WorldViews):
     def __init__(
         self,
         settings: WorldSettings | None = None,
@@ -90,7 +89,6 @@ class MujocoWorld:
         self.time = 0.0
         self.falls = 0
         self.fallen = "none"
-        self.frames_rendered = 0
         self.pushes = 0
         self._push_until: float | None = None
         self.released = False  # False: held in place until a servo first has torque on
@@ -124,15 +122,7 @@ class MujocoWorld:
         self._accel_adr = m.sensor_adr[accel]
         self._touching_ball = False
         self.ball = _Ball()
-        self._renderer = Renderer(
-            s.render.camera,
-            s.field,
-            noise=s.render.noise,
-            light_variation=s.render.light_variation,
-            blur=s.render.blur,
-            seed=seed,
-        )
-        self._render_lock = threading.Lock()
+        self._start_camera(seed)
         cam = s.render.camera
         self.camera = WorldCamera(self.model, cam.width, cam.height, self._render_opencv, CAMERA)
         self._positions = np.zeros(len(self.servo_ids))  # servo angles (rad) the robot stands in
@@ -360,34 +350,19 @@ class MujocoWorld:
             fwd = {"none": r[:, 0], "forward": r[:, 2]}.get(self.fallen, -r[:, 2])
             return float(pos[0]), float(pos[1]), math.atan2(fwd[1], fwd[0])
 
-    def snapshot(self) -> World:
-        with self.lock:
-            x, y, yaw = self.robot_pose()
-            if self.ball.state is not None:
-                self.ball.state = self._ball_state()
-            b = self.ball.state
-            ball: dict[str, Any] = (
-                {"x": b.x, "y": b.y, "vx": b.vx, "vy": b.vy} if b is not None else {}
-            )
-            return World(
-                robot={"x": x, "y": y, "yaw": yaw},
-                ball=ball,
-                fallen=self.fallen,
-                sim_time=self.time,
-                stamp=time.time(),
-            )
+    def _robot(self) -> tuple[float, float, float, str]:
+        return (*self.robot_pose(), self.fallen)
 
-    def camera_view(self) -> tuple[CameraPose, BallView | None]:
-        with self.lock:
-            pos = self.data.cam_xpos[self._camera].copy()
-            # Back from MuJoCo's camera axes to the renderer's (x optical axis, z up).
-            r = self.data.cam_xmat[self._camera].reshape(3, 3) @ MJ_CAMERA_IN_CAMERA.T
-            if self.ball.state is not None:
-                self.ball.state = self._ball_state()
-            b = self.ball.state
-            s = self.settings.ball
-            ball = BallView(b.x, b.y, s.radius, s.color) if b is not None else None
-            return CameraPose(pos, r), ball
+    def _ball_now(self) -> BallState | None:
+        if self.ball.state is not None:
+            self.ball.state = self._ball_state()
+        return self.ball.state
+
+    def _camera_pose(self) -> CameraPose:
+        pos = self.data.cam_xpos[self._camera].copy()
+        # Back from MuJoCo's camera axes to the renderer's (x optical axis, z up).
+        r = self.data.cam_xmat[self._camera].reshape(3, 3) @ MJ_CAMERA_IN_CAMERA.T
+        return CameraPose(pos, r)
 
     def render(self) -> np.ndarray:
         """The camera image (BGR, uint8): MuJoCo's offscreen view (EGL/OSMesa), or the OpenCV
@@ -395,16 +370,4 @@ class MujocoWorld:
         return self.camera.render(self.lock, self.data)
 
     def _render_opencv(self) -> np.ndarray:
-        pose, ball = self.camera_view()
-        with self._render_lock:
-            return self._renderer.render(pose, ball)
-
-    def ball_distance(self) -> float | None:
-        with self.lock:
-            if self.ball.state is None:
-                return None
-            b = self._ball_state()
-            if b is None:
-                return None
-            pos = self.data.xpos[self._torso]
-            return math.hypot(b.x - pos[0], b.y - pos[1])
+        return WorldViews.render(self)

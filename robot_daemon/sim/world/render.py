@@ -18,6 +18,9 @@ from typing import Any
 import cv2
 import numpy as np
 
+from config.loader import section_to
+from robot_daemon.vision.ball_finder import CameraView
+
 _GRASS = np.array([40, 140, 50], dtype=np.float32)  # BGR
 _CARPET = np.array([35, 95, 40], dtype=np.float32)
 _LINE = np.array([235, 235, 235], dtype=np.float32)
@@ -48,16 +51,12 @@ class FieldGeometry:
 
     @classmethod
     def from_config(cls, field: dict[str, Any]) -> FieldGeometry:
-        names = cls.__dataclass_fields__
-        return cls(**{k: float(v) for k, v in field.items() if k in names})
+        return section_to(cls, field, "world.field")
 
 
 @dataclass(frozen=True)
-class CameraModel:
-    width: int = 320
-    height: int = 240
-    fov_h_deg: float = 58.0
-    fov_v_deg: float = 46.0
+class CameraModel(CameraView):
+    """The robot's lens (the vision's :class:`CameraView`), with what rendering needs."""
 
     @property
     def fx(self) -> float:

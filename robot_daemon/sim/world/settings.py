@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from dataclasses import field as dc_field
 from typing import Any
 
-from config.loader import load_all
+from config.loader import load_all, refuse_unknown, section_to
 from robot_daemon.sim.world.render import CameraModel, FieldGeometry
 from schemas.errors import ConfigError
 
@@ -55,6 +55,19 @@ class RenderSettings:
 
 
 @dataclass(frozen=True)
+class _WorldTable:
+    """The top of ``[world]`` as written (yaw in degrees); its sub-tables are read one by one."""
+
+    robot_start: tuple[float, float, float] = (-1.0, 0.0, 0.0)
+    ball_start: tuple[float, ...] = (-0.4, 0.0)  # [] for no ball
+    publish_hz: float = 20.0
+
+
+_READ_HERE = ("field", "ball", "feet", "falls", "camera", "imu")
+_CAMERA_MODEL = [f.name for f in fields(CameraModel)]
+
+
+@dataclass(frozen=True)
 class WorldSettings:
     robot_start: tuple[float, float, float] = (-1.0, 0.0, 0.0)  # x, y, yaw (rad)
     ball_start: tuple[float, float] | None = (-0.4, 0.0)
@@ -68,47 +81,37 @@ class WorldSettings:
 
     @classmethod
     def from_config(cls, world: dict[str, Any]) -> WorldSettings:
-        try:
-            rx, ry, ryaw = (float(v) for v in world.get("robot_start", (-1.0, 0.0, 0.0)))
-            ball_start = world.get("ball_start", (-0.4, 0.0))
-            b = dict(world.get("ball", {}))
-            if "color" in b:
-                b["color"] = tuple(int(c) for c in b["color"])
-            f = dict(world.get("falls", {}))
-            falls = FallSettings(
-                tilt_limit=math.radians(float(f.pop("tilt_limit_deg", 40.0))),
-                stand_tilt=math.radians(float(f.pop("stand_tilt_deg", 20.0))),
-                com_offset=tuple(float(v) for v in f.pop("com_offset", (-0.005, 0.0, -0.045))),
-                **{k: float(v) for k, v in f.items()},
-            )
-            c = dict(world.get("camera", {}))
-            render = RenderSettings(
-                camera=CameraModel(
-                    int(c.pop("width", 320)),
-                    int(c.pop("height", 240)),
-                    float(c.pop("fov_h_deg", 58.0)),
-                    float(c.pop("fov_v_deg", 46.0)),
-                ),
-                blur=bool(c.pop("blur", True)),
-                **{k: float(v) for k, v in c.items()},
-            )
-            return cls(
-                robot_start=(rx, ry, math.radians(ryaw)),
-                ball_start=(float(ball_start[0]), float(ball_start[1])) if ball_start else None,
-                publish_hz=float(world.get("publish_hz", 20.0)),
-                field=FieldGeometry.from_config(world.get("field", {})),
-                ball=BallSettings(**b),
-                feet=FeetSettings(**{k: float(v) for k, v in world.get("feet", {}).items()}),
-                falls=falls,
-                render=render,
-                imu=ImuSettings(
-                    gyro_lag_s=float(world.get("imu", {}).get("gyro_lag_s", 0.05)),
-                ),
-            )
-        except (TypeError, ValueError) as exc:
-            raise ConfigError(
-                f"[world] in config/world.toml or the user file is wrong: {exc}"
-            ) from exc
+        """From the ``[world]`` table: angles there are in degrees (``robot_start``'s yaw,
+        ``*_deg``), and ``[world.camera]`` holds both the camera model and the rendering."""
+        start = section_to(_WorldTable, world, "world", skip=_READ_HERE)
+        if len(start.ball_start) not in (0, 2):
+            wrong = list(start.ball_start)
+            raise ConfigError(f"[world] ball_start = {wrong} should be [x, y] or [] (no ball)")
+        falls = dict(world.get("falls", {}))
+        for deg in ("tilt_limit", "stand_tilt"):
+            if f"{deg}_deg" in falls:
+                falls[deg] = math.radians(falls.pop(f"{deg}_deg"))
+        camera = dict(world.get("camera", {}))
+        rendering = [f.name for f in fields(RenderSettings) if f.name != "camera"]
+        refuse_unknown(camera, [*_CAMERA_MODEL, *rendering], "world.camera")
+        model = {k: camera.pop(k) for k in _CAMERA_MODEL if k in camera}
+        x, y, yaw_deg = start.robot_start
+        return cls(
+            robot_start=(x, y, math.radians(yaw_deg)),
+            ball_start=(start.ball_start[0], start.ball_start[1]) if start.ball_start else None,
+            publish_hz=start.publish_hz,
+            field=FieldGeometry.from_config(world.get("field", {})),
+            ball=section_to(BallSettings, world.get("ball", {}), "world.ball"),
+            feet=section_to(FeetSettings, world.get("feet", {}), "world.feet"),
+            falls=section_to(FallSettings, falls, "world.falls"),
+            render=section_to(
+                RenderSettings,
+                camera,
+                "world.camera",
+                camera=section_to(CameraModel, model, "world.camera"),
+            ),
+            imu=section_to(ImuSettings, world.get("imu", {}), "world.imu"),
+        )
 
     @classmethod
     def load(cls, path: str | None = None) -> WorldSettings:

@@ -14,25 +14,22 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from config.loader import load_all
-from robot_daemon.sim.world.ball import Ball
+from robot_daemon.sim.settings import PLANTS
+from robot_daemon.sim.world.ball import Ball, BallState
 from robot_daemon.sim.world.body import Body
-from robot_daemon.sim.world.render import BallView, CameraPose, Renderer
+from robot_daemon.sim.world.render import CameraPose
 from robot_daemon.sim.world.settings import WorldSettings
+from robot_daemon.sim.world.views import WorldViews
 from schemas.kinematics import SIDES, camera_pose
-from schemas.messages import World
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
-
-
-PLANTS = ("kinematic", "mujoco")
 
 
 def make_world(
@@ -56,7 +53,7 @@ def make_world(
     raise ValueError(f"unknown physics plant {plant!r}; plants: {', '.join(PLANTS)}")
 
 
-class SimWorld:
+class SimWorld(WorldViews):
     def __init__(self, settings: WorldSettings | None = None, seed: int | None = None) -> None:
         self.settings = s = settings or WorldSettings()
         self.lock = threading.RLock()
@@ -64,17 +61,8 @@ class SimWorld:
         self.ball = Ball(s.ball, s.feet)
         self.time = 0.0
         self.falls = 0  # how many times the robot fell
-        self.frames_rendered = 0  # frames served to the camera source
         self._positions: dict[int, float] = {}
-        self._render_lock = threading.Lock()
-        self._renderer = Renderer(
-            s.render.camera,
-            s.field,
-            noise=s.render.noise,
-            light_variation=s.render.light_variation,
-            blur=s.render.blur,
-            seed=seed,
-        )
+        self._start_camera(seed)
         self.body.place(*s.robot_start)
         if s.ball_start is not None:
             self.ball.place(*s.ball_start)
@@ -145,43 +133,14 @@ class SimWorld:
             self.body._fall("forward" if along >= 0 else "backward")
             self.falls += 1
 
-    # -- observing -----------------------------------------------------------------------------
-    def snapshot(self) -> World:
-        """The World message (field frame, metres, radians)."""
-        with self.lock:
-            st = self.body.state()
-            b = self.ball.state
-            ball: dict[str, Any] = (
-                {"x": float(b.x), "y": float(b.y), "vx": float(b.vx), "vy": float(b.vy)}
-                if b is not None
-                else {}
-            )
-            return World(
-                robot={"x": float(st.x), "y": float(st.y), "yaw": float(st.yaw)},
-                ball=ball,
-                fallen=st.fallen,
-                sim_time=self.time,
-                stamp=time.time(),
-            )
+    # -- observing (the rest: WorldViews) -------------------------------------------------------
+    def _robot(self) -> tuple[float, float, float, str]:
+        st = self.body.state()
+        return st.x, st.y, st.yaw, st.fallen
 
-    def camera_view(self) -> tuple[CameraPose, BallView | None]:
-        with self.lock:
-            t = self.body.T_wb @ camera_pose(self._positions)
-            b = self.ball.state
-            s = self.settings.ball
-            ball = BallView(b.x, b.y, s.radius, s.color) if b is not None else None
-            return CameraPose(t[:3, 3].copy(), t[:3, :3].copy()), ball
+    def _ball_now(self) -> BallState | None:
+        return self.ball.state
 
-    def render(self) -> np.ndarray:
-        """The camera image (BGR, uint8) of the world as it is now."""
-        pose, ball = self.camera_view()
-        with self._render_lock:
-            return self._renderer.render(pose, ball)
-
-    def ball_distance(self) -> float | None:
-        """Distance (m) from the body to the ball on the ground, None without a ball."""
-        with self.lock:
-            b = self.ball.state
-            if b is None:
-                return None
-            return math.hypot(b.x - self.body.T_wb[0, 3], b.y - self.body.T_wb[1, 3])
+    def _camera_pose(self) -> CameraPose:
+        t = self.body.T_wb @ camera_pose(self._positions)
+        return CameraPose(t[:3, 3].copy(), t[:3, :3].copy())

@@ -1,0 +1,94 @@
+"""What every simulated plant shows the same way: the World message, the camera's view, the image.
+
+The kinematic :class:`~robot_daemon.sim.world.world.SimWorld` and the MuJoCo
+:class:`~robot_daemon.sim.physics.world.MujocoWorld` differ in how the body and ball move; what
+they publish and render from that state is one piece of code, here. A plant subclasses
+:class:`WorldViews`, calls :meth:`_start_camera` in its constructor and says where things are
+(:meth:`_robot`, :meth:`_ball_now`, :meth:`_camera_pose`).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from typing import Any
+
+import numpy as np
+
+from robot_daemon.sim.world.ball import BallState
+from robot_daemon.sim.world.render import BallView, CameraPose, Renderer
+from robot_daemon.sim.world.settings import WorldSettings
+from schemas.messages import World
+
+
+class WorldViews:
+    settings: WorldSettings
+    lock: threading.RLock
+    time: float
+
+    def _start_camera(self, seed: int | None) -> None:
+        r = self.settings.render
+        self._renderer = Renderer(
+            r.camera,
+            self.settings.field,
+            noise=r.noise,
+            light_variation=r.light_variation,
+            blur=r.blur,
+            seed=seed,
+        )
+        self._render_lock = threading.Lock()
+        self.frames_rendered = 0  # frames served to the camera source
+
+    # -- what a plant says (called under ``self.lock``) ----------------------------------------
+    def _robot(self) -> tuple[float, float, float, str]:
+        """(x, y, heading (rad), fallen) of the body on the field."""
+        raise NotImplementedError
+
+    def _ball_now(self) -> BallState | None:
+        """The ball as it is now, None without one."""
+        raise NotImplementedError
+
+    def _camera_pose(self) -> CameraPose:
+        raise NotImplementedError
+
+    # -- what it shows ---------------------------------------------------------------------------
+    def snapshot(self) -> World:
+        """The World message (field frame, metres, radians)."""
+        with self.lock:
+            x, y, yaw, fallen = self._robot()
+            b = self._ball_now()
+            ball: dict[str, Any] = (
+                {"x": float(b.x), "y": float(b.y), "vx": float(b.vx), "vy": float(b.vy)}
+                if b is not None
+                else {}
+            )
+            return World(
+                robot={"x": float(x), "y": float(y), "yaw": float(yaw)},
+                ball=ball,
+                fallen=fallen,
+                sim_time=self.time,
+                stamp=time.time(),
+            )
+
+    def camera_view(self) -> tuple[CameraPose, BallView | None]:
+        with self.lock:
+            pose = self._camera_pose()
+            b = self._ball_now()
+            s = self.settings.ball
+            return pose, BallView(b.x, b.y, s.radius, s.color) if b is not None else None
+
+    def render(self) -> np.ndarray:
+        """The camera image (BGR, uint8) of the world as it is now."""
+        pose, ball = self.camera_view()
+        with self._render_lock:
+            return self._renderer.render(pose, ball)
+
+    def ball_distance(self) -> float | None:
+        """Distance (m) from the body to the ball on the ground, None without a ball."""
+        with self.lock:
+            b = self._ball_now()
+            if b is None:
+                return None
+            x, y, _, _ = self._robot()
+            return math.hypot(b.x - x, b.y - y)
