@@ -264,16 +264,16 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
     for side in kin.SIDES:
         s = 1.0 if side == "left" else -1.0
         p = side[0]
-        # Arms: the 45° shoulder, 45° abduction and 90° elbow origins of schemas.kinematics.
+        # Arms: the ROBOTIS-OP2 description's origins and axes (schemas.kinematics).
         pitch_id, roll_id, elbow_id = kin.ARM_IDS[side]
         servo(
             pitch_id,
             "base_link",
             Link(f"{p}_shoulder", _MASS["shoulder"], Box((0.016, 0.033, 0.02165))),
             (0, s * kin.SHOULDER_SIDE_OFFSET, kin.SHOULDER_HEIGHT),
-            (0, -kin.SHOULDER_PITCH_ORIGIN, 0),
-            (0, s, 0),
+            axis=(0, s, 0),
         )
+        roll_xyz = np.array(kin.SHOULDER_ROLL_OFFSET) * (1.0, s, 1.0)
         servo(
             roll_id,
             f"{p}_shoulder",
@@ -285,6 +285,7 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
                     (kin.UPPER_ARM_FORWARD / 2, 0, -kin.UPPER_ARM_LENGTH / 2),
                 ),
             ),
+            tuple(roll_xyz),
             rpy=(s * kin.SHOULDER_ROLL_ORIGIN, 0, 0),
             axis=(-1, 0, 0),
         )
@@ -298,7 +299,7 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
             ),
             (kin.UPPER_ARM_FORWARD, 0, -kin.UPPER_ARM_LENGTH),
             (0, -kin.ELBOW_ORIGIN, 0),
-            (0, -s, 0),
+            (0, s, 0),
         )
         frame(f"{p}_hand_joint", f"{p}_forearm", f"{p}_hand", (0, 0, -kin.FOREARM_LENGTH))
 

@@ -57,8 +57,12 @@ LEG_LENGTH = THIGH_LENGTH + CALF_LENGTH + ANKLE_LENGTH  # 0.2195, fully stretche
 LEG_SIDE_OFFSET = 0.037  # hip point from the mid-plane
 HIP_OFFSET_X = -0.005
 HIP_OFFSET_Z = -0.0907
-SHOULDER_SIDE_OFFSET = 0.082
+# Arms as the ROBOTIS-OP2 description (robotis_op2.structure.arm.xacro) has them: the shoulder
+# pitch axis 57.5 mm out, the roll axis 24.5 mm further out and 16 mm lower (turning with the
+# pitch), the elbow 16 mm ahead of and 60 mm below the roll axis.
+SHOULDER_SIDE_OFFSET = 0.0575
 SHOULDER_HEIGHT = 0.0315  # shoulder pitch axis above the body origin
+SHOULDER_ROLL_OFFSET = (0.0, 0.0245, -0.016)  # roll axis from the pitch axis (left; y mirrors)
 UPPER_ARM_LENGTH = 0.060
 UPPER_ARM_FORWARD = 0.016  # the elbow sits slightly ahead of the upper arm's axis
 FOREARM_LENGTH = 0.129
@@ -67,7 +71,9 @@ CAMERA_DISTANCE = 0.0332  # ahead of the tilt axis, with the camera level (tilt 
 CAMERA_HEIGHT = 0.0344  # above the tilt axis, same pose
 HEAD_TOP = 0.065  # top of the head above the tilt axis (drawing only)
 EYE_TILT_OFFSET = math.radians(40.0)
-SHOULDER_PITCH_ORIGIN = math.radians(45.0)
+# Servo zero of the arms: the upper arm hangs 45° out to the side (no pitch offset: at pitch 0 it
+# is not swung forward or back) and the forearm points forward, 90° from the upper arm
+# (ROBOTIS-OP2 description: roll origin rpy ±45° about x, elbow origin rpy −90° about y).
 SHOULDER_ROLL_ORIGIN = math.radians(45.0)
 ELBOW_ORIGIN = math.radians(90.0)
 
@@ -230,15 +236,17 @@ def arm_chain(positions: Positions, side: Side) -> tuple[np.ndarray, np.ndarray,
     pitch = _angle(positions, pitch_id)
     roll = _angle(positions, roll_id)
     elbow = _angle(positions, elbow_id)
-    # Right: +pitch swings forward, +roll abducts, +elbow straightens; the left arm is the
-    # mirror image (its servos turn the other way).
-    fwd_pitch = -sign * pitch + SHOULDER_PITCH_ORIGIN
+    # Right: +pitch swings forward, +roll abducts, +elbow bends the forearm up toward the upper
+    # arm (ROBOTIS-OP2 axes); the left arm is the mirror image (its servos turn the other way).
+    fwd_pitch = -sign * pitch
     abduction = -sign * roll + SHOULDER_ROLL_ORIGIN
-    bend = sign * elbow + ELBOW_ORIGIN
     shoulder = np.array([0.0, sign * SHOULDER_SIDE_OFFSET, SHOULDER_HEIGHT])
-    r_shoulder = rot_y(-fwd_pitch) @ rot_x(sign * abduction)
-    elbow_p = shoulder + r_shoulder @ np.array([UPPER_ARM_FORWARD, 0.0, -UPPER_ARM_LENGTH])
-    hand = elbow_p + r_shoulder @ rot_y(-bend) @ np.array([0.0, 0.0, -FOREARM_LENGTH])
+    r_pitch = rot_y(-fwd_pitch)
+    roll_p = shoulder + r_pitch @ (np.array(SHOULDER_ROLL_OFFSET) * [1.0, sign, 1.0])
+    r_shoulder = r_pitch @ rot_x(sign * abduction)
+    elbow_p = roll_p + r_shoulder @ np.array([UPPER_ARM_FORWARD, 0.0, -UPPER_ARM_LENGTH])
+    r_elbow = r_shoulder @ rot_y(-ELBOW_ORIGIN) @ rot_y(sign * elbow)
+    hand = elbow_p + r_elbow @ np.array([0.0, 0.0, -FOREARM_LENGTH])
     return shoulder, elbow_p, hand
 
 

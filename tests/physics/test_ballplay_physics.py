@@ -10,6 +10,15 @@ printed (``-s``). On this model the kick pages topple the robot before the foot 
 (issue 18), so the test stops as soon as 16 of 20 can no longer be reached and says so as an
 expected failure with the measured figures; it passes by itself once the robot kicks in
 physics.
+
+What is known (issue 18): played alone from the walk-ready stance, page 12 shifts the body's
+centre of mass 28 mm toward the standing foot (whose centre is 38 mm out), then, as the kicking
+foot lifts, the standing hip roll gives ~6° and its ankle roll ~4° under ~1.5 N·m at the
+identified stiffness (P 32 → 12.6 N·m/rad) and the robot rolls over the kicking side. At 4×
+that stiffness pages 12 and 13 finish standing, but the gait then falls; the stock file's kick
+pages also carry per-joint slopes (ankle pitch 0x44 → P 64, shoulder roll 0x77 → P 8 in the
+framework's Action.cpp) that the action player does not apply — applying them alone did not
+keep the robot up.
 """
 
 from __future__ import annotations

@@ -6,9 +6,17 @@ Each direction gets 10 tries, lock-step on a simulated clock: a fresh rig per tr
 robot standing, then a push of seeded strength and direction at the torso. The figures are
 printed (``-s``). The detector must see at least 8 of 10 falls the right way and start the
 right page; standing up again must succeed in at least 8 of 10 — on this model it does not yet
-(issue 18: the shoulders saturate at the MX-28's stall torque pushing the body up from the
-front), and the test says so as an expected failure with the measured rate rather than hiding
-the figure; it passes by itself once the model gets up.
+(issue 18), and the test says so as an expected failure with the measured rate rather than
+hiding the figure; it passes by itself once the model gets up.
+
+What is known (issue 18): with the ROBOTIS-OP2 arm geometry the hands now land where the pages
+put them (under the chest for page 10, on the floor behind the back for page 11). Page 10 gets
+the robot kneeling on its shins with the hands down, then swinging the arms back (step 5) rocks
+the torso up to ~60° from vertical with the shoulders at the stall torque, short of balancing
+over the feet; it falls forward again in step 6. Page 11 props the torso on the hands but
+folding the legs (step 3) lifts the hips instead of sitting the robot up, and it ends on its
+back. A stall torque of 3 N·m, or 4× the identified servo stiffness, changed neither outcome
+(single tries, the robot laid on its front or back and the page played).
 """
 
 from __future__ import annotations

@@ -66,3 +66,14 @@ def test_a_servo_held_at_its_torque_limit_overloads_and_shuts_down(rig: SimRig) 
     rig.emulator.advance(1.0)
     assert rig.emulator.register(1, "TORQUE_ENABLE") == 0  # OVERLOAD shut it down
     assert servo.plant_torque == 0.0  # limp
+
+
+def test_ball_state_read_directly_is_the_ball_now(rig: SimRig) -> None:
+    """Readers such as ball play and the benchmarks read ``world.ball.state`` without asking for
+    a snapshot first: it must follow the rolling ball, not stay where it was placed."""
+    run_op(rig.emulator, {"op": "place_ball", "x": 0.0, "y": 1.0, "vx": 1.0, "vy": 0.0})
+    rig.emulator.advance(0.5)
+    b = rig.world.ball.state
+    q = rig.world.data.qpos[rig.world._ball_q : rig.world._ball_q + 2]
+    assert b is not None and b.x > 0.2 and 0.3 < b.vx < 1.0
+    assert (b.x, b.y) == pytest.approx((float(q[0]), float(q[1])))

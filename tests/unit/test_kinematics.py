@@ -125,7 +125,9 @@ def test_skeleton_names_every_point_and_bones_join_known_points() -> None:
     assert pts["l_hip"][1] > 0 > pts["r_hip"][1]
     assert pts["l_shoulder"][1] > 0 > pts["r_shoulder"][1]
     assert pts["head"][2] > pts["neck"][2] > pts["torso"][2] > pts["l_hip"][2] > pts["l_foot"][2]
-    upper = np.linalg.norm(pts["r_elbow"] - pts["r_shoulder"])
+    # At pitch 0 the roll axis sits at the fixed offset from the pitch axis.
+    roll_axis = pts["r_shoulder"] + np.array(K.SHOULDER_ROLL_OFFSET) * [1, -1, 1]
+    upper = np.linalg.norm(pts["r_elbow"] - roll_axis)
     assert upper == pytest.approx(math.hypot(K.UPPER_ARM_LENGTH, K.UPPER_ARM_FORWARD))
     assert np.linalg.norm(pts["l_hand"] - pts["l_elbow"]) == pytest.approx(K.FOREARM_LENGTH)
 

@@ -250,7 +250,8 @@ class MujocoWorld(WorldViews):
             emulator.bus.cm730.accel = tuple(accel)
 
     def _after_step(self) -> None:
-        """Falls and ball touches, from the new state."""
+        """Falls, ball touches and the ball's state, from the new state: ``ball.state`` is
+        what every reader sees (ball play, benchmarks), so it follows each round of steps."""
         up = self.data.xmat[self._torso].reshape(3, 3)
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(up[2, 2])))))
         was = self.fallen
@@ -269,6 +270,8 @@ class MujocoWorld(WorldViews):
         if touching and not self._touching_ball:
             self.ball.touches += 1
         self._touching_ball = touching
+        if self.ball.state is not None:
+            self.ball.state = self._ball_state()
 
     # -- placing ---------------------------------------------------------------------------------
     def _place_robot_now(self, x: float, y: float, yaw: float) -> None:
