@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from abc import ABC, abstractmethod
 from typing import Any
 
 import numpy as np
@@ -22,7 +23,7 @@ from robot_daemon.sim.world.settings import WorldSettings
 from schemas.messages import World
 
 
-class WorldViews:
+class WorldViews(ABC):
     settings: WorldSettings
     lock: threading.RLock
     time: float
@@ -41,16 +42,17 @@ class WorldViews:
         self.frames_rendered = 0  # frames served to the camera source
 
     # -- what a plant says (called under ``self.lock``) ----------------------------------------
+    @abstractmethod
     def _robot(self) -> tuple[float, float, float, str]:
         """(x, y, heading (rad), fallen) of the body on the field."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _ball_now(self) -> BallState | None:
         """The ball as it is now, None without one."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _camera_pose(self) -> CameraPose:
-        raise NotImplementedError
+        """Where the head camera is and where it looks (the renderer's axes)."""
 
     # -- what it shows ---------------------------------------------------------------------------
     def snapshot(self) -> World:
