@@ -75,43 +75,48 @@ class DarwinError(Exception):
 
 
 class ConfigError(DarwinError):
-    pass
+    """A config file or value is wrong (unreadable TOML, a missing key, a limit out of order, a
+    bad ``--listen`` endpoint); the message names the file or option to fix."""
 
 
 class StateError(DarwinError):
-    pass
+    """An object used in the wrong state: a closed or already-used one (a ``Replayer`` run
+    twice)."""
 
 
 class CameraError(DarwinError):
-    pass
+    """A camera source gives no frames or cannot encode them (no such device or model camera, a
+    closed source, an encoder failure)."""
 
 
 class BusError(DarwinError):
-    pass
+    """The serial port or the Dynamixel bus failed a transfer; the subclasses say which part."""
 
 
 class PortError(BusError):
-    pass
+    """The serial port cannot be opened (missing, unsupported baud rate) or was lost."""
 
 
 class PortInUseError(PortError):
-    pass
+    """Another process holds the serial port (its lock file or the serial driver's lock); the
+    message names the holder's PID where the lock file has it."""
 
 
 class NoReplyError(BusError):
-    pass
+    """A device on the bus did not answer in time: offline, unpowered or a wrong ID."""
 
 
 class PacketError(BusError):
-    pass
+    """A reply came back corrupt or malformed (checksum, length, header)."""
 
 
 class ProtocolError(DarwinError):
-    pass
+    """Malformed input on a wire: legacy framing, JSON, msgpack or a payload of the wrong shape
+    or schema version."""
 
 
 class PayloadTooLargeError(ProtocolError):
-    pass
+    """A payload over the size limit, refused before it is decoded."""
 
 
 class SlowReaderError(ProtocolError):
@@ -143,14 +148,20 @@ class CommandError(DarwinError):
 
 
 class LeaseBusyError(CommandError):
+    """``busy``: another client holds the control lease; wait for it to release or expire."""
+
     CODE = ErrorCode.BUSY
 
 
 class NoLeaseError(CommandError):
+    """``no_lease``: the command needs the control lease and the caller does not hold it."""
+
     CODE = ErrorCode.NO_LEASE
 
 
 class InvalidCommandError(CommandError):
+    """``invalid``: a field is missing, unknown or of the wrong type; ``field`` names it."""
+
     CODE = ErrorCode.INVALID
 
 
@@ -172,26 +183,41 @@ class BehaviourError(InvalidCommandError, ValueError):
 
 
 class OutOfRangeError(InvalidCommandError):
+    """``out_of_range``: a value outside its configured limits, or a string, list or payload
+    longer than allowed."""
+
     CODE = ErrorCode.OUT_OF_RANGE
 
 
 class UnknownNameError(InvalidCommandError):
+    """``unknown``: no such joint, page, behaviour, verb or op."""
+
     CODE = ErrorCode.UNKNOWN
 
 
 class UnavailableError(CommandError):
+    """``unavailable``: the target cannot act now (a joint offline, the port lost, a module not
+    running or a feature turned off)."""
+
     CODE = ErrorCode.UNAVAILABLE
 
 
 class RefusedError(CommandError):
+    """``refused``: not allowed in this state, such as an EEPROM or hardware write without the
+    switch that enables it."""
+
     CODE = ErrorCode.REFUSED
 
 
 class RateLimitedError(CommandError):
+    """``rate_limited``: too many commands; nothing was applied, retry after ``retry_after`` s."""
+
     CODE = ErrorCode.RATE_LIMITED
 
 
 class InternalError(CommandError):
+    """``internal``: a bug in the daemon (or a server), reported instead of crashing it."""
+
     CODE = ErrorCode.INTERNAL
 
 
@@ -230,15 +256,17 @@ class Reject(CommandError):
 
 
 class ClientError(DarwinError):
-    pass
+    """Client side: the client cannot do what was asked (a closed ``Robot`` or ``Recorder``, a
+    recording in the way, a page step that does not exist); the message says what to do."""
 
 
 class RobotUnreachableError(ClientError):
-    pass
+    """No daemon answers at the endpoint, or the Zenoh session failed."""
 
 
 class CommandTimeoutError(ClientError):
-    pass
+    """The daemon did not reply to a command in time, or a wait for a message or camera frame
+    ran out."""
 
 
 # One class per code; the reverse is ``cls.CODE``.
