@@ -24,17 +24,7 @@ from clients.tui.connect import ConnectScreen, RobotFinder
 from clients.tui.help import HelpScreen
 from clients.tui.i18n import N_, _
 from clients.tui.link import CommandDone, Link
-from clients.tui.messages import (
-    BallUpdate,
-    CameraUpdate,
-    EventArrived,
-    ImuUpdate,
-    JointsUpdate,
-    LinkChanged,
-    LinkInfo,
-    LinkState,
-    StatusUpdate,
-)
+from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
 from clients.tui.model import Model
 from clients.tui.settings import Settings, default_path
 from clients.tui.tabs.actions import ActionsTab
@@ -191,24 +181,12 @@ class DarwinApp(App[None]):
         self.settings = settings
 
     # -- telemetry (store only; the timer draws) -----------------------------------------------
-    def on_joints_update(self, message: JointsUpdate) -> None:
-        self.model.add_joints(message.joints)
-
-    def on_imu_update(self, message: ImuUpdate) -> None:
-        self.model.add_imu(message.imu)
-
-    def on_status_update(self, message: StatusUpdate) -> None:
-        self.model.add_status(message.status)
-
-    def on_camera_update(self, message: CameraUpdate) -> None:
-        if self.link.watching_camera or not self._connect_on_mount:
-            self.model.add_frame(message.frame)
-
-    def on_ball_update(self, message: BallUpdate) -> None:
-        self.model.add_ball(message.ball)
-
-    def on_event_arrived(self, message: EventArrived) -> None:
-        self.model.add_event(message.event)
+    def on_telemetry(self, message: Telemetry) -> None:
+        if message.topic == "camera" and not (
+            self.link.watching_camera or not self._connect_on_mount
+        ):
+            return  # a frame still in flight after the camera went out of view
+        self.model.add(message.topic, message.sample)
 
     def on_link_changed(self, message: LinkChanged) -> None:
         info = message.info

@@ -14,7 +14,6 @@ import contextlib
 import logging
 import queue
 import threading
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,17 +22,7 @@ from textual.app import App
 from textual.message import Message
 
 from clients.robot import Robot, Subscription
-from clients.tui.messages import (
-    BallUpdate,
-    CameraUpdate,
-    EventArrived,
-    ImuUpdate,
-    JointsUpdate,
-    LinkChanged,
-    LinkInfo,
-    LinkState,
-    StatusUpdate,
-)
+from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
 from schemas.errors import ClientError, DarwinError
 from schemas.roles import Role
 from schemas.session import Credentials, resolve
@@ -42,18 +31,15 @@ log = logging.getLogger(__name__)
 RETRY_S = 2.0
 
 
+@dataclass
 class CommandDone(Message, bubble=False):
     """The outcome of one command: ``applied`` on success, ``error`` otherwise."""
 
-    def __init__(
-        self, verb: str, tag: str, applied: dict[str, Any], error: str = "", quiet: bool = False
-    ) -> None:
-        super().__init__()
-        self.quiet = quiet
-        self.verb = verb
-        self.tag = tag
-        self.applied = applied
-        self.error = error
+    verb: str
+    tag: str
+    applied: dict[str, Any]
+    error: str = ""
+    quiet: bool = False
 
 
 @dataclass
@@ -123,15 +109,8 @@ class Link:
             return
 
     def _attach(self, robot: Robot) -> None:
-        handlers: dict[str, Callable[[Any], Message]] = {
-            "joints": JointsUpdate,
-            "imu": ImuUpdate,
-            "status": StatusUpdate,
-            "events": EventArrived,
-            "vision": BallUpdate,
-        }
-        for topic, make in handlers.items():
-            robot.subscribe(topic, lambda m, make=make: self.app.post_message(make(m)))
+        for topic in ("joints", "imu", "status", "events", "vision"):  # camera: watch_camera
+            robot.subscribe(topic, lambda m, t=topic: self.app.post_message(Telemetry(t, m)))
         ep, name = robot.target.endpoint, robot.target.robot
         try:
             self.role = robot.role  # asked here, off the UI thread, before CONNECTED is posted
@@ -182,7 +161,7 @@ class Link:
         return self._camera is not None
 
     def _on_frame(self, frame: Any) -> None:
-        self.app.post_message(CameraUpdate(frame))
+        self.app.post_message(Telemetry("camera", frame))
 
     # -- commands --------------------------------------------------------------------------------
     def send(self, verb: str, *, tag: str = "", quiet: bool = False, **fields: Any) -> None:

@@ -1,6 +1,6 @@
 """Messages the link posts to the app from Zenoh threads.
 
-Telemetry messages replace an older queued one of the same kind (``can_replace``), so a 125 Hz
+Telemetry messages replace an older queued one of the same topic (``can_replace``), so a 125 Hz
 stream can never back up the screen: the app only ever sees the newest sample.
 """
 
@@ -8,10 +8,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Any
 
 from textual.message import Message
-
-from schemas.messages import BallDetection, CameraFrame, Event, Imu, Joints, Status
 
 
 class LinkState(StrEnum):
@@ -23,48 +22,25 @@ class LinkState(StrEnum):
 
 
 class Telemetry(Message, bubble=False):
-    """Base of the stream messages: a newer one supersedes a queued older one."""
+    """One sample of a robot stream, posted by the link: ``topic`` is the client topic it came
+    on (``joints``, ``imu``, ``status``, ``vision``, ``camera``, ``events``; see
+    ``clients.robot.TOPICS``) and ``sample`` its decoded message.
+
+    A newer sample supersedes a queued older one of the same topic, except events: each event
+    is a line in the log, so none is ever merged away.
+    """
+
+    def __init__(self, topic: str, sample: Any) -> None:
+        super().__init__()
+        self.topic = topic
+        self.sample = sample
 
     def can_replace(self, message: Message) -> bool:
-        return type(message) is type(self)
-
-
-class JointsUpdate(Telemetry):
-    def __init__(self, joints: Joints) -> None:
-        super().__init__()
-        self.joints = joints
-
-
-class ImuUpdate(Telemetry):
-    def __init__(self, imu: Imu) -> None:
-        super().__init__()
-        self.imu = imu
-
-
-class StatusUpdate(Telemetry):
-    def __init__(self, status: Status) -> None:
-        super().__init__()
-        self.status = status
-
-
-class CameraUpdate(Telemetry):
-    def __init__(self, frame: CameraFrame) -> None:
-        super().__init__()
-        self.frame = frame
-
-
-class BallUpdate(Telemetry):
-    def __init__(self, ball: BallDetection) -> None:
-        super().__init__()
-        self.ball = ball
-
-
-class EventArrived(Message, bubble=False):
-    """Events are never merged: each one is a line in the log."""
-
-    def __init__(self, event: Event) -> None:
-        super().__init__()
-        self.event = event
+        return (
+            self.topic != "events"
+            and isinstance(message, Telemetry)
+            and message.topic == self.topic
+        )
 
 
 @dataclass

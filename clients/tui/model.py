@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -81,6 +82,10 @@ class Model:
         self.event_count += 1
         self.bump("events")
 
+    def add(self, topic: str, msg: Any) -> None:
+        """Store a sample of the client topic ``topic`` (what the link posts as telemetry)."""
+        _ADD[topic](self, msg)
+
     def bump(self, what: str) -> None:
         self.versions[what] = self.versions.get(what, 0) + 1
 
@@ -129,3 +134,14 @@ class Model:
         if i is None or self.joints is None:
             return None
         return math.degrees(self.joints.goal[i])
+
+
+# client topic → how the model stores it
+_ADD: dict[str, Callable[[Model, Any], None]] = {
+    "joints": Model.add_joints,
+    "imu": Model.add_imu,
+    "status": Model.add_status,
+    "vision": Model.add_ball,
+    "camera": Model.add_frame,
+    "events": Model.add_event,
+}

@@ -9,10 +9,11 @@ from pathlib import Path
 from textual.widgets import DataTable, OptionList, TabbedContent
 
 from clients.tui.help import HelpScreen
-from clients.tui.messages import ImuUpdate, JointsUpdate, LinkChanged, LinkInfo, LinkState
+from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
 from clients.tui.tabs.behaviours import BehavioursTab
 from clients.tui.widgets.figure import StickFigure
 from clients.tui.widgets.header import RobotHeader
+from schemas.messages import Event
 from tests.ui import scene
 
 
@@ -28,7 +29,7 @@ async def test_header_shows_lease_loop_battery_and_alarms(scene_app) -> None:
         assert "connected" in text and "op1" in text
         assert "you" in text and "125 Hz" in text and "overruns 2" in text
         assert "12.1 V" in text and "r_hip_roll overheating" in text
-        app.post_message(JointsUpdate(scene.joints()))  # keeps the scene alive
+        app.post_message(Telemetry("joints", scene.joints()))  # keeps the scene alive
         app.model.add_status(scene.status(lease_client="someone-else"))
         await pilot.pause(0.2)
         assert "held by tui" in header_text(app)
@@ -54,7 +55,7 @@ async def test_motor_table_updates_in_place_keeping_the_selection(scene_app) -> 
         assert table.cursor_row == 4
         joints = scene.joints(tick=999)
         joints.position_deg[4] = 42.5
-        app.post_message(JointsUpdate(joints))
+        app.post_message(Telemetry("joints", joints))
         await pilot.pause(0.3)
         assert table.get_cell("5", "pos").strip() == "42.5"
         assert table.cursor_row == 4 and app.focused is table
@@ -74,9 +75,12 @@ async def test_commands_without_a_robot_say_so_in_the_log(scene_app) -> None:
 
 
 async def test_telemetry_messages_replace_older_queued_ones() -> None:
-    a, b = ImuUpdate(scene.imu(1)), ImuUpdate(scene.imu(2))
+    a, b = Telemetry("imu", scene.imu(1)), Telemetry("imu", scene.imu(2))
     assert b.can_replace(a)
-    assert not b.can_replace(JointsUpdate(scene.joints()))
+    assert not b.can_replace(Telemetry("joints", scene.joints()))
+    # each event is a line of the log: a newer one never drops a queued older one
+    first, second = (Telemetry("events", Event(kind="lease", message=m)) for m in "ab")
+    assert not second.can_replace(first)
 
 
 async def test_language_switch_translates_tabs_and_keeps_edits(scene_app) -> None:

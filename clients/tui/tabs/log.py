@@ -6,6 +6,7 @@ channels or, with "ROS 2 bag" ticked, as a ROS 2 bag (``darwin record --ros2``).
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 from rich.text import Text
 from textual.app import ComposeResult
@@ -45,29 +46,21 @@ class LogTab(TabView):
     """
     BINDINGS = [Binding("r", "record", N_("Record on/off"))]
 
+    @dataclass
     class Record(Message):
         """Start recording to ``path`` (in segments of ``split_seconds`` / ``split_bytes`` when
         given, with the recorder's ``profile``), or stop when ``path`` is None."""
 
-        def __init__(
-            self,
-            path: str | None,
-            split_seconds: float | None = None,
-            split_bytes: int | None = None,
-            tab: LogTab | None = None,
-            profile: str = "darwin",
-        ) -> None:
-            super().__init__()
-            self.path = path
-            self.split_seconds = split_seconds
-            self.split_bytes = split_bytes
-            self.profile = profile
-            self._tab = tab
+        path: str | None
+        split_seconds: float | None = None
+        split_bytes: int | None = None
+        tab: LogTab | None = None
+        profile: str = "darwin"
 
         @property
         def control(self) -> LogTab | None:
             # The app answers with set_recording() on the tab that asked.
-            return self._tab
+            return self.tab
 
     def __init__(self, model: Model) -> None:
         super().__init__(model)
