@@ -26,7 +26,7 @@ import json
 import os
 import time
 from datetime import UTC, datetime
-from typing import IO, Any
+from typing import IO
 
 from mcap.writer import CompressionType, Writer
 
@@ -39,6 +39,7 @@ from clients.recording.profile import (
     json_topic,
     raw_topic,
 )
+from clients.recording.segments import Sample
 from schemas.keys import Keys
 
 LIBRARY = "darwin-zenoh recorder"
@@ -110,14 +111,8 @@ class McapSink:
             self._channels[(spec.topic, spec.message_encoding)] = cid
         return cid
 
-    def write(
-        self,
-        topic: str,
-        log_ns: int,
-        payload: bytes,
-        decoded: dict[str, Any] | None,
-        robot: str | None = None,
-    ) -> None:
+    def write(self, sample: Sample) -> None:
+        topic, log_ns, payload, decoded, robot = sample
         specs = self._specs.get((topic, robot))
         if specs is None:
             # Several robots in one file: each robot's topic is a channel set of its own,

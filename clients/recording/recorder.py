@@ -33,6 +33,7 @@ import zenoh
 from clients.recording.mcap_sink import CHUNK_BYTES, McapSink
 from clients.recording.profile import DARWIN, Profile, check_topics, get_profile
 from clients.recording.segments import (
+    Sample,
     SegmentedSink,
     Sink,
     existing_segments,
@@ -327,10 +328,8 @@ class Recorder:
         decoded = self.profile.decode(topic, payload)
         if decoded is None:
             self.stats.undecodable += 1
-        if robot is None:
-            sink.write(topic, log_ns, payload, decoded)
-        else:
-            sink.write(topic, log_ns, payload, decoded, robot)
+        sink.write(Sample(topic, log_ns, payload, decoded, robot))
+        if robot is not None:
             self.stats.by_robot[robot] = self.stats.by_robot.get(robot, 0) + 1
         self.stats.counts[topic] += 1
 

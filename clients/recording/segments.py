@@ -14,22 +14,23 @@ import os
 import re
 import time
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 from clients.recording.scan import NotMcapError, RecordScanner
 
 
+class Sample(NamedTuple):
+    """One received message, as the recorder hands it to a sink."""
+
+    topic: str  # short name: joints, imu, status, events, camera, vision, world
+    log_ns: int  # when the recorder received it (ns since the epoch)
+    payload: bytes  # msgpack, exactly as published
+    decoded: dict[str, Any] | None  # the payload as a map; None when it is not msgpack
+    robot: str | None = None  # whose, when one file records several robots (None: the file's)
+
+
 class Sink(Protocol):
-    def write(
-        self,
-        topic: str,
-        log_ns: int,
-        payload: bytes,
-        decoded: dict[str, Any] | None,
-        robot: str | None = None,
-    ) -> None:
-        """``robot``: the sample's robot when one file records several (None: the file's)."""
-        ...
+    def write(self, sample: Sample) -> None: ...
 
     def flush(self) -> None: ...
 
@@ -122,19 +123,12 @@ class SegmentedSink:
             return True
         return self._bytes is not None and self._sink.size >= self._bytes
 
-    def write(
-        self,
-        topic: str,
-        log_ns: int,
-        payload: bytes,
-        decoded: dict[str, Any] | None,
-        robot: str | None = None,
-    ) -> None:
+    def write(self, sample: Sample) -> None:
         if self._due():
             self._sink.close()
             self._index += 1
             self._sink = self._open()
-        self._sink.write(topic, log_ns, payload, decoded, robot)
+        self._sink.write(sample)
         self._wrote = True
 
     def flush(self) -> None:

@@ -9,6 +9,8 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from typing import IO, Any
 
+from clients.recording.segments import Sample
+
 _AXES = ("x", "y", "z")
 
 
@@ -70,14 +72,8 @@ class TextSink:
     def size(self) -> int:
         return self._file.tell()
 
-    def write(
-        self,
-        topic: str,
-        log_ns: int,
-        payload: bytes,
-        decoded: dict[str, Any] | None,
-        robot: str | None = None,
-    ) -> None:
+    def write(self, sample: Sample) -> None:
+        topic, log_ns, payload, decoded, robot = sample
         if robot is not None:
             topic = f"{robot}/{topic}"  # several robots in one log: each line says whose
         if decoded is None:

@@ -10,6 +10,7 @@ import json
 import pytest
 
 from clients.recording.jsonify import json_schema, schema_name, to_json
+from clients.recording.segments import Sample
 from clients.recording.text_sink import TextSink
 from clients.robot import TOPICS
 from schemas.messages import CameraFrame, Event, Imu, Message, Status, decode_dict, encode
@@ -81,10 +82,10 @@ def test_text_log_lines(tmp_path) -> None:
         accel_raw=[4, 5, 6],
         tick=42,
     )
-    sink.write("imu", 1_500_000_000, encode(imu), decode_dict(encode(imu)))
+    sink.write(Sample("imu", 1_500_000_000, encode(imu), decode_dict(encode(imu))))
     ev = Event(kind="lease", message="taken by notebook")
-    sink.write("events", 2_000_000_000, encode(ev), decode_dict(encode(ev)))
-    sink.write("events", 2_500_000_000, b"\xc1", None)
+    sink.write(Sample("events", 2_000_000_000, encode(ev), decode_dict(encode(ev))))
+    sink.write(Sample("events", 2_500_000_000, b"\xc1", None))
     sink.close()
     lines = path.read_text().splitlines()
     assert lines[0].startswith("# darwin-zenoh log of robot op1")

@@ -10,6 +10,7 @@ import pytest
 from clients.recording.mcap_sink import McapSink
 from clients.recording.reader import read_recording
 from clients.recording.replay import check_rate, default_robot_name
+from clients.recording.segments import Sample
 from schemas.errors import InvalidCommandError, ProtocolError
 from schemas.messages import Imu, decode_dict, encode
 
@@ -34,10 +35,10 @@ def write(path: Path, n: int) -> bytes:
     sink = McapSink(str(path), "op1", KEYS)
     for i in range(n):
         p = imu(i)
-        sink.write("imu", 1_000 + i, p, decode_dict(p))
+        sink.write(Sample("imu", 1_000 + i, p, decode_dict(p)))
         if i == n // 2:
             sink.flush()
-    sink.write("events", 5_000, b"not msgpack \xc1", None)
+    sink.write(Sample("events", 5_000, b"not msgpack \xc1", None))
     sink.flush()
     flushed = path.read_bytes()
     sink.close()

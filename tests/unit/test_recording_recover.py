@@ -17,6 +17,7 @@ from clients.recording.reader import read_recording, read_session
 from clients.recording.recorder import check_options
 from clients.recording.recover import RecoverError, default_output, recover
 from clients.recording.segments import (
+    Sample,
     SegmentedSink,
     existing_segments,
     parse_split,
@@ -48,7 +49,7 @@ def write_flushed(path: Path, n: int = 190, every: int = 25) -> bytes:
     sink = McapSink(str(path), "op1", KEYS)
     for i in range(n):
         p = imu(i)
-        sink.write("imu", 1_000 + i, p, decode_dict(p))
+        sink.write(Sample("imu", 1_000 + i, p, decode_dict(p)))
         if i % every == every - 1:
             sink.flush()
     flushed = path.read_bytes()
@@ -204,7 +205,7 @@ def test_segments_are_closed_indexed_and_numbered(tmp_path: Path) -> None:
     sink = SegmentedSink(base, factory, max_bytes=8_000, first=3, metadata={"session": "s1"})
     for i in range(400):
         p = imu(i)
-        sink.write("imu", 1_000 + i, p, decode_dict(p))
+        sink.write(Sample("imu", 1_000 + i, p, decode_dict(p)))
     sink.close()
     assert sink.paths[0] == segment_path(base, 3) == str(tmp_path / "walk-0003.mcap")
     assert [p for _, p in existing_segments(base)] == sink.paths and len(sink.paths) >= 3
