@@ -1,1 +1,1 @@
-"""``darwin tui``: the Textual terminal UI. Build it with :func:`clients.tui.app.create_app`."""
+"""``darwin tui``: the Textual terminal UI. Build it with :class:`clients.tui.app.DarwinApp`."""

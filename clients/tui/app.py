@@ -1,4 +1,4 @@
-"""The Textual app and its factory (``create_app``), which the CLI and the tests both call.
+"""The Textual app (``DarwinApp``), which the CLI and the tests both build.
 
 Telemetry arrives as messages posted by the link from Zenoh threads; handlers only store it
 in the model. A timer (~15 Hz) draws what changed, and only in the tab that shows, so 125 Hz
@@ -78,6 +78,10 @@ class MainScreen(Screen[None]):
 
 
 class DarwinApp(App[None]):
+    """The app, ready to ``run()`` (CLI) or ``run_test()`` (tests). ``connect=False`` starts
+    without a link, for a fixed scene fed by posting messages; ``clock`` stamps the UI's own
+    log lines (a fixed one keeps snapshots still)."""
+
     TITLE = "darwin tui"
     ENABLE_COMMAND_PALETTE = False  # its texts are Textual's, untranslated; help has every key
     CSS = """
@@ -461,34 +465,6 @@ class DarwinApp(App[None]):
         summary = recorder.stop().summary()
         self.local_event("record", summary)
         return summary
-
-
-def create_app(
-    *,
-    endpoint: str | None = None,
-    robot: str | None = None,
-    name: str | None = None,
-    lang: str | None = None,
-    settings_path: Path | None = None,
-    connect: bool = True,
-    ask: bool = False,
-    clock: Callable[[], float] = time.time,
-    credentials: Credentials | None = None,
-) -> DarwinApp:
-    """The app, ready to ``run()`` (CLI) or ``run_test()`` (tests). ``connect=False`` starts
-    without a link, for a fixed scene fed by posting messages; ``clock`` stamps the UI's own
-    log lines (a fixed one keeps snapshots still)."""
-    return DarwinApp(
-        endpoint=endpoint,
-        robot=robot,
-        name=name,
-        lang=lang,
-        settings_path=settings_path,
-        connect=connect,
-        ask=ask,
-        clock=clock,
-        credentials=credentials,
-    )
 
 
 def daemon_robot_config(reply: dict[str, Any], local: RobotConfig) -> RobotConfig:

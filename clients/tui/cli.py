@@ -43,7 +43,7 @@ def check_reachable(endpoint: str, creds: Credentials | None = None) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from clients.tui.app import create_app
+    from clients.tui.app import DarwinApp
 
     try:
         creds = credentials_from_args(args)
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
         # Named on the command line: a wrong address is a one-line error, not a UI that waits.
         check_reachable(args.connect, creds)
 
-    app = create_app(
+    app = DarwinApp(
         endpoint=args.connect,
         robot=args.robot,
         name=args.name,

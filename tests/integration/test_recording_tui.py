@@ -13,7 +13,7 @@ from textual.widgets import Input
 
 from clients.recording import read_recording
 from clients.recording.segments import existing_segments
-from clients.tui.app import TABS, DarwinApp, create_app
+from clients.tui.app import TABS, DarwinApp
 from clients.tui.tabs.log import LogTab
 from schemas.messages import CameraFrame, encode
 from tests.integration.test_recording_mcap import ROBOT, Source
@@ -43,7 +43,7 @@ def test_log_tab_records_in_segments(source: Source, tmp_path: Path) -> None:
     settings = tmp_path / "tui.toml"
 
     async def run() -> None:
-        app: DarwinApp = create_app(
+        app: DarwinApp = DarwinApp(
             endpoint=source.endpoint, robot=ROBOT, name="tui-rec", settings_path=settings
         )
         async with app.run_test(size=(120, 40)) as pilot:
@@ -99,7 +99,7 @@ def test_log_tab_records_a_ros2_bag(source: Source, tmp_path: Path) -> None:
     path = tmp_path / "tui-bag.mcap"
 
     async def run() -> None:
-        app: DarwinApp = create_app(
+        app: DarwinApp = DarwinApp(
             endpoint=source.endpoint, robot=ROBOT, name="tui-bag", settings_path=tmp_path / "t"
         )
         async with app.run_test(size=(120, 40)) as pilot:

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from clients.tui import i18n
-from clients.tui.app import DarwinApp, create_app
+from clients.tui.app import DarwinApp
 from tests.ui.scene import T0, load_scene
 
 
@@ -42,7 +42,7 @@ def scene_app(settings_file: Path) -> Callable[..., DarwinApp]:
     """``scene_app(lang="en", tab="imu")`` → an app that loads the fixed scene when mounted."""
 
     def make(lang: str = "en", tab: str = "imu") -> DarwinApp:
-        app = create_app(connect=False, lang=lang, settings_path=settings_file, clock=lambda: T0)
+        app = DarwinApp(connect=False, lang=lang, settings_path=settings_file, clock=lambda: T0)
         app.active_tab = tab
         app.call_later(load_scene, app)
         return app

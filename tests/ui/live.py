@@ -8,7 +8,7 @@ from pathlib import Path
 
 from textual.pilot import Pilot
 
-from clients.tui.app import TABS, DarwinApp, create_app
+from clients.tui.app import TABS, DarwinApp
 from clients.tui.messages import LinkState
 from tests.fixtures.system import RunningSystem
 
@@ -16,7 +16,7 @@ DEADLINE_S = 20.0
 
 
 def live_app(system: RunningSystem, settings: Path, name: str, lang: str = "en") -> DarwinApp:
-    return create_app(
+    return DarwinApp(
         endpoint=system.endpoint, robot=system.robot, name=name, lang=lang, settings_path=settings
     )
 

@@ -8,7 +8,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from clients.tui.app import TABS, create_app
+from clients.tui.app import TABS, DarwinApp
 from tests.ui.scene import T0, load_scene
 
 SIZE = (120, 36)
@@ -16,7 +16,7 @@ SIZE = (120, 36)
 
 async def shoot(tab: str, out: Path, keys: tuple[str, ...] = (), name: str = "") -> Path:
     settings = Path(tempfile.mkdtemp()) / "tui.toml"
-    app = create_app(connect=False, lang="en", settings_path=settings, clock=lambda: T0)
+    app = DarwinApp(connect=False, lang="en", settings_path=settings, clock=lambda: T0)
     app.active_tab = tab
     async with app.run_test(size=SIZE) as pilot:
         load_scene(app)

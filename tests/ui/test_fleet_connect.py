@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from textual.widgets import OptionList
 
-from clients.tui.app import DarwinApp, create_app
+from clients.tui.app import DarwinApp
 from clients.tui.connect import ConnectScreen
 from clients.tui.messages import LinkState
 from tests.fixtures.fleet import RunningRouter, start_router
@@ -45,7 +45,7 @@ async def test_connect_screen_lists_the_fleet_and_a_key_switches_robots(
     fleet: tuple[RunningRouter, list[str]], settings_file: Path
 ) -> None:
     router, (a, b) = fleet
-    app = create_app(endpoint=router.endpoint, robot=a, name="fleet", settings_path=settings_file)
+    app = DarwinApp(endpoint=router.endpoint, robot=a, name="fleet", settings_path=settings_file)
     async with app.run_test(size=(100, 30)) as pilot:
         await until(pilot, lambda: on_robot(app, a), f"the link to {a}")
         await pilot.press("c")
