@@ -3,13 +3,15 @@ may not do is greyed out in the footer and does nothing; an operator's keys stay
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import AsyncIterator, Iterator
+from contextlib import asynccontextmanager
 from pathlib import Path
 
 import pytest
 from rich.text import Text
+from textual.pilot import Pilot
 
-from clients.tui.app import DarwinApp, create_app
+from clients.tui.app import DarwinApp
 from schemas.roles import Role
 from schemas.session import Credentials
 from tests.fixtures.system import RunningSystem, start_system
@@ -24,11 +26,19 @@ def auth_system(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunningSys
         yield system
 
 
-def app_as(system: RunningSystem, settings: Path, user: str) -> DarwinApp:
-    return create_app(
+@asynccontextmanager
+async def signed_in(
+    system: RunningSystem, settings: Path, user: str, role: Role
+) -> AsyncIterator[tuple[DarwinApp, Pilot[None]]]:
+    """The TUI connected to ``system`` as ``user``, whose role the daemon reports as ``role``."""
+    app = DarwinApp(
         endpoint=system.endpoint, robot=system.robot, name=f"tui-{user}", lang="en",
         settings_path=settings, credentials=Credentials(user, PASSWORDS[user]),
     )
+    async with app.run_test(size=(140, 40)) as pilot:
+        await connected(pilot)
+        assert app.link.role == role
+        yield app, pilot
 
 
 def enabled(app: DarwinApp, action: str) -> bool:
@@ -47,10 +57,7 @@ def greyed(app: DarwinApp) -> set[str]:
 async def test_an_observer_sees_commands_greyed_and_they_do_nothing(
     auth_system: RunningSystem, settings_file: Path
 ) -> None:
-    app = app_as(auth_system, settings_file, "obs")
-    async with app.run_test(size=(140, 40)) as pilot:
-        await connected(pilot)
-        assert app.link.role == Role.OBSERVER
+    async with signed_in(auth_system, settings_file, "obs", Role.OBSERVER) as (app, pilot):
         assert not enabled(app, "lease") and not enabled(app, "halt")
         assert {"HALT", "Lease take/release"} <= greyed(app)
         before = app.model.event_count
@@ -66,9 +73,6 @@ async def test_an_observer_sees_commands_greyed_and_they_do_nothing(
 async def test_an_operator_keeps_every_key(
     auth_system: RunningSystem, settings_file: Path
 ) -> None:
-    app = app_as(auth_system, settings_file, "op")
-    async with app.run_test(size=(140, 40)) as pilot:
-        await connected(pilot)
-        assert app.link.role == Role.OPERATOR
+    async with signed_in(auth_system, settings_file, "op", Role.OPERATOR) as (app, _pilot):
         assert enabled(app, "lease") and enabled(app, "halt")
         assert greyed(app) == set()
