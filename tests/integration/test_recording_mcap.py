@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 import zenoh
 from mcap.exceptions import McapError
-from mcap.reader import NonSeekingReader, make_reader
+from mcap.reader import NonSeekingReader
 
 from clients.recording import Recorder, read_recording
 from config.loader import load_robot
@@ -24,7 +24,7 @@ from schemas.keys import Keys
 from schemas.messages import CameraFrame, Event, Imu, Joints, Status, encode
 from schemas.session import open_client, open_server
 from tests.fixtures.emulator import wait_until
-from tests.fixtures.mcap import summary_counts
+from tests.fixtures.mcap import finished_file, summary_counts
 from tests.fixtures.system import darwin_command, run_darwin
 
 ROBOT = "rec1"
@@ -133,17 +133,10 @@ def test_recorder_counts_schemas_and_order(source: Source, tmp_path: Path) -> No
         stats = rec.stop()
     assert stats.undecodable == 1 and stats.dropped == 0
 
-    with open(path, "rb") as f:
-        reader = make_reader(f)
-        summary = reader.get_summary()
-        assert summary is not None
-        by_topic = summary_counts(summary)
-        schemas = {s.name: json.loads(s.data) for s in summary.schemas.values()}
-        json_msgs = [
-            (c.topic, m)
-            for _, c, m in reader.iter_messages(log_time_order=False)
-            if c.message_encoding == "json"
-        ]
+    summary, messages = finished_file(path)
+    by_topic = summary_counts(summary)
+    schemas = {s.name: json.loads(s.data) for s in summary.schemas.values()}
+    json_msgs = [(c.topic, m) for c, m in messages if c.message_encoding == "json"]
 
     prefix = f"/darwin/{ROBOT}"
     assert by_topic[f"{prefix}/joints"] == 200
@@ -219,35 +212,41 @@ def started(proc: subprocess.Popen[str]) -> None:
     assert line.startswith("recording"), line
 
 
+def recording_burst(source: Source, path: Path, joints: int) -> subprocess.Popen[str]:
+    """`darwin record` to ``path``, running, with a burst of ``joints`` joint samples (and the
+    other topics') flushed to disk. Killed if it gets no further."""
+    proc = darwin_record(source.endpoint, path)
+    try:
+        started(proc)
+        subscribed(source)
+        source.burst(range(joints))
+        wait_until(lambda: len(read_recording(path).topic("joints")) == joints, what="flush")
+    except BaseException:
+        proc.kill()
+        proc.communicate(timeout=20)
+        raise
+    return proc
+
+
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_darwin_record_closes_a_valid_file_on_signal(
     source: Source, tmp_path: Path, sig: signal.Signals
 ) -> None:
     path = tmp_path / "sig.mcap"
-    proc = darwin_record(source.endpoint, path)
-    try:
-        started(proc)
-        subscribed(source)
-        source.burst(range(50))
-        wait_until(lambda: len(read_recording(path).topic("joints")) == 50, what="flushed file")
-    finally:
-        proc.send_signal(sig)
-        _, err = proc.communicate(timeout=20)
+    proc = recording_burst(source, path, 50)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=20)
     assert proc.returncode == 0, err
     assert "joints 50" in err
-    with open(path, "rb") as f:
-        summary = make_reader(f).get_summary()  # a summary exists only in a finished file
-    assert summary is not None and summary.statistics.message_count == 2 * (50 + 50 + 5 + 2)
+    summary, _ = finished_file(path)
+    assert summary.statistics is not None
+    assert summary.statistics.message_count == 2 * (50 + 50 + 5 + 2)
 
 
 def test_killed_recorder_leaves_a_readable_file(source: Source, tmp_path: Path) -> None:
     path = tmp_path / "killed.mcap"
-    proc = darwin_record(source.endpoint, path)
+    proc = recording_burst(source, path, 100)
     try:
-        started(proc)
-        subscribed(source)
-        source.burst(range(100))
-        wait_until(lambda: len(read_recording(path).topic("joints")) == 100, what="flush")
         source.burst(range(100, 110))  # may or may not reach the disk before the kill
     finally:
         os.kill(proc.pid, signal.SIGKILL)

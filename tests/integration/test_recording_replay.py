@@ -7,12 +7,14 @@ from __future__ import annotations
 import queue
 import subprocess
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 
-from clients.recording import Recorder, ReplayControl, Replayer, read_recording
+from clients.recording import Recorder, Recording, ReplayControl, Replayer, read_recording
 from clients.robot import Robot
 from schemas.errors import InvalidCommandError, RobotUnreachableError
 from schemas.keys import Keys
@@ -44,6 +46,7 @@ class Listener:
     """A client subscribed to every topic of one robot name, queueing (topic, payload)."""
 
     def __init__(self, endpoint: str, robot: str) -> None:
+        self.endpoint = endpoint
         self.session = open_client(endpoint)
         self.got: queue.Queue[tuple[str, bytes]] = queue.Queue()
         self.subs = [
@@ -124,75 +127,75 @@ def test_darwin_replay_republishes_the_same_payloads(recording) -> None:
     assert listener.got.empty()
 
 
-def test_control_pause_seek_status_and_bad_requests(recording) -> None:
-    path, _ = recording
+@contextmanager
+def paused_replay(
+    path: Path, robot: str, **options: Any
+) -> Iterator[tuple[Recording, Replayer, Listener, ReplayControl]]:
+    """``path`` replayed in this process as ``robot`` (``options`` for the Replayer), started
+    paused on a server of its own, with a listener there and the replay's control client."""
     rec = read_recording(path)
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     with open_server([endpoint]) as server:
-        listener = Listener(endpoint, "ctl")
-        replayer = Replayer(rec, server, "ctl", rate=1.0).start(paused=True)
+        listener = Listener(endpoint, robot)
+        replayer = Replayer(rec, server, robot, **options).start(paused=True)
         try:
-            ctl = ReplayControl(listener.session, "ctl")
-            st = ctl.status()
-            assert st["state"] == "paused" and st["position"] == 0.0
-            with Robot(endpoint, "ctl") as viewer:
-                assert viewer.alive()  # viewers see the replayed robot as up
-            assert st["count"] == len(rec.messages) and st["source_robot"] == ROBOT
-            assert st["duration"] == pytest.approx(rec.duration, abs=1e-6)
-
-            # Seek past the middle while paused: nothing is sent until resume, then the rest.
-            middle = rec.messages[len(rec.messages) // 2]
-            t = (middle.log_ns - rec.start_ns) / 1e9
-            st = ctl.seek(t)
-            assert st["position"] == pytest.approx(t, abs=1e-6) and st["state"] == "paused"
-            assert listener.got.empty()
-            rest = [m for m in rec.messages if m.log_ns >= middle.log_ns]
-            ctl.rate(20.0)
-            ctl.resume()
-            got = listener.take(len(rest))
-            # Per topic: each topic's subscriber has a callback thread of its own.
-            assert by_topic(got) == by_topic([(m.topic, m.payload) for m in rest])
-            assert replayer.wait(timeout=20)
-            assert ctl.status()["state"] == "finished"
-
-            with pytest.raises(InvalidCommandError, match="outside the recording") as info:
-                ctl.seek(rec.duration + 5)
-            assert info.value.field == "t"
-            with pytest.raises(InvalidCommandError) as info:
-                ctl.rate(0)
-            assert info.value.field == "rate"
-            with pytest.raises(InvalidCommandError, match="unknown op 'jump'"):
-                ctl._ask("jump")
-
-            # Seeking a finished replay plays again from there.
-            ctl.seek(0.0)
-            again = listener.take(len(rec.messages))
-            assert by_topic(again) == by_topic([(m.topic, m.payload) for m in rec.messages])
+            yield rec, replayer, listener, ReplayControl(listener.session, robot)
         finally:
             replayer.stop()
             listener.close()
+
+
+def test_control_pause_seek_status_and_bad_requests(recording) -> None:
+    path, _ = recording
+    with paused_replay(path, "ctl", rate=1.0) as (rec, replayer, listener, ctl):
+        st = ctl.status()
+        assert st["state"] == "paused" and st["position"] == 0.0
+        with Robot(listener.endpoint, "ctl") as viewer:
+            assert viewer.alive()  # viewers see the replayed robot as up
+        assert st["count"] == len(rec.messages) and st["source_robot"] == ROBOT
+        assert st["duration"] == pytest.approx(rec.duration, abs=1e-6)
+
+        # Seek past the middle while paused: nothing is sent until resume, then the rest.
+        middle = rec.messages[len(rec.messages) // 2]
+        t = (middle.log_ns - rec.start_ns) / 1e9
+        st = ctl.seek(t)
+        assert st["position"] == pytest.approx(t, abs=1e-6) and st["state"] == "paused"
+        assert listener.got.empty()
+        rest = [m for m in rec.messages if m.log_ns >= middle.log_ns]
+        ctl.rate(20.0)
+        ctl.resume()
+        got = listener.take(len(rest))
+        # Per topic: each topic's subscriber has a callback thread of its own.
+        assert by_topic(got) == by_topic([(m.topic, m.payload) for m in rest])
+        assert replayer.wait(timeout=20)
+        assert ctl.status()["state"] == "finished"
+
+        with pytest.raises(InvalidCommandError, match="outside the recording") as info:
+            ctl.seek(rec.duration + 5)
+        assert info.value.field == "t"
+        with pytest.raises(InvalidCommandError) as info:
+            ctl.rate(0)
+        assert info.value.field == "rate"
+        with pytest.raises(InvalidCommandError, match="unknown op 'jump'"):
+            ctl._ask("jump")
+
+        # Seeking a finished replay plays again from there.
+        ctl.seek(0.0)
+        again = listener.take(len(rec.messages))
+        assert by_topic(again) == by_topic([(m.topic, m.payload) for m in rec.messages])
 
 
 def test_replay_loops(recording) -> None:
     path, _ = recording
-    rec = read_recording(path)
-    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    with open_server([endpoint]) as server:
-        listener = Listener(endpoint, "looped")
-        replayer = Replayer(rec, server, "looped", rate=50.0, loop=True, topics=["joints"])
-        ctl = ReplayControl(listener.session, "looped")
-        replayer.start(paused=True)
-        try:
-            ctl.status()  # our subscriptions are declared before this round trip completes
-            ctl.resume()
-            n = len(rec.topic("joints"))
-            got = listener.take(2 * n + 1)
-            ticks = [decode(p, Joints).tick for _, p in got]
-            assert ticks == [*range(n), *range(n), 0]
-            assert ctl.status()["loops"] >= 2
-        finally:
-            replayer.stop()
-            listener.close()
+    looped = paused_replay(path, "looped", rate=50.0, loop=True, topics=["joints"])
+    with looped as (rec, _, listener, ctl):
+        ctl.status()  # our subscriptions are declared before this round trip completes
+        ctl.resume()
+        n = len(rec.topic("joints"))
+        got = listener.take(2 * n + 1)
+        ticks = [decode(p, Joints).tick for _, p in got]
+        assert ticks == [*range(n), *range(n), 0]
+        assert ctl.status()["loops"] >= 2
 
 
 def test_control_without_replay_says_what_to_run() -> None:

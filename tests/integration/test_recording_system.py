@@ -7,13 +7,11 @@ from __future__ import annotations
 import queue
 from pathlib import Path
 
-from mcap.reader import make_reader
-
 from clients.recording import Recorder, ReplayControl, Replayer, read_recording
 from clients.robot import Robot
 from schemas.messages import Imu, Joints
 from schemas.session import free_tcp_port, open_server
-from tests.fixtures.mcap import summary_counts
+from tests.fixtures.mcap import finished_file, summary_counts
 from tests.fixtures.system import RunningSystem
 
 TOPICS = ["joints", "imu", "status", "events"]
@@ -38,14 +36,11 @@ def test_record_walk_then_replay_as_live(robot_system: RunningSystem, tmp_path: 
             w.close()
     assert stats.dropped == 0 and stats.undecodable == 0
 
-    with open(path, "rb") as f:
-        reader = make_reader(f)
-        summary = reader.get_summary()
-        assert summary is not None
-        counts = summary_counts(summary)
-        per_channel_times: dict[str, list[int]] = {}
-        for _, channel, message in reader.iter_messages(log_time_order=False):
-            per_channel_times.setdefault(channel.topic, []).append(message.log_time)
+    summary, messages = finished_file(path)
+    counts = summary_counts(summary)
+    per_channel_times: dict[str, list[int]] = {}
+    for channel, message in messages:
+        per_channel_times.setdefault(channel.topic, []).append(message.log_time)
     for times in per_channel_times.values():
         assert times == sorted(times)
 
