@@ -225,18 +225,8 @@ class ForbiddenError(CommandError):
     """The caller's role may not send this; ``role`` is the least role that may."""
 
     CODE = ErrorCode.FORBIDDEN
-
-    def __init__(
-        self,
-        code: str,
-        message: str,
-        field: str | None = None,
-        verb: str = "",
-        retry_after: float | None = None,
-        role: str = "",
-    ) -> None:
-        super().__init__(code, message, field, verb, retry_after)
-        self.role = role
+    # Set where it is known (``schemas.roles.check``, before sending); "" when not said.
+    role: str = ""
 
 
 class Reject(CommandError):

@@ -96,13 +96,14 @@ def check(role: Role | str | None, verb: str, fields: dict[str, Any], user: str 
     need = required_role(verb, fields)
     what = verb if verb not in ADMIN_OPS else f"{verb} {op_of(verb, fields)}".strip()
     who = f"{user} is {role}" if user else f"this identity's role is {role}"
-    raise ForbiddenError(
+    refused = ForbiddenError(
         ErrorCode.FORBIDDEN,
         f"{what} needs the {need} role ({who}); an admin can grant it with "
         f"`darwin users add NAME --role {need} …`",
         verb=verb,
-        role=str(need),
     )
+    refused.role = str(need)
+    raise refused
 
 
 def command_key(keys: Keys, verb: str, fields: dict[str, Any]) -> str:
