@@ -58,6 +58,13 @@ TABS: tuple[tuple[str, str], ...] = (
 )
 
 
+# The tab classes by their TAB_ID: those that draw the robot's joints also take its config.
+_ROBOT_TABS: dict[str, type[MotorsTab | PoseTab]] = {t.TAB_ID: t for t in (MotorsTab, PoseTab)}
+_MODEL_TABS: dict[str, type[TabView]] = {
+    t.TAB_ID: t for t in (ImuTab, CameraTab, WalkTab, BehavioursTab, ActionsTab, LogTab)
+}
+
+
 class MainScreen(Screen[None]):
     """Header, the tabs, the key bar. Composed again when the language changes."""
 
@@ -144,23 +151,10 @@ class DarwinApp(App[None]):
 
     # -- composition -----------------------------------------------------------------------------
     def make_tab(self, tab_id: str) -> TabView:
-        match tab_id:
-            case "motors":
-                return MotorsTab(self.model, self.robot_config)
-            case "pose":
-                return PoseTab(self.model, self.robot_config)
-            case "imu":
-                return ImuTab(self.model)
-            case "camera":
-                return CameraTab(self.model)
-            case "walk":
-                return WalkTab(self.model)
-            case "behaviours":
-                return BehavioursTab(self.model)
-            case "actions":
-                return ActionsTab(self.model)
-            case "log":
-                return LogTab(self.model)
+        if (drawn := _ROBOT_TABS.get(tab_id)) is not None:
+            return drawn(self.model, self.robot_config)
+        if (tab := _MODEL_TABS.get(tab_id)) is not None:
+            return tab(self.model)
         raise ValueError(f"unknown tab {tab_id!r}; tabs are {', '.join(t for t, _ in TABS)}")
 
     def on_mount(self) -> None:
