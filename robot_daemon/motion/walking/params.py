@@ -82,7 +82,7 @@ def check(name: str, value: Any) -> Any:
         return value
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise ValueError(f"walking parameter {name} must be a number, got {value!r}")
-    problem = range_problem(value, *found.metadata[RANGE])
+    problem = range_problem(value, *found.metadata.get(RANGE, (None, None)))
     if problem:
         raise ValueError(f"walking parameter {name}={value!r} must be {problem}")
     if found.type in ("int", int):
