@@ -29,14 +29,12 @@ from benchmarks.common import cpu_seconds
 from clients.robot import Robot
 from robot_daemon.bus.bulk_read import BulkRead
 from robot_daemon.bus.tables import (
-    CM730_BULK_LENGTH,
-    CM730_BULK_START,
+    CM730,
     CM730_ID,
-    SERVO_BULK_LENGTH,
-    SERVO_BULK_START,
     SERVO_IDS,
     SYNC_WRITE_LENGTH,
     SYNC_WRITE_START,
+    sensor_blocks,
 )
 from schemas.session import free_tcp_port
 from tests.fixtures.emulator import darwin_command
@@ -81,12 +79,11 @@ def baseline(seconds: float) -> dict[str, float]:
         port.openPort()
         port.setBaudRate(1_000_000)
         ph = PacketHandler(1.0)
-        ph.write1ByteTxRx(port, CM730_ID, 24, 1)
+        ph.write1ByteTxRx(port, CM730_ID, CM730.DXL_POWER.reg.address, 1)
         time.sleep(0.5)
         reader = BulkRead(port, ph)
-        for i in SERVO_IDS:
-            reader.addParam(i, SERVO_BULK_START, SERVO_BULK_LENGTH)
-        reader.addParam(CM730_ID, CM730_BULK_START, CM730_BULK_LENGTH)
+        for dxl_id, start, length in sensor_blocks():
+            reader.addParam(dxl_id, start, length)
         writer = GroupSyncWrite(port, ph, SYNC_WRITE_START, SYNC_WRITE_LENGTH)
         for i in SERVO_IDS:
             writer.addParam(i, [0, 0, 32, 0, 0x00, 0x08])

@@ -25,15 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget
 from robot_daemon.bus.port import BlockingPortHandler
-from robot_daemon.bus.tables import (
-    CM730,
-    CM730_BULK_LENGTH,
-    CM730_BULK_START,
-    CM730_ID,
-    SERVO_BULK_LENGTH,
-    SERVO_BULK_START,
-    SERVO_IDS,
-)
+from robot_daemon.bus.tables import CM730, CM730_ID, SERVO_IDS, sensor_blocks
 from robot_daemon.bus.transport import Transport
 from robot_daemon.sim import Emulator, EmulatorSettings
 from robot_daemon.sim.link import EmulatorLink
@@ -52,11 +44,6 @@ def link_round_trips(rounds: int) -> list[float]:
     packet handling, no pty and no waiting."""
     emu = Emulator(EmulatorSettings(seed=1, realtime=False, power_on_delay_s=0.0))
     return timed_bulk_reads(EmulatorLink(emu), rounds)
-
-
-def sensor_blocks() -> list[tuple[int, int, int]]:
-    blocks = [(i, SERVO_BULK_START, SERVO_BULK_LENGTH) for i in SERVO_IDS]
-    return [*blocks, (CM730_ID, CM730_BULK_START, CM730_BULK_LENGTH)]
 
 
 def timed_bulk_reads(transport: Transport, rounds: int) -> list[float]:

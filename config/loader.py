@@ -114,6 +114,38 @@ def refuse_unknown(values: Mapping[str, Any], known: Iterable[str], where: str) 
             )
 
 
+# Field metadata key of a setting's allowed range, (low, high), None for an open end.
+RANGE = "range"
+
+
+def ranged(default: Any, low: float | None = None, high: float | None = None) -> Any:
+    """A settings field whose value must lie within ``low..high`` (None: no bound on that
+    side); :func:`section_to` and :func:`check_ranges` refuse anything else, naming the field."""
+    return field(default=default, metadata={RANGE: (low, high)})
+
+
+def range_problem(value: float, low: float | None, high: float | None) -> str | None:
+    """What ``value`` must be ("at least 1", "within 1..256") when outside ``low..high``."""
+    if (low is None or value >= low) and (high is None or value <= high):
+        return None
+    if high is None:
+        return f"at least {low:g}"
+    if low is None:
+        return f"at most {high:g}"
+    return f"within {low:g}..{high:g}"
+
+
+def check_ranges(settings: Any, where: str) -> None:
+    """``ConfigError`` naming the first field of the dataclass ``settings`` (table ``[where]``)
+    whose value lies outside the range it was declared with (:func:`ranged`)."""
+    for f in dataclasses.fields(settings):
+        if RANGE in f.metadata:
+            value = getattr(settings, f.name)
+            problem = range_problem(value, *f.metadata[RANGE])
+            if problem:
+                raise ConfigError(f"[{where}] {f.name} must be {problem}, not {value!r}")
+
+
 def section_to(
     cls: type[T], values: Mapping[str, Any], where: str, skip: Iterable[str] = (), **given: Any
 ) -> T:
@@ -121,9 +153,10 @@ def section_to(
 
     Every key must name a field (else ``ConfigError`` naming it and the nearest field), and
     each value must fit the field's type: bool, int, float (an integer is taken), str, a
-    list for a tuple or list of those, a sub-table for a nested dataclass. Missing keys keep
-    the defaults; a field without one must be there. ``given`` are fields the caller fills
-    in (not read from the table); ``skip`` are keys of the table that another reader checks.
+    list for a tuple or list of those, a sub-table for a nested dataclass, and lie within the
+    field's range if it has one (:func:`ranged`). Missing keys keep the defaults; a field
+    without one must be there. ``given`` are fields the caller fills in (not read from the
+    table); ``skip`` are keys of the table that another reader checks.
     """
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls) if f.init and f.name not in given]
@@ -146,7 +179,9 @@ def section_to(
             out[name] = _convert(value, hints[name], f"{where}.{name}")
         except _Mismatch as exc:
             raise ConfigError(f"[{where}] {name} = {value!r} should be {exc}") from None
-    return cls(**out)
+    settings = cls(**out)
+    check_ranges(settings, where)
+    return settings
 
 
 class _Mismatch(Exception):

@@ -20,6 +20,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable
+from typing import IO
 
 from schemas.errors import DarwinError
 
@@ -96,7 +97,7 @@ class Child:
         self.output: list[str] = []
         self.errors: list[str] = []  # its stderr, relayed once ready, kept for failures
         self._held_errors: list[str] = []
-        self._err_lock = threading.Lock()
+        self._ready_lock = threading.Lock()
         watch_r, self._watch_w = os.pipe()  # our end stays open until we die
         try:
             self.proc = subprocess.Popen(
@@ -118,13 +119,18 @@ class Child:
 
     def _read_err(self) -> None:
         assert self.proc.stderr is not None
-        for line in self.proc.stderr:
+        self._pump(self.proc.stderr, self.errors, self._held_errors.append)
+
+    def _pump(self, stream: IO[str], kept: list[str], before_ready: Callable[[str], None]) -> None:
+        """Each line of ``stream`` kept, and relayed once the child is ready; before that it
+        goes to ``before_ready`` (``wait_line`` hands it on when readiness comes)."""
+        for line in stream:
             line = line.rstrip("\n")
-            self.errors.append(line)
-            with self._err_lock:
+            kept.append(line)
+            with self._ready_lock:
                 held = not self._ready
                 if held:
-                    self._held_errors.append(line)
+                    before_ready(line)
             if not held and self._relay is not None:
                 self._relay(self.name, line)
 
@@ -141,14 +147,7 @@ class Child:
 
     def _read(self) -> None:
         assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            line = line.rstrip("\n")
-            self.output.append(line)
-            if self._ready:
-                if self._relay is not None:
-                    self._relay(self.name, line)
-            else:
-                self._lines.put(line)
+        self._pump(self.proc.stdout, self.output, self._lines.put)
         self._lines.put(None)
 
     def wait_line(self, prefix: str, timeout: float) -> str:
@@ -171,7 +170,7 @@ class Child:
                 code = self.proc.wait()
                 raise ChildError(f"{self.name} exited with {code}: {self.failure()}")
             if line.startswith(prefix):
-                with self._err_lock:
+                with self._ready_lock:
                     self._ready = True
                     held, self._held_errors = self._held_errors, []
                 if self._relay is not None:

@@ -4,6 +4,7 @@ most a short prefix of the value (:func:`schemas.errors.brief`)."""
 from __future__ import annotations
 
 import math
+import types
 from typing import Any
 
 from config.loader import JointConfig, RobotConfig
@@ -19,6 +20,19 @@ def present(fields: dict[str, Any], name: str) -> Any:
     return value
 
 
+def _absent(fields: dict[str, Any], name: str, default: Any) -> bool:
+    """True when the field is not given (or null) and has a default to stand in for it."""
+    return default is not _MISSING and fields.get(name) is None
+
+
+def _typed(fields: dict[str, Any], name: str, kind: type | types.UnionType, what: str) -> Any:
+    """The field's value when it is a ``kind`` (a bool only when ``kind`` is bool)."""
+    value = present(fields, name)
+    if not isinstance(value, kind) or (isinstance(value, bool) and kind is not bool):
+        raise Reject(ErrorCode.INVALID, f"{name} must be {what}, got {brief(value)}", name)
+    return value
+
+
 def number(
     fields: dict[str, Any],
     name: str,
@@ -26,11 +40,9 @@ def number(
     high: float | None = None,
     default: Any = _MISSING,
 ) -> float:
-    if default is not _MISSING and fields.get(name) is None:
+    if _absent(fields, name, default):
         return default
-    value = present(fields, name)
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise Reject(ErrorCode.INVALID, f"{name} must be a number, got {brief(value)}", name)
+    value = _typed(fields, name, int | float, "a number")
     if not math.isfinite(value):
         raise Reject(ErrorCode.INVALID, f"{name} must be finite, got {brief(value)}", name)
     _within(name, value, low, high)
@@ -44,11 +56,9 @@ def integer(
     high: int | None = None,
     default: Any = _MISSING,
 ) -> int:
-    if default is not _MISSING and fields.get(name) is None:
+    if _absent(fields, name, default):
         return default
-    value = present(fields, name)
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise Reject(ErrorCode.INVALID, f"{name} must be an integer, got {brief(value)}", name)
+    value: int = _typed(fields, name, int, "an integer")
     _within(name, value, low, high)
     return value
 
@@ -61,22 +71,17 @@ def _within(name: str, value: float, low: float | None, high: float | None) -> N
 
 
 def boolean(fields: dict[str, Any], name: str, default: Any = _MISSING) -> bool:
-    if default is not _MISSING and fields.get(name) is None:
+    if _absent(fields, name, default):
         return default
-    value = present(fields, name)
-    if not isinstance(value, bool):
-        raise Reject(ErrorCode.INVALID, f"{name} must be true or false, got {brief(value)}", name)
-    return value
+    return bool(_typed(fields, name, bool, "true or false"))
 
 
 def text(
     fields: dict[str, Any], name: str, choices: set[str] | None = None, default: Any = _MISSING
 ) -> str:
-    if default is not _MISSING and fields.get(name) is None:
+    if _absent(fields, name, default):
         return default
-    value = present(fields, name)
-    if not isinstance(value, str):
-        raise Reject(ErrorCode.INVALID, f"{name} must be a string, got {brief(value)}", name)
+    value: str = _typed(fields, name, str, "a string")
     if choices is not None and value not in choices:
         raise Reject(
             ErrorCode.INVALID,

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from config.loader import nearest
 from schemas.commands import COMMAND_FIELDS, OPS_WITHOUT_LEASE, Field
@@ -41,6 +41,8 @@ if TYPE_CHECKING:
 
 
 __all__ = ["REGISTRY", "BusCommands", "MotionContext", "Reject", "Request", "verb"]
+
+M = TypeVar("M")
 
 
 @dataclass
@@ -77,6 +79,16 @@ class MotionContext:
     publish: Callable[[str, Message], None] | None = None  # publish(topic, msg), newest only
     info: DaemonInfo | None = None  # the daemon's name and period
     extras: dict[str, Any] = field(default_factory=dict)  # options, e.g. "allow_eeprom"
+
+    def module(self, name: str, kind: type[M], what: str = "") -> M:
+        """The motion module ``name``, a ``kind``; ``Reject`` (unavailable) when this daemon
+        runs without it (``what`` names it for people, default "the <name> module")."""
+        found = self.manager.get(name)
+        if not isinstance(found, kind):
+            raise Reject(
+                ErrorCode.UNAVAILABLE, f"{what or f'the {name} module'} is not part of this daemon"
+            )
+        return found
 
 
 Handler = Callable[[Request, MotionContext], dict[str, Any]]

@@ -160,6 +160,15 @@ SERVO_BULK_LENGTH = 6
 CM730_BULK_START = CM730.DXL_POWER.reg.address
 CM730_BULK_LENGTH = 30
 
+
+def sensor_blocks(
+    servo_ids: tuple[int, ...] = SERVO_IDS, cm730_id: int = CM730_ID
+) -> list[tuple[int, int, int]]:
+    """The bulk read of a tick with every servo online, as (id, start, length) blocks: each
+    servo's fast block, then the CM-730's sensors."""
+    blocks = [(i, SERVO_BULK_START, SERVO_BULK_LENGTH) for i in servo_ids]
+    return [*blocks, (cm730_id, CM730_BULK_START, CM730_BULK_LENGTH)]
+
 # What the framework sync-writes every tick: D, I, P, reserved, goal L, goal H.
 SYNC_WRITE_START = MX28.D_GAIN.reg.address
 SYNC_WRITE_LENGTH = 6

@@ -58,12 +58,39 @@ def _probability(text: str) -> float:
     return p
 
 
+# The options that override one [emulator] setting each: (flag, field, metavar, type, help).
+# A flag's field is what settings_from_args hands to EmulatorSettings.
+_OVERRIDES: tuple[tuple[str, str, str, Any, str], ...] = (
+    ("--seed", "seed", "N", int, "seed of every random draw (replays a run)"),
+    ("--drop", "drop", "P", _probability, "probability of a dropped reply"),
+    ("--corrupt", "corrupt", "P", _probability, "probability of a corrupted reply"),
+    ("--delay", "delay", "P", _probability, "probability of a delayed reply"),
+    ("--delay-ms", "delay_ms", "MS", float, "how late a delayed reply is (ms)"),
+    ("--silent-ids", "silent_ids", "IDS", _ids, "IDs that never answer, e.g. 7,8"),
+    ("--overheat", "overheat_ids", "IDS", _ids, "servo IDs stuck above their limit"),
+    ("--voltage", "voltage", "V", float, "supply voltage (V)"),
+    ("--imu-noise", "imu_noise", "COUNTS", float, "IMU noise, standard deviation in counts"),
+    (
+        "--power-on-delay",
+        "power_on_delay_s",
+        "S",
+        float,
+        "servos answer this long after DXL_POWER is set (s)",
+    ),
+    (
+        "--realtime-priority",
+        "realtime_priority",
+        "N",
+        int,
+        "SCHED_FIFO priority of the serving thread, 1..99 (0: normal scheduling)",
+    ),
+    ("--link", "link", "PATH", str, "keep a symlink to the pty at this path (stable port path)"),
+)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--config", metavar="FILE", help="user config file (its [emulator] section)"
-    )
-    parser.add_argument(
-        "--seed", type=int, metavar="N", help="seed of every random draw (replays a run)"
     )
     parser.add_argument(
         "--no-wire-timing",
@@ -72,49 +99,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="answer at once instead of at 1 Mbps wire speed",
     )
-    parser.add_argument(
-        "--drop", metavar="P", type=_probability, help="probability of a dropped reply"
-    )
-    parser.add_argument(
-        "--corrupt", metavar="P", type=_probability, help="probability of a corrupted reply"
-    )
-    parser.add_argument(
-        "--delay", metavar="P", type=_probability, help="probability of a delayed reply"
-    )
-    parser.add_argument(
-        "--delay-ms", metavar="MS", type=float, help="how late a delayed reply is (ms)"
-    )
-    parser.add_argument(
-        "--silent-ids", metavar="IDS", type=_ids, help="IDs that never answer, e.g. 7,8"
-    )
-    parser.add_argument(
-        "--overheat",
-        type=_ids,
-        dest="overheat_ids",
-        metavar="IDS",
-        help="servo IDs stuck above their limit",
-    )
-    parser.add_argument("--voltage", metavar="V", type=float, help="supply voltage (V)")
-    parser.add_argument(
-        "--imu-noise", metavar="COUNTS", type=float, help="IMU noise, standard deviation in counts"
-    )
-    parser.add_argument(
-        "--power-on-delay",
-        type=float,
-        dest="power_on_delay_s",
-        metavar="S",
-        help="servos answer this long after DXL_POWER is set (s)",
-    )
-    parser.add_argument(
-        "--realtime-priority",
-        type=int,
-        metavar="N",
-        help="SCHED_FIFO priority of the serving thread, 1..99 (0: normal scheduling)",
-    )
+    for flag, dest, metavar, kind, text in _OVERRIDES:
+        parser.add_argument(flag, dest=dest, metavar=metavar, type=kind, help=text)
     add_physics_option(parser, "the plant behind the servos")
-    parser.add_argument(
-        "--link", metavar="PATH", help="keep a symlink to the pty at this path (stable port path)"
-    )
     parser.add_argument(
         "--control-listen", metavar="ENDPOINT", help="Zenoh endpoint for the control ops"
     )
@@ -127,22 +114,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def settings_from_args(args: argparse.Namespace) -> EmulatorSettings:
-    names = (
-        "seed",
-        "wire_timing",
-        "drop",
-        "corrupt",
-        "delay",
-        "delay_ms",
-        "silent_ids",
-        "overheat_ids",
-        "voltage",
-        "imu_noise",
-        "power_on_delay_s",
-        "realtime_priority",
-        "link",
-        "physics",
-    )
+    names = ("wire_timing", "physics", *(dest for _, dest, *_ in _OVERRIDES))
     return EmulatorSettings.load(args.config, **{n: getattr(args, n) for n in names})
 
 

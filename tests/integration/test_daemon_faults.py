@@ -4,12 +4,14 @@ watched."""
 
 from __future__ import annotations
 
+import contextlib
 import math
 import subprocess
 from collections.abc import Iterator
 
 import pytest
 
+from clients.robot import Robot
 from robot_daemon.sim.control import SimControl
 from schemas.errors import CommandError
 from schemas.messages import CameraFrame
@@ -25,6 +27,28 @@ def faulty_system() -> Iterator[RunningSystem]:
         sim_args=["--drop=0.01", "--corrupt=0.01", "--seed=7"], camera="sim", gateway=False
     ) as system:
         yield system
+
+
+@contextlib.contextmanager
+def robot_events(robot: Robot) -> Iterator[EventLog]:
+    """The robot's events, logged while the block runs."""
+    events = EventLog()
+    sub = robot.subscribe("events", events)
+    try:
+        yield events
+    finally:
+        sub.close()
+
+
+@contextlib.contextmanager
+def servo_fault(sim: SimControl, op: str, dxl_id: int, flag: str) -> Iterator[None]:
+    """The emulator's servo ``dxl_id`` faulty (control op ``op`` with ``flag`` true) while the
+    block runs, whatever the block raises."""
+    sim.call(op, id=dxl_id, **{flag: True})
+    try:
+        yield
+    finally:
+        sim.call(op, id=dxl_id, **{flag: False})
 
 
 def sim_goals(sim: SimControl) -> dict[str, float]:
@@ -59,12 +83,9 @@ def test_bad_replies_are_counted_and_no_unmeant_goal_is_written(
 
 
 def test_a_silent_servo_goes_offline_and_comes_back(faulty_system: RunningSystem) -> None:
-    with faulty_system.robot_client(name="silence") as robot:
+    with faulty_system.robot_client(name="silence") as robot, robot_events(robot) as events:
         sim = SimControl(robot.session, faulty_system.robot)
-        events = EventLog()
-        sub = robot.subscribe("events", events)
-        sim.call("silence", id=7, silent=True)
-        try:
+        with servo_fault(sim, "silence", 7, "silent"):
             status = robot.wait_for("status", lambda s: 7 in s.bus["offline"], timeout=15)
             assert status.state == "degraded"
             j = robot.wait_for("joints")
@@ -72,12 +93,9 @@ def test_a_silent_servo_goes_offline_and_comes_back(faulty_system: RunningSystem
             with robot.control(), pytest.raises(CommandError) as info:
                 robot.joint(7, 0.1)
             assert info.value.code == "unavailable" and info.value.field == "id"
-        finally:
-            sim.call("silence", id=7, silent=False)
         robot.wait_for("status", lambda s: 7 not in s.bus["offline"], timeout=15)
         events.wait(lambda e: e.kind == "servo_offline" and e.data.get("id") == 7)
         events.wait(lambda e: e.kind == "servo_online" and e.data.get("id") == 7)
-        sub.close()
 
 
 def test_a_vanished_port_is_reopened(faulty_system: RunningSystem) -> None:
@@ -159,17 +177,12 @@ def test_imu_is_published_in_si_units(faulty_system: RunningSystem) -> None:
 def test_an_overheating_servo_is_protected_and_reported(faulty_system: RunningSystem) -> None:
     with faulty_system.robot_client(name="thermal") as robot:
         sim = SimControl(robot.session, faulty_system.robot)
-        events = EventLog()
-        sub = robot.subscribe("events", events)
-        sim.call("overheat", id=5, on=True)
-        try:
-            robot.wait_for("status", lambda s: any(a["id"] == 5 for a in s.alarms), timeout=15)
-            robot.wait_for("status", lambda s: 5 in s.bus["torque_off"], timeout=15)
-            assert sim.call("state")["servos"]["5"]["torque"] is False
-        finally:
-            sim.call("overheat", id=5, on=False)
-        alarm = events.wait(lambda e: e.kind == "servo_alarm" and e.data["id"] == 5)
-        sub.close()
+        with robot_events(robot) as events:
+            with servo_fault(sim, "overheat", 5, "on"):
+                robot.wait_for("status", lambda s: any(a["id"] == 5 for a in s.alarms), timeout=15)
+                robot.wait_for("status", lambda s: 5 in s.bus["torque_off"], timeout=15)
+                assert sim.call("state")["servos"]["5"]["torque"] is False
+            alarm = events.wait(lambda e: e.kind == "servo_alarm" and e.data["id"] == 5)
         assert "overheating" in alarm.data["alarms"] and "torque off" in alarm.message
         with robot.control():  # torque back on only when someone asks
             robot.torque(True, [5])
@@ -180,9 +193,7 @@ def test_an_outage_halts_refuses_and_never_resumes(faulty_system: RunningSystem)
     with faulty_system.robot_client(name="outage") as robot:
         sim = SimControl(robot.session, faulty_system.robot)
         robot.wait_for("status", lambda s: s.state in ("running", "degraded"), timeout=30)
-        events = EventLog()
-        sub = robot.subscribe("events", events)
-        with robot.control():
+        with robot_events(robot) as events, robot.control():
             robot.walk(x=0.05)
             events.wait(lambda e: e.kind == "walk" and e.data.get("state") == "started")
             sim.call("vanish")
@@ -215,7 +226,6 @@ def test_an_outage_halts_refuses_and_never_resumes(faulty_system: RunningSystem)
                 assert status.motion["walking"]["walking"] is False
                 assert set(status.motion["owners"].values()) == {None}
             last = robot.wait_for("joints")
-        sub.close()
         moved = [abs(a - b) for a, b in zip(first.position, last.position, strict=True)]
         assert max(moved) < math.radians(2), moved
         assert not [

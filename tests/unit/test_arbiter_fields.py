@@ -3,11 +3,14 @@ the lease check and the handler: nothing reaches the bus."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from robot_daemon.arbiter.protected import PROTECTED
-from robot_daemon.arbiter.registry import REGISTRY, SPECS, Reject
+from robot_daemon.arbiter.registry import REGISTRY, SPECS, Reject, Request
 from robot_daemon.bus.tables import CM730, MX28
+from robot_daemon.motion.manager import MotionManager
 from schemas.commands import COMMAND_FIELDS
 from schemas.keys import VERBS
 from tests.unit.arbiter_rig import ArbiterRig
@@ -161,3 +164,20 @@ def test_dxl_power_with_the_switch_is_written_and_read_back() -> None:
     token = rig.acquire()
     applied = rig.send("registers", lease_token=token, id=200, address=24, data=[1])
     assert applied["readback"] == [1] and applied["verified"] is True
+
+
+@pytest.mark.parametrize(
+    ("verb", "fields", "message"),
+    [
+        ("walk", {"op": "stop"}, "the walking module is not part of this daemon"),
+        ("playball", {"op": "stop"}, "ball play is not part of this daemon"),
+        ("joint", {"id": 19, "position": 0.1}, "direct joint control is not part of this daemon"),
+    ],
+)
+def test_a_verb_whose_module_this_daemon_lacks_is_unavailable_naming_it(
+    rig: ArbiterRig, verb: str, fields: dict, message: str
+) -> None:
+    ctx = dataclasses.replace(rig.context(), manager=MotionManager(rig.robot))
+    with pytest.raises(Reject) as info:
+        REGISTRY[verb](Request(verb, "c1", "tester", fields), ctx)
+    assert info.value.code == "unavailable" and info.value.message == message

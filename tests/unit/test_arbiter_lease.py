@@ -31,6 +31,17 @@ def make(
     return Lease(idle, on_change, clock, heartbeat_timeout=heartbeat), clock, changes
 
 
+def renewed_each_second(lease: Lease, clock: Clock, token: str, seconds: int) -> int | None:
+    """Client "a" renews the lease once a second for ``seconds``: the second the lease expired
+    at, or None if it held."""
+    for second in range(1, seconds + 1):
+        clock.t += 1.0
+        lease.renew("a", token)
+        if lease.expire():
+            return second
+    return None
+
+
 def test_one_holder_and_busy_for_others() -> None:
     lease, _, changes = make()
     token = lease.acquire("a", "alice").token
@@ -99,10 +110,7 @@ def test_vanished_client_loses_it() -> None:
 def test_a_silent_holder_loses_it_and_renewals_keep_it() -> None:
     lease, clock, changes = make(idle=60.0, heartbeat=1.5)
     token = lease.acquire("a", "alice").token
-    for _ in range(10):
-        clock.t += 1.0
-        lease.renew("a", token)
-        assert lease.expire() is False
+    assert renewed_each_second(lease, clock, token, 10) is None
     clock.t += 1.0
     assert lease.expire() is False
     clock.t += 0.6
@@ -113,11 +121,7 @@ def test_a_silent_holder_loses_it_and_renewals_keep_it() -> None:
 def test_renewals_do_not_count_as_commands_for_the_idle_timeout() -> None:
     lease, clock, changes = make(idle=10.0, heartbeat=1.5)
     token = lease.acquire("a", "alice").token
-    for _ in range(11):
-        clock.t += 1.0
-        lease.renew("a", token)
-        if lease.expire():
-            break
+    assert renewed_each_second(lease, clock, token, 11) is not None
     assert changes[-1][1] is None and "idle" in changes[-1][2]
 
 

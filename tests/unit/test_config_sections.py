@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import pytest
 
-from config.loader import load_all, nearest, refuse_unknown, section_to
+from config.loader import load_all, nearest, ranged, refuse_unknown, section_to
 from gateway.settings import load_settings
 from robot_daemon.arbiter.lease import Lease
 from robot_daemon.arbiter.throttle import ArbiterLimits
@@ -73,6 +73,29 @@ def test_a_table_becomes_its_dataclass_with_values_converted_to_the_field_types(
 def test_a_bad_table_is_one_clear_error_naming_the_key(values: dict, message: str) -> None:
     with pytest.raises(ConfigError, match=message):
         section_to(Table, values, "t")
+
+
+@dataclass(frozen=True)
+class Limits:
+    rate: float = ranged(2.0, 0.5, 10)
+    count: int = ranged(1, 1)
+    floor: float = ranged(0.0, None, 0)
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"rate": 11}, r"\[t\] rate must be within 0.5..10, not 11.0"),
+        ({"count": 0}, r"\[t\] count must be at least 1, not 0"),
+        ({"floor": 1}, r"\[t\] floor must be at most 0, not 1.0"),
+    ],
+)
+def test_a_value_outside_the_range_its_field_declares_is_refused(
+    values: dict, message: str
+) -> None:
+    assert section_to(Limits, {"rate": 10, "count": 5, "floor": -3}, "t") == Limits(10.0, 5, -3.0)
+    with pytest.raises(ConfigError, match=message):
+        section_to(Limits, values, "t")
 
 
 def test_skipped_keys_belong_to_another_reader_and_given_fields_are_not_read() -> None:

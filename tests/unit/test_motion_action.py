@@ -13,35 +13,24 @@ from robot_daemon.motion.action.binfile import Page, Step
 from robot_daemon.motion.action.library import MotionLibrary, load_library
 from robot_daemon.motion.action.player import ActionModule
 from robot_daemon.motion.direct import DirectModule
-from robot_daemon.motion.interface import JointFrame
 from robot_daemon.motion.manager import MotionManager
 from schemas.units import deg_to_raw
+from tests.unit.motion_rig import DT, PerfectServos
 
-DT = 0.008
 
-
-class Rig:
-    """A manager stepped with perfect servos: every goal is reached by the next tick."""
-
+class Rig(PerfectServos):
     def __init__(self, pages: list[Page]) -> None:
-        self.manager = MotionManager(load_robot())
+        super().__init__(MotionManager(load_robot()))
         self.action = ActionModule(MotionLibrary(pages))
         self.direct = DirectModule()
         self.manager.add(self.action)
         self.manager.add(self.direct)
-        self.pos = np.zeros(21)
-        self.tick = 0
         self.trace: list[np.ndarray] = []
 
     def run(self, ticks: int) -> None:
         for _ in range(ticks):
-            frame = JointFrame(self.tick, self.tick * DT, DT, position=self.pos.copy())
-            frame.online[:] = True
-            out = self.manager.step(frame)
-            for j, g in out.goal.items():
-                self.pos[j] = g
+            self.step()
             self.trace.append(self.pos.copy())
-            self.tick += 1
 
     def run_until_idle(self, limit: int = 5000) -> int:
         start = self.tick

@@ -6,17 +6,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
 import pytest
 
 from config.loader import load_all, load_robot
 from robot_daemon.arbiter.registry import REGISTRY, MotionContext, Reject, Request
 from robot_daemon.arbiter.verbs import load_all as load_verbs
 from robot_daemon.motion.behaviours import BehaviourError, BehaviourLibrary
-from robot_daemon.motion.interface import JointFrame
 from robot_daemon.motion.setup import build_manager
-
-DT = 0.008
+from tests.unit.motion_rig import PerfectServos
 
 
 class RecordingBus:
@@ -33,15 +30,13 @@ class RecordingBus:
     def write_registers(self, dxl_id: int, address: int, data: bytes) -> None: ...
 
 
-class Rig:
+class Rig(PerfectServos):
     def __init__(self) -> None:
         load_verbs()
         self.robot = load_robot()
         self.settings = load_all()
-        self.manager = build_manager(self.robot, self.settings)
+        super().__init__(build_manager(self.robot, self.settings))
         self.bus = RecordingBus()
-        self.pos = np.zeros(21)
-        self.tick = 0
         self.events: list[tuple[str, str, dict[str, Any]]] = []
 
     def call(self, verb: str, **fields: Any) -> dict[str, Any]:
@@ -57,12 +52,7 @@ class Rig:
 
     def run(self, ticks: int) -> None:
         for _ in range(ticks):
-            f = JointFrame(self.tick, self.tick * DT, DT, position=self.pos.copy())
-            f.online[:] = True
-            out = self.manager.step(f)
-            for j, g in out.goal.items():
-                self.pos[j] = g
-            self.tick += 1
+            self.step()
             self.events += self.manager.drain_events()
 
     def choreo_events(self) -> list[tuple[str, Any]]:

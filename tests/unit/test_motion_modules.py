@@ -12,28 +12,21 @@ from config.loader import load_all, load_robot
 from robot_daemon.motion.interface import JointFrame
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.motion.sound import SoundPlayer
+from tests.unit.motion_rig import DT, PerfectServos
 
-DT = 0.008
 
-
-class Rig:
+class Rig(PerfectServos):
     def __init__(self) -> None:
         self.settings = load_all()
-        self.manager = build_manager(load_robot(), self.settings)
-        self.pos = np.zeros(21)
+        super().__init__(build_manager(load_robot(), self.settings))
         self.accel_y = 512
-        self.tick = 0
 
     def run(self, ticks: int) -> None:
         for _ in range(ticks):
-            f = JointFrame(self.tick, self.tick * DT, DT, position=self.pos.copy())
-            f.online[:] = True
+            f = self.frame()
             # Robot x = the CM-730's accel Y; lying (accel Y off centre) gravity leaves accel Z.
             f.accel_raw = np.array([self.accel_y, 512, 640 if self.accel_y == 512 else 512])
-            out = self.manager.step(f)
-            for j, g in out.goal.items():
-                self.pos[j] = g
-            self.tick += 1
+            self.step(f)
 
     def m(self, name: str):
         return self.manager.module(name)

@@ -21,32 +21,25 @@ from robot_daemon.motion.walking.gait import (
 from robot_daemon.motion.walking.params import WalkParams
 from schemas.gait import GAIT_PARAM_UNITS, gait_label
 from schemas.kinematics import leg_fk
+from tests.unit.motion_rig import DT, PerfectServos
 
-DT = 0.008
 
-
-class Rig:
+class Rig(PerfectServos):
     def __init__(self, **params: object) -> None:
         self.robot = load_robot()
-        self.manager = MotionManager(self.robot)
+        super().__init__(MotionManager(self.robot))
         p = WalkParams.from_config(load_all()["walking"])
         p.update(dict(params))
         self.walk = WalkingModule(p)
         self.manager.add(self.walk)
-        self.pos = np.zeros(21)
-        self.tick = 0
         self.goals: list[dict[int, float]] = []
         self.gyro = np.full(3, 512)
 
     def run(self, ticks: int) -> None:
         for _ in range(ticks):
-            f = JointFrame(self.tick, self.tick * DT, DT, position=self.pos.copy())
+            f = self.frame()
             f.gyro_raw = self.gyro.copy()
-            out = self.manager.step(f)
-            for j, g in out.goal.items():
-                self.pos[j] = g
-            self.goals.append(dict(out.goal))
-            self.tick += 1
+            self.goals.append(dict(self.step(f).goal))
 
     def run_while_walking(self, limit: int = 3000) -> int:
         n = 0

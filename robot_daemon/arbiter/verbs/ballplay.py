@@ -21,13 +21,6 @@ from schemas.errors import ConfigError, ErrorCode
 _VISION_ATTR = "_vision"
 
 
-def _module(ctx: MotionContext) -> BallPlayModule:
-    module = ctx.manager.get("ball")
-    if not isinstance(module, BallPlayModule):
-        raise Reject(ErrorCode.UNAVAILABLE, "ball play is not part of this daemon's motion setup")
-    return module
-
-
 def _stop_vision(module: BallPlayModule) -> None:
     vision: BallVision | None = getattr(module, _VISION_ATTR, None)
     if vision is not None:
@@ -38,7 +31,7 @@ def _stop_vision(module: BallPlayModule) -> None:
 @verb("playball")
 def playball(req: Request, ctx: MotionContext) -> dict[str, Any]:
     op = F.text(req.fields, "op", {"start", "stop"})
-    module = _module(ctx)
+    module = ctx.module("ball", BallPlayModule, "ball play")
     if op == "stop":
         module.stop()
         _stop_vision(module)

@@ -27,10 +27,7 @@ def _bus_error(exc: BusError) -> Reject:
 
 
 def _direct(ctx: MotionContext) -> DirectModule:
-    module = ctx.manager.get("direct")
-    if not isinstance(module, DirectModule):
-        raise Reject(ErrorCode.UNAVAILABLE, "direct joint control is not part of this daemon")
-    return module
+    return ctx.module("direct", DirectModule, "direct joint control")
 
 
 def _check_online(ctx: MotionContext, jid: int, field_name: str) -> None:

@@ -23,13 +23,6 @@ from schemas.errors import ErrorCode
 MAX_ITEMS = 256
 
 
-def _module(ctx: MotionContext, name: str, kind: type) -> Any:
-    module = ctx.manager.get(name)
-    if not isinstance(module, kind):
-        raise Reject(ErrorCode.UNAVAILABLE, f"the {name} module is not part of this daemon")
-    return module
-
-
 def _behaviour_error(exc: BehaviourError, prefix: str = "") -> Reject:
     code = ErrorCode.UNKNOWN if "no " in str(exc)[:4] else ErrorCode.INVALID
     return Reject(code, f"{prefix}{exc}", exc.field)
@@ -38,7 +31,7 @@ def _behaviour_error(exc: BehaviourError, prefix: str = "") -> Reject:
 # -- action ------------------------------------------------------------------------------------
 @verb("action")
 def action(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    player: ActionModule = _module(ctx, "action", ActionModule)
+    player: ActionModule = ctx.module("action", ActionModule)
     op = F.text(req.fields, "op", {"play", "stop", "brake"}, default="play")
     if op == "stop":
         player.stop()
@@ -48,7 +41,7 @@ def action(req: Request, ctx: MotionContext) -> dict[str, Any]:
         return {"op": op, "playing": player.playing}
     say = None
     if req.fields.get("behaviour") is not None:
-        choreo: ChoreographyModule = _module(ctx, "choreography", ChoreographyModule)
+        choreo: ChoreographyModule = ctx.module("choreography", ChoreographyModule)
         try:
             b = choreo.behaviours.get(req.fields["behaviour"])
         except BehaviourError as exc:
@@ -82,7 +75,7 @@ def action(req: Request, ctx: MotionContext) -> dict[str, Any]:
         "next": page.next,
     }
     if say:
-        choreo = _module(ctx, "choreography", ChoreographyModule)
+        choreo = ctx.module("choreography", ChoreographyModule)
         applied["sound"] = choreo.sound.play(ctx.emit, say=say)
     return applied
 
@@ -95,7 +88,7 @@ def _speed_limits(walking: WalkingModule) -> tuple[float, float, float]:
 
 @verb("walk")
 def walk(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    walking: WalkingModule = _module(ctx, "walking", WalkingModule)
+    walking: WalkingModule = ctx.module("walking", WalkingModule)
     op = F.text(req.fields, "op", {"start", "set", "stop"}, default="start")
     if op == "stop":
         walking.stop()
@@ -126,7 +119,7 @@ def walk(req: Request, ctx: MotionContext) -> dict[str, Any]:
 
 @verb("walk_params")
 def walk_params(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    walking: WalkingModule = _module(ctx, "walking", WalkingModule)
+    walking: WalkingModule = ctx.module("walking", WalkingModule)
     changes = req.fields.get("set")
     changed: dict[str, Any] = {}
     if changes is not None:
@@ -150,7 +143,7 @@ def walk_params(req: Request, ctx: MotionContext) -> dict[str, Any]:
 # -- head --------------------------------------------------------------------------------------
 @verb("head")
 def head(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    module: HeadModule = _module(ctx, "head", HeadModule)
+    module: HeadModule = ctx.module("head", HeadModule)
     f = req.fields
     try:
         if f.get("op") is not None:
@@ -214,7 +207,7 @@ def _is_walk(item: dict[str, Any], choreo: ChoreographyModule) -> bool:
 
 @verb("choreography")
 def choreography(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    choreo: ChoreographyModule = _module(ctx, "choreography", ChoreographyModule)
+    choreo: ChoreographyModule = ctx.module("choreography", ChoreographyModule)
     op = F.text(req.fields, "op", {"play", "stop"}, default="play")
     if op == "stop":
         was = choreo.playing
@@ -226,9 +219,9 @@ def choreography(req: Request, ctx: MotionContext) -> dict[str, Any]:
     if len(raw) > MAX_ITEMS:
         raise Reject(ErrorCode.OUT_OF_RANGE, f"at most {MAX_ITEMS} items", "items")
     lang = F.text(req.fields, "lang", {"en", "pt"}, default="en")
-    player: ActionModule = _module(ctx, "action", ActionModule)
-    walking: WalkingModule = _module(ctx, "walking", WalkingModule)
-    head_mod: HeadModule = _module(ctx, "head", HeadModule)
+    player: ActionModule = ctx.module("action", ActionModule)
+    walking: WalkingModule = ctx.module("walking", WalkingModule)
+    head_mod: HeadModule = ctx.module("head", HeadModule)
     xm, ym, tm = _speed_limits(walking)
     items: list[Item] = []
     for i, r in enumerate(_expand_legacy(raw, choreo)):
@@ -265,7 +258,7 @@ def choreography(req: Request, ctx: MotionContext) -> dict[str, Any]:
 
 @verb("sound")
 def sound(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    choreo: ChoreographyModule = _module(ctx, "choreography", ChoreographyModule)
+    choreo: ChoreographyModule = ctx.module("choreography", ChoreographyModule)
     file = F.text(req.fields, "file", default=None)
     say = F.text(req.fields, "say", default=None)
     lang = F.text(req.fields, "lang", {"en", "pt"}, default=None)
@@ -281,6 +274,6 @@ def sound(req: Request, ctx: MotionContext) -> dict[str, Any]:
 
 @verb("behaviours")
 def behaviours(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    choreo: ChoreographyModule = _module(ctx, "choreography", ChoreographyModule)
-    player: ActionModule = _module(ctx, "action", ActionModule)
+    choreo: ChoreographyModule = ctx.module("choreography", ChoreographyModule)
+    player: ActionModule = ctx.module("action", ActionModule)
     return {**choreo.behaviours.listing(), "pages": player.library.listing()}
