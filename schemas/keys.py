@@ -114,6 +114,14 @@ class Keys:
             raise ValueError(f"unknown command verb {verb!r}; known verbs: {', '.join(VERBS)}")
         return f"{self.prefix}/admin/{verb}"
 
+    def read(self, verb: str) -> str:
+        """Where the read-only operations of a verb whose other operations change the robot
+        go (``schemas.roles.READ_OPS``, e.g. ``walk_params`` without ``set``): a key of their
+        own, so that access control can give observers the read and operators the write."""
+        if verb not in VERBS:
+            raise ValueError(f"unknown command verb {verb!r}; known verbs: {', '.join(VERBS)}")
+        return f"{self.prefix}/read/{verb}"
+
     def role(self, role: str) -> str:
         """A queryable the daemon serves per role; access control lets a caller reach only
         its own roles' keys, so the ones that answer tell a client what it may do."""

@@ -28,7 +28,7 @@ from schemas.errors import ConfigError
 from schemas.keys import ROOT, Keys
 from schemas.messages import ok_reply
 from schemas.query import answer
-from schemas.roles import LADDER, READ_VERBS, Role
+from schemas.roles import LADDER, READ_OP_VERBS, READ_VERBS, SIM_CONTROL_ROLE, Role
 
 ALL_MESSAGES = [
     "put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
@@ -38,10 +38,12 @@ INTERNAL_PROTOCOLS = ["unixsock-stream"]
 
 # role → ingress queries it adds over the role below it (key expressions).
 _QUERIES: dict[Role, list[str]] = {
-    Role.OBSERVER: [f"{ROOT}/*/cmd/{v}" for v in sorted(READ_VERBS)] + [f"{ROOT}/*/role/observer"],
+    Role.OBSERVER: [f"{ROOT}/*/cmd/{v}" for v in sorted(READ_VERBS)]
+    + [f"{ROOT}/*/read/{v}" for v in READ_OP_VERBS] + [f"{ROOT}/*/role/observer"],
     Role.OPERATOR: [f"{ROOT}/*/cmd/*", f"{ROOT}/*/replay/control", f"{ROOT}/*/role/operator"],
-    Role.ADMIN: [f"{ROOT}/*/admin/*", f"{ROOT}/*/sim/control", f"{ROOT}/*/role/admin"],
+    Role.ADMIN: [f"{ROOT}/*/admin/*", f"{ROOT}/*/role/admin"],
 }
+_QUERIES[SIM_CONTROL_ROLE].append(f"{ROOT}/*/sim/control")
 
 
 def _rules() -> list[dict[str, Any]]:
