@@ -36,6 +36,17 @@ VERBS: tuple[str, ...] = (
 # Verbs that are accepted without the control lease (they never move the robot, or stop it).
 LEASE_FREE_VERBS: frozenset[str] = frozenset({"lease", "halt", "config", "behaviours"})
 
+# rmw_zenoh's key space (``clients/ros2/graph.py``), beside ours on the same routers: liveliness
+# tokens under ``@ros2_lv/<domain>/…``, data and services under ``<domain>/…``.
+ROS_LIVELINESS = "@ros2_lv"
+ROS_DOMAINS = range(233)  # ROS domain ids 0..232
+
+
+def ros_key_space() -> list[str]:
+    """Key expressions covering the whole ROS 2 key space (access control's ROS rules)."""
+    return [f"{ROS_LIVELINESS}/**", *(f"{d}/**" for d in ROS_DOMAINS)]
+
+
 _ROBOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 

@@ -9,6 +9,7 @@ import signal
 import sys
 import threading
 
+from schemas.keys import ROS_DOMAINS
 from schemas.session import (
     Credentials,
     add_target_arguments,
@@ -60,8 +61,11 @@ def _domain(value: int | None) -> int:
             raise SystemExit(
                 f"darwin ros2: ROS_DOMAIN_ID={raw!r} is not a number; unset it or fix it"
             ) from None
-    if not 0 <= domain <= 232:
-        raise SystemExit(f"darwin ros2: domain {domain} is outside ROS's 0..232; pass --domain")
+    if domain not in ROS_DOMAINS:
+        raise SystemExit(
+            f"darwin ros2: domain {domain} is outside ROS's {ROS_DOMAINS[0]}..{ROS_DOMAINS[-1]}; "
+            "pass --domain"
+        )
     return domain
 
 

@@ -52,6 +52,14 @@ def test_reads_that_share_a_verb_with_a_write_have_a_key_observers_may_query() -
     assert "darwin/*/sim/control" in rules["query-admin"]["key_exprs"]
 
 
+def test_the_ros_key_space_is_watched_by_observers_and_driven_by_operators() -> None:
+    assert "ros-watch" in rules_of(Role.OBSERVER) and "ros-drive" not in rules_of(Role.OBSERVER)
+    assert "ros-drive" in rules_of(Role.OPERATOR) and "ros-drive" in rules_of(Role.ADMIN)
+    rules = {r["id"]: r for r in access_control({"b": User("b", Role.OBSERVER, "pw-1")})["rules"]}
+    assert {"@ros2_lv/**", "0/**", "232/**"} <= set(rules["ros-drive"]["key_exprs"])
+    assert not any(k.startswith("darwin") for k in rules["ros-drive"]["key_exprs"])
+
+
 def test_access_control_gives_each_role_its_rules_by_name_and_certificate() -> None:
     acl = access_control({
         "bob": User("bob", Role.OBSERVER, "password-1"),
