@@ -88,6 +88,27 @@ def test_adapter_roles_are_per_adapter(tmp_path: Path, users: Path) -> None:
     assert "Traceback" not in done.stderr
 
 
+def test_a_watch_only_foxglove_reads_the_gait_parameters_but_cannot_set_them(
+    users: Path,
+) -> None:
+    pytest.importorskip("foxglove")
+    from tests.foxglove_ws import FoxgloveClient
+
+    listen = f"127.0.0.1:{free_tcp_port()}"
+    extra = ["--auth", str(users), "--foxglove", "--foxglove-listen", listen,
+             "--adapter-role", "foxglove=observer"]
+    with start_system(extra_args=extra, gateway=False) as system:
+        line = system.wait_line(lambda x: x.startswith("foxglove: "))
+        with FoxgloveClient.open(line.split(" ", 1)[1].strip()) as fc:
+            params = {p["name"]: p["value"] for p in fc.get_parameters([], "all")}
+            assert params["walk/period_time"] > 0  # darwin-foxglove, an observer, reads them
+            old = params["walk/foot_height"]
+            reply = fc.set_parameters([{"name": "walk/foot_height", "value": old + 5,
+                                        "type": "float64"}], "w1")
+            assert reply[0]["value"] == old
+            assert "operator" in fc.status_matching("walking parameters not changed")["message"]
+
+
 # -- the UI of `darwin up --tui` --------------------------------------------------------------
 
 
