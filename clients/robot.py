@@ -56,7 +56,7 @@ from schemas.messages import (
 from schemas.query import ask
 from schemas.roles import LADDER, Role, command_key, discover_role, parse_role, required_role
 from schemas.roles import check as check_role
-from schemas.session import Credentials, Target, open_client, resolve
+from schemas.session import Credentials, Target, login_hint, open_client, resolve
 from schemas.session import credentials as make_credentials
 
 log = logging.getLogger(__name__)
@@ -175,18 +175,10 @@ class Commander:
         try:
             self.session = session or open_client(self.target)
         except zenoh.ZError as exc:
-            who = self.target.credentials.identity if self.target.credentials else None
-            login = (
-                f" as {who}: check the user, password or certificate (a robot with --auth or "
-                "--secure refuses a wrong one at connection)"
-                if who
-                else "; if it runs with --auth or --secure, pass --user/--password-file or "
-                "--cert/--key (README, \"Roles and security\")"
-            )
             raise RobotUnreachableError(
                 f"cannot open a Zenoh session to {self.target.endpoint}: {exc}. "
                 f"Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT"
-                f"{login}"
+                f"{login_hint(self.target.credentials)}"
             ) from exc
         # The role is what the robot's access control grants us, learnt from it on first need
         # (``role``); ``role`` given caps it (a gateway running with --role observer).

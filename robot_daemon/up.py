@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from config.loader import load_all
+from robot_daemon.adapter_logins import ADAPTERS, UI, adapter_login, roles, ui_login
 from robot_daemon.children import Child, ChildError, relay_to_stderr
 from robot_daemon.daemon_cli import _resolve_listen, router_of
 from robot_daemon.security.acl import check_listen
@@ -40,7 +41,7 @@ from robot_daemon.security.options import (
 )
 from robot_daemon.sim.settings import add_forwarded_options, add_physics_option
 from schemas.errors import ConfigError
-from schemas.roles import LADDER, parse_role
+from schemas.roles import LADDER, Role
 from schemas.session import add_credential_arguments, credential_args
 
 START_TIMEOUT = 30.0
@@ -105,13 +106,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--web-listen", metavar="HOST:PORT", help="where browsers connect")
     add_security_arguments(parser)
-    add_credential_arguments(parser)  # with --router: who this robot (and its adapters) are
+    add_credential_arguments(parser)  # with --router: who this robot is (not its adapters)
     parser.add_argument(
         "--adapter-role",
-        choices=[str(r) for r in LADDER],
-        default="operator",
-        help="with --auth/--secure: the role of the adapters started here (gateway, ros2, "
-        "foxglove, web), each logging in as darwin-NAME (default operator)",
+        action="append",
+        metavar="[NAME=]ROLE",
+        help=f"the role of the adapters started here ({', '.join((*ADAPTERS, UI))}; ROLE: "
+        f"{', '.join(LADDER)}): one for all, or NAME=ROLE for one, repeatable (default: "
+        "[adapters.NAME] role, operator); with --auth/--secure each logs in as darwin-NAME",
     )
 
 
@@ -190,11 +192,10 @@ def run(args: argparse.Namespace) -> int:
             check_listen([listen], security)  # a tcp/ endpoint under --secure, before anything
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
-    internal = None
-    if security is not None:
-        internal = Internal(security, parse_role(args.adapter_role, people_only=True))
+    adapter_roles = roles(settings, args.adapter_role)  # a bad role fails before anything runs
+    internal = Internal(security) if security is not None else None
     try:
-        return _run(args, settings, listen, router, internal)
+        return _run(args, settings, listen, router, internal, adapter_roles)
     finally:
         if internal is not None:
             internal.close()
@@ -206,14 +207,17 @@ def _run(
     listen: str | None,
     router: str | None,
     internal: Internal | None,
+    adapter_roles: dict[str, Role],
 ) -> int:
-    def login(adapter: str) -> list[str]:
-        if router:  # through the router, as this robot's identity (the router's rules)
-            return credential_args(args)
-        return internal.identity_args(adapter) if internal is not None else []
-
     # Identities first: the daemon's merged identities file must list every adapter.
-    logins = {name: login(name) for name in ("gateway", "ros2", "foxglove", "web")}
+    logins = {
+        name: adapter_login(name, adapter_roles[name], settings, args, router, internal)
+        for name in ADAPTERS
+    }
+    ui = ui_login(adapter_roles[UI], settings, args, router, internal) if args.tui else None
+    if ui is not None and ui.refused:
+        say(ui.refused)
+        return 2
     # In a fleet several `darwin up` share a machine: their servers take free ports unless
     # told otherwise (each prints where it listens).
     free = "127.0.0.1:0" if router else None
@@ -239,8 +243,11 @@ def _run(
             print("gateway: none (--no-gateway)", flush=True)
         elif not gateway_available():
             print("gateway: none (not in this build)", flush=True)
+        elif logins["gateway"].refused:
+            print(f"gateway: none ({logins['gateway'].refused})", flush=True)
         else:
-            gw = ["gateway", "--connect", endpoint, "--robot", robot, *logins["gateway"]]
+            gw = ["gateway", "--connect", endpoint, "--robot", robot, *logins["gateway"].args]
+            gw += ["--role", str(logins["gateway"].role)]  # at most its role, whoever it is
             gw_listen = args.gateway_listen or free or settings.get("gateway", {}).get("listen")
             if gw_listen:
                 gw += ["--listen", gw_listen]
@@ -255,18 +262,21 @@ def _run(
             ("foxglove", args.foxglove, args.foxglove_listen or free),
             ("web", args.web, args.web_listen or free),
         ):
-            if wanted:
+            if wanted and logins[name].refused:
+                print(f"{name}: none ({logins[name].refused})", flush=True)
+            elif wanted:
                 extra = ["--listen", where] if where else []
-                command = [name, "--connect", endpoint, "--robot", robot, *logins[name], *extra]
+                command = [name, "--connect", endpoint, "--robot", robot, *logins[name].args]
+                command += extra
                 child = Child(name, command, relay)
                 children.append(child)
                 adapters.append(Adapter(child))
                 print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
-        if args.tui:
-            # The UI is a person: it logs in with up's --user… (else DARWIN_USER, the client
-            # file); under --secure it trusts the installation's CA unless told otherwise.
-            login = credential_args(args)
-            if internal is not None and internal.security.tls and not args.ca:
+        if ui is not None:
+            # The UI is a person (adapter_logins.ui_login), never the robot; under --secure it
+            # trusts the installation's CA unless told otherwise.
+            login = list(ui.args)
+            if internal is not None and internal.security.tls and "--ca" not in login:
                 login += ["--ca", str(ca_paths(internal.security.certs_dir).cert)]
             return run_tui(endpoint, robot, login)
         # Run until a signal or the daemon's death; adapters that die are started again.

@@ -38,7 +38,7 @@ Angles are rad, speeds rad/s or m/s, durations s. Joints are named by id (1..20)
 | registers | id, address, length (read) \\| id, address, data: [bytes] (write; see below) | write |
 | action | op: "play" \\| "stop" \\| "brake", page: int \\| name: str \\| behaviour: id | play |
 | walk | op: "start" \\| "set" \\| "stop", x: m/s, y: m/s, turn: rad/s | start/set |
-| walk_params | set: {name: value} (absent = read) | set |
+| walk_params | set: {name: value} (absent = read, also on ``read/walk_params``) | set |
 | head | pan: rad, tilt: rad \\| track: {pan_error, tilt_error} \\| op: "home" | yes |
 | choreography | op: "play", items: [item…] \\| op: "stop" | play |
 | sound | file: path \\| say: text | yes |

@@ -36,6 +36,17 @@ VERBS: tuple[str, ...] = (
 # Verbs that are accepted without the control lease (they never move the robot, or stop it).
 LEASE_FREE_VERBS: frozenset[str] = frozenset({"lease", "halt", "config", "behaviours"})
 
+# rmw_zenoh's key space (``clients/ros2/graph.py``), beside ours on the same routers: liveliness
+# tokens under ``@ros2_lv/<domain>/…``, data and services under ``<domain>/…``.
+ROS_LIVELINESS = "@ros2_lv"
+ROS_DOMAINS = range(233)  # ROS domain ids 0..232
+
+
+def ros_key_space() -> list[str]:
+    """Key expressions covering the whole ROS 2 key space (access control's ROS rules)."""
+    return [f"{ROS_LIVELINESS}/**", *(f"{d}/**" for d in ROS_DOMAINS)]
+
+
 _ROBOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 
@@ -113,6 +124,14 @@ class Keys:
         if verb not in VERBS:
             raise ValueError(f"unknown command verb {verb!r}; known verbs: {', '.join(VERBS)}")
         return f"{self.prefix}/admin/{verb}"
+
+    def read(self, verb: str) -> str:
+        """Where the read-only operations of a verb whose other operations change the robot
+        go (``schemas.roles.READ_OPS``, e.g. ``walk_params`` without ``set``): a key of their
+        own, so that access control can give observers the read and operators the write."""
+        if verb not in VERBS:
+            raise ValueError(f"unknown command verb {verb!r}; known verbs: {', '.join(VERBS)}")
+        return f"{self.prefix}/read/{verb}"
 
     def role(self, role: str) -> str:
         """A queryable the daemon serves per role; access control lets a caller reach only

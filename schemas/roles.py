@@ -6,11 +6,15 @@ enforcement, on key expressions; this table is why an operation that only differ
 by its payload (a register *write* next to a register read) has a key of its own,
 ``darwin/<robot>/admin/<verb>`` (:func:`command_key`): the arbiter serves the admin-only
 operations there alone (``forbidden`` on ``cmd/``), so the ACL can give that key to admins only.
+Likewise a read that shares its verb with a write (``walk_params`` without ``set``) has
+``darwin/<robot>/read/<verb>`` (:data:`READ_OPS`), the key observers may query.
 
-- observer: subscribe to everything, read ``config`` and ``behaviours`` (status is published);
+- observer: subscribe to everything, read ``config``, ``behaviours`` and the gait parameters
+  (``walk_params`` without ``set``; status is published);
 - operator: observer + every command verb, the lease, and replay control;
 - admin: operator + register writes (EEPROM and protected registers), page library writes
-  (pages put/delete/reload: files on the robot's disk) and the emulator's control interface.
+  (pages put/delete/reload: files on the robot's disk) and the emulator's control interface
+  (:data:`SIM_CONTROL_ROLE`).
 
 ``robot`` is not a person's role: it is the identity a daemon uses to join an authenticated
 router (it publishes and serves its whole key space).
@@ -46,6 +50,16 @@ ADMIN_OPS: dict[str, frozenset[str]] = {
 }
 ADMIN_VERBS: tuple[str, ...] = tuple(ADMIN_OPS)
 
+# verb → its read-only ops that an observer may send, where the verb's other ops change the
+# robot; they travel on ``read/<verb>`` (the writes stay on ``cmd/<verb>``, for operators).
+READ_OPS: dict[str, frozenset[str]] = {
+    "walk_params": frozenset({"read"}),
+}
+READ_OP_VERBS: tuple[str, ...] = tuple(READ_OPS)
+
+# The emulator's control interface (``Keys.sim_control``: world ops, faults): admins only.
+SIM_CONTROL_ROLE = Role.ADMIN
+
 
 def parse_role(text: str, people_only: bool = False) -> Role:
     """The role named ``text``, or ``ValueError`` listing the roles."""
@@ -63,6 +77,8 @@ def op_of(verb: str, fields: dict[str, Any]) -> str:
     """The operation a command does, as :data:`ADMIN_OPS` names it."""
     if verb == "registers":
         return "write" if fields.get("data") is not None else "read"
+    if verb == "walk_params":
+        return "set" if fields.get("set") is not None else "read"
     op = fields.get("op")
     return op if isinstance(op, str) else ""
 
@@ -71,44 +87,60 @@ def is_admin_op(verb: str, fields: dict[str, Any]) -> bool:
     return op_of(verb, fields) in ADMIN_OPS.get(verb, frozenset())
 
 
+def is_read_op(verb: str, fields: dict[str, Any]) -> bool:
+    return op_of(verb, fields) in READ_OPS.get(verb, frozenset())
+
+
 def required_role(verb: str, fields: dict[str, Any]) -> Role:
     """The least role that may send this command."""
     if is_admin_op(verb, fields):
         return Role.ADMIN
-    if verb in READ_VERBS:
+    if verb in READ_VERBS or is_read_op(verb, fields):
         return Role.OBSERVER
     return Role.OPERATOR
 
 
-def allows(role: Role | str | None, verb: str, fields: dict[str, Any] | None = None) -> bool:
-    """True when ``role`` may send this command (an unknown role, ``None``, allows all: the
-    robot then decides)."""
+def at_least(role: Role | str | None, need: Role) -> bool:
+    """True when ``role`` includes ``need`` (an unknown role, ``None``, allows all: the robot
+    then decides)."""
     if role is None or role == Role.ROBOT:
         return True
-    need = required_role(verb, fields or {})
     return LADDER.index(Role(role)) >= LADDER.index(need)
 
 
-def check(role: Role | str | None, verb: str, fields: dict[str, Any], user: str = "") -> None:
-    """Raise :class:`ForbiddenError` naming the role that would allow the command."""
-    if allows(role, verb, fields):
+def allows(role: Role | str | None, verb: str, fields: dict[str, Any] | None = None) -> bool:
+    """True when ``role`` may send this command."""
+    return at_least(role, required_role(verb, fields or {}))
+
+
+def require(role: Role | str | None, need: Role, what: str, user: str = "", verb: str = "") -> None:
+    """Raise :class:`ForbiddenError` naming ``need`` unless ``role`` includes it: access control
+    drops a denied query without a reply, which would look like an unreachable robot."""
+    if at_least(role, need):
         return
-    need = required_role(verb, fields)
-    what = verb if verb not in ADMIN_OPS else f"{verb} {op_of(verb, fields)}".strip()
     who = f"{user} is {role}" if user else f"this identity's role is {role}"
     refused = ForbiddenError(
         ErrorCode.FORBIDDEN,
         f"{what} needs the {need} role ({who}); an admin can grant it with "
         f"`darwin users add NAME --role {need} …`",
-        verb=verb,
+        verb=verb or what,
     )
     refused.role = str(need)
     raise refused
 
 
+def check(role: Role | str | None, verb: str, fields: dict[str, Any], user: str = "") -> None:
+    """Raise :class:`ForbiddenError` naming the role that would allow the command."""
+    what = verb if verb not in ADMIN_OPS else f"{verb} {op_of(verb, fields)}".strip()
+    require(role, required_role(verb, fields), what, user, verb)
+
+
 def command_key(keys: Keys, verb: str, fields: dict[str, Any]) -> str:
-    """Where a command goes: ``admin/<verb>`` for an admin-only operation, else ``cmd/<verb>``."""
-    return keys.admin(verb) if is_admin_op(verb, fields) else keys.cmd(verb)
+    """Where a command goes: ``admin/<verb>`` for an admin-only operation, ``read/<verb>`` for
+    a read an observer may send (:data:`READ_OPS`), else ``cmd/<verb>``."""
+    if is_admin_op(verb, fields):
+        return keys.admin(verb)
+    return keys.read(verb) if is_read_op(verb, fields) else keys.cmd(verb)
 
 
 def verbs_allowed(role: Role | str | None) -> frozenset[str]:

@@ -90,6 +90,22 @@ class Credentials:
             conf.insert_json5("transport/link/tls/connect_private_key", json.dumps(self.key))
 
 
+def login_hint(
+    creds: Credentials | None, options: str = "--user/--password-file or --cert/--key"
+) -> str:
+    """What to check when a session to ``creds``' endpoint does not open: the login it used
+    (an endpoint with logins refuses a wrong one, or none, when the link opens)."""
+    try:
+        who = creds.identity if creds is not None else None
+    except (OSError, ValueError):
+        who = None
+    if who:
+        return (f" as {who}: check the user, password or certificate (a robot with --auth or "
+                "--secure refuses a wrong one at connection)")
+    return (f"; if it requires a login (--auth or --secure), pass {options} (README, "
+            "\"Roles and security\")")
+
+
 def client_config_path() -> Path:
     explicit = os.environ.get(ENV_CLIENT_CONFIG)
     if explicit:
@@ -116,12 +132,14 @@ def credentials(
     cert: str | None = None,
     key: str | None = None,
     ca: str | None = None,
+    fallback: bool = True,
 ) -> Credentials:
-    """Credentials from explicit values, else the environment, else the client file."""
-    env = os.environ
+    """Credentials from explicit values, else (``fallback``) the environment, else the client
+    file."""
+    env = os.environ if fallback else {}
     file_conf: dict[str, Any] = {}
     path = client_config_path()
-    if path.is_file():
+    if fallback and path.is_file():
         try:
             file_conf = tomllib.loads(path.read_text())
         except (OSError, tomllib.TOMLDecodeError) as exc:

@@ -9,7 +9,13 @@ import signal
 import sys
 import threading
 
-from schemas.session import add_target_arguments, credentials_from_args
+from schemas.keys import ROS_DOMAINS
+from schemas.session import (
+    Credentials,
+    add_target_arguments,
+    credentials,
+    credentials_from_args,
+)
 
 log = logging.getLogger("darwin.ros2")
 
@@ -28,6 +34,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="join an existing rmw_zenohd/zenohd (e.g. tcp/HOST:7447) for the ROS side; "
         "default: ROS nodes reach the robot's own Zenoh endpoint",
     )
+    ros = parser.add_argument_group(
+        "the ROS side's login (with --router, when that router requires one; default: the "
+        "ROS side on the robot's endpoint logs in as --user…)"
+    )
+    for opt, what in (("user", "user name"), ("password-file", "file holding the password"),
+                      ("cert", "TLS client certificate"), ("key", "its private key"),
+                      ("ca", "CA certificate of the ROS router's")):
+        ros.add_argument(f"--ros-{opt}", metavar="FILE" if "-" in opt else opt.upper(), help=what)
     parser.add_argument(
         "--lease-idle",
         type=float,
@@ -47,9 +61,25 @@ def _domain(value: int | None) -> int:
             raise SystemExit(
                 f"darwin ros2: ROS_DOMAIN_ID={raw!r} is not a number; unset it or fix it"
             ) from None
-    if not 0 <= domain <= 232:
-        raise SystemExit(f"darwin ros2: domain {domain} is outside ROS's 0..232; pass --domain")
+    if domain not in ROS_DOMAINS:
+        raise SystemExit(
+            f"darwin ros2: domain {domain} is outside ROS's {ROS_DOMAINS[0]}..{ROS_DOMAINS[-1]}; "
+            "pass --domain"
+        )
     return domain
+
+
+def ros_credentials(
+    args: argparse.Namespace, robot_side: Credentials, robot_endpoint: str
+) -> Credentials:
+    """Who the ROS-side session logs in as: ``--ros-user``… when given (a ROS router has
+    identities of its own), else on the robot's own endpoint as the robot side does, else
+    nobody (a router that requires a login then refuses with a line saying so)."""
+    given = {k: getattr(args, f"ros_{k}", None)
+             for k in ("user", "password_file", "cert", "key", "ca")}
+    if any(given.values()):
+        return credentials(**given, fallback=False)
+    return Credentials() if args.router and args.router != robot_endpoint else robot_side
 
 
 def run(args: argparse.Namespace) -> int:
@@ -59,10 +89,11 @@ def run(args: argparse.Namespace) -> int:
     from clients.ros2.adapter import Adapter, Options
     from clients.ros2.graph import check_namespace
     from schemas.errors import DarwinError
-    from schemas.session import check_endpoint, client_config
+    from schemas.session import check_endpoint, client_config, login_hint
 
     domain = _domain(args.domain)
-    robot = Robot(args.connect, args.robot, name="ros2", credentials=credentials_from_args(args))
+    creds = credentials_from_args(args)
+    robot = Robot(args.connect, args.robot, name="ros2", credentials=creds)
     ros_session = None
     adapter = None
     try:
@@ -85,16 +116,23 @@ def run(args: argparse.Namespace) -> int:
             )
             return 2
         # The ROS side gets a session of its own, configured like rmw_zenoh's (timestamping on:
-        # transient-local history needs it), on the robot's endpoint or on the ROS router.
+        # transient-local history needs it), on the robot's endpoint or on the ROS router; it
+        # logs in as the adapter does (a router with logins refuses a session without one).
         ros_endpoint = args.router or robot.target.endpoint
         try:
-            conf = client_config(check_endpoint(ros_endpoint))
+            ros_creds = ros_credentials(args, creds, robot.target.endpoint)
+        except ValueError as exc:
+            print(f"darwin ros2: the ROS side's login: {exc}", file=sys.stderr)
+            return 2
+        try:
+            conf = client_config(check_endpoint(ros_endpoint), creds=ros_creds)
             conf.insert_json5("timestamping/enabled", "true")
             ros_session = zenoh.open(conf)
         except (ValueError, zenoh.ZError) as exc:
+            hint = login_hint(ros_creds, "--ros-user/--ros-password-file or --ros-cert/--ros-key")
             print(
                 f"darwin ros2: cannot open the ROS session at {ros_endpoint}: {exc}; "
-                "is rmw_zenohd (or zenohd, or `darwin up`) running there?",
+                f"is rmw_zenohd (or zenohd, or `darwin up`) running there{hint}",
                 file=sys.stderr,
             )
             return 1

@@ -17,7 +17,9 @@ import re
 from dataclasses import dataclass
 from enum import StrEnum
 
-ADMIN_SPACE = "@ros2_lv"
+from schemas.keys import ROS_LIVELINESS
+
+ADMIN_SPACE = ROS_LIVELINESS
 
 
 class Kind(StrEnum):

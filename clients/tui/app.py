@@ -41,7 +41,7 @@ from clients.tui.widgets.keybar import KeyBar
 from config.loader import RobotConfig, load_robot, robot_from_dict
 from schemas.errors import ClientError, ConfigError
 from schemas.messages import Event
-from schemas.roles import Role
+from schemas.roles import Role, allows
 from schemas.session import Credentials
 
 RENDER_HZ = 15.0
@@ -199,7 +199,7 @@ class DarwinApp(App[None]):
                 # The daemon's joint limits, not this machine's config, bound what is sent.
                 self.link.send("config", tag="app:config", quiet=True)
                 self.link.send("behaviours", tag="app:library", quiet=True)
-                if role_at_least(self, Role.OPERATOR):  # an observer may not read the gait
+                if allows(self.link.role, "walk_params"):  # a read: observers may too
                     self.link.send("walk_params", tag="app:walk-params", quiet=True)
             self.local_event(
                 "link",

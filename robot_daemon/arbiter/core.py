@@ -35,7 +35,7 @@ from schemas.errors import CommandError, ErrorCode, ProtocolError, brief
 from schemas.keys import VERBS, Keys, verb_of
 from schemas.messages import error_reply, ok_reply
 from schemas.query import answer, error_payload, request_bytes
-from schemas.roles import ADMIN_VERBS, is_admin_op, op_of
+from schemas.roles import ADMIN_VERBS, READ_OP_VERBS, is_admin_op, is_read_op, op_of
 
 __all__ = ["Arbiter", "Pending", "decode_command", "execute", "parse_request", "request_from"]
 
@@ -106,10 +106,12 @@ class Arbiter:
         # serial port is lost); checked before the lease and the handler.
         self.gate: Callable[[Request], None] | None = None
         # Admin-only operations have keys of their own (schemas.roles): access control gives
-        # those to admins alone, and the same operation on cmd/ is refused in _admit.
+        # those to admins alone, and the same operation on cmd/ is refused in _admit. Reads an
+        # observer may send have read/<verb>, where anything but the read is refused.
+        served = [*map(keys.cmd, VERBS), *map(keys.admin, ADMIN_VERBS)]
+        served += map(keys.read, READ_OP_VERBS)
         self._queryables = [
-            session.declare_queryable(key, self._incoming.put, complete=True)
-            for key in [*map(keys.cmd, VERBS), *map(keys.admin, ADMIN_VERBS)]
+            session.declare_queryable(key, self._incoming.put, complete=True) for key in served
         ]
         self._threads = [
             threading.Thread(target=self._intake, name="arbiter-intake", daemon=True),
@@ -158,6 +160,12 @@ class Arbiter:
                 ErrorCode.FORBIDDEN,
                 f"{verb_name} {op_of(verb_name, d)} needs the admin role and is served on "
                 f"{self.keys.admin(verb_name)} only (the Robot client sends it there)",
+            )
+        if key == self.keys.read(verb_name) and not is_read_op(verb_name, d):
+            raise Reject(
+                ErrorCode.FORBIDDEN,
+                f"{verb_name} {op_of(verb_name, d)} changes the robot and is served on "
+                f"{self.keys.cmd(verb_name)} only; {key} serves reads",
             )
         client = d.get("client")
         client = client[:MAX_CLIENT_ID] if isinstance(client, str) else "?"

@@ -30,6 +30,7 @@ from config.loader import nearest
 from schemas.commands import COMMAND_FIELDS, OPS_WITHOUT_LEASE, Field
 from schemas.errors import ErrorCode, Reject, brief
 from schemas.keys import LEASE_FREE_VERBS
+from schemas.roles import op_of
 
 if TYPE_CHECKING:
     from config.loader import RobotConfig
@@ -175,11 +176,7 @@ def needs_lease(verb_name: str, fields: dict[str, Any]) -> bool:
     (anything else is treated as needing it, the safe answer)."""
     if verb_name in LEASE_FREE_VERBS:
         return False
-    op = fields.get("op")
-    if verb_name == "registers":
-        op = "write" if fields.get("data") is not None else "read"
-    if verb_name == "walk_params":
-        op = "set" if fields.get("set") is not None else "read"
-    if not isinstance(op, str):
+    op = op_of(verb_name, fields)
+    if not op:
         return True
     return op not in OPS_WITHOUT_LEASE.get(verb_name, frozenset())

@@ -25,10 +25,10 @@ import zenoh
 from robot_daemon.security import users as users_mod
 from robot_daemon.security.certs import ca_paths, robot_paths
 from schemas.errors import ConfigError
-from schemas.keys import ROOT, Keys
+from schemas.keys import ROOT, Keys, ros_key_space
 from schemas.messages import ok_reply
 from schemas.query import answer
-from schemas.roles import LADDER, READ_VERBS, Role
+from schemas.roles import LADDER, READ_OP_VERBS, READ_VERBS, SIM_CONTROL_ROLE, Role
 
 ALL_MESSAGES = [
     "put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
@@ -38,10 +38,12 @@ INTERNAL_PROTOCOLS = ["unixsock-stream"]
 
 # role → ingress queries it adds over the role below it (key expressions).
 _QUERIES: dict[Role, list[str]] = {
-    Role.OBSERVER: [f"{ROOT}/*/cmd/{v}" for v in sorted(READ_VERBS)] + [f"{ROOT}/*/role/observer"],
+    Role.OBSERVER: [f"{ROOT}/*/cmd/{v}" for v in sorted(READ_VERBS)]
+    + [f"{ROOT}/*/read/{v}" for v in READ_OP_VERBS] + [f"{ROOT}/*/role/observer"],
     Role.OPERATOR: [f"{ROOT}/*/cmd/*", f"{ROOT}/*/replay/control", f"{ROOT}/*/role/operator"],
-    Role.ADMIN: [f"{ROOT}/*/admin/*", f"{ROOT}/*/sim/control", f"{ROOT}/*/role/admin"],
+    Role.ADMIN: [f"{ROOT}/*/admin/*", f"{ROOT}/*/role/admin"],
 }
+_QUERIES[SIM_CONTROL_ROLE].append(f"{ROOT}/*/sim/control")
 
 
 def _rules() -> list[dict[str, Any]]:
@@ -59,6 +61,15 @@ def _rules() -> list[dict[str, Any]]:
                          "declare_queryable", "declare_liveliness_subscriber"],
              ["egress"], [f"{ROOT}/**"]),
         rule("everything", ALL_MESSAGES, ["ingress", "egress"], [f"{ROOT}/**"]),
+        # The ROS 2 key space (``darwin ros2`` on this session, ROS nodes): everyone watches,
+        # is delivered to and declares its nodes' tokens; only operators publish and call
+        # services, since the adapter turns cmd_vel and service calls into commands.
+        rule("ros-watch", ["declare_subscriber", "liveliness_query",
+                           "declare_liveliness_subscriber", "liveliness_token"],
+             ["ingress"], ros_key_space()),
+        rule("ros-deliver", ALL_MESSAGES, ["egress"], ros_key_space()),
+        rule("ros-drive", ["put", "delete", "query", "reply", "declare_queryable"],
+             ["ingress"], ros_key_space()),
     ]
     rules += [rule(f"query-{r}", ["query"], ["ingress"], keys) for r, keys in _QUERIES.items()]
     return rules
@@ -69,7 +80,8 @@ def rules_of(role: Role) -> list[str]:
     if role == Role.ROBOT:
         return ["everything"]
     ladder = LADDER[: LADDER.index(role) + 1]
-    return ["watch", "present", "deliver", *(f"query-{r}" for r in ladder)]
+    ros = ["ros-watch", "ros-deliver", *(["ros-drive"] if Role.OPERATOR in ladder else [])]
+    return ["watch", "present", "deliver", *(f"query-{r}" for r in ladder), *ros]
 
 
 def access_control(users: dict[str, users_mod.User]) -> dict[str, Any]:

@@ -1,5 +1,6 @@
-"""Identities ``darwin up`` makes for its own adapters (gateway, ros2, foxglove, web) when it
-runs with ``--auth``/``--secure``: each logs in as ``darwin-<name>`` with a random password (or,
+"""Identities ``darwin up`` makes for its own adapters (gateway, ros2, foxglove, web, the UI) when
+it runs with ``--auth``/``--secure``: each logs in as ``darwin-<name>``, with the role it needs
+(``robot_daemon.adapter_logins``), and a random password (or,
 with ``--mtls``, a client certificate from the installation's CA), written 0600 in a private
 directory that goes when ``darwin up`` stops. The daemon reads the people's identities plus
 these (a merged identities file in the same directory)."""
@@ -21,7 +22,6 @@ from schemas.roles import Role
 @dataclass
 class Internal:
     security: Security
-    role: Role
     runtime: Path = field(init=False)
     merged: dict[str, users.User] = field(default_factory=dict)
 
@@ -29,8 +29,9 @@ class Internal:
         self.merged = dict(self.security.check())  # a missing file fails before anything exists
         self.runtime = Path(tempfile.mkdtemp(prefix="darwin-up-"))
 
-    def identity_args(self, adapter: str) -> list[str]:
-        """Make ``darwin-<adapter>`` and return the client options that log in as it."""
+    def identity_args(self, adapter: str, role: Role) -> list[str]:
+        """Make ``darwin-<adapter>`` with ``role`` and return the client options that log in
+        as it."""
         name = f"{users.RESERVED_PREFIX}{adapter}"
         out: list[str] = []
         if self.security.tls:
@@ -38,12 +39,12 @@ class Internal:
         if self.security.mtls:
             paths = certs.client_paths(self.runtime, name)
             certs.issue(self.security.certs_dir, paths, name, [], server=False)
-            self.merged[name] = users.User(name, self.role, None)
+            self.merged[name] = users.User(name, role, None)
             return [*out, "--cert", str(paths.cert), "--key", str(paths.key)]
         password = secrets.token_urlsafe(24)
         pw_file = self.runtime / f"{name}.pw"
         write_private(pw_file, password.encode())
-        self.merged[name] = users.User(name, self.role, password)
+        self.merged[name] = users.User(name, role, password)
         return [*out, "--user", name, "--password-file", str(pw_file)]
 
     def users_file(self) -> Path:

@@ -30,6 +30,7 @@ from schemas.errors import (
 from schemas.keys import Keys
 from schemas.messages import ok_reply
 from schemas.query import ask, error_payload, request_payload, serve
+from schemas.roles import SIM_CONTROL_ROLE, Role, discover_role, require
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
@@ -112,14 +113,34 @@ def serve_control(session: zenoh.Session, robot: str, emulator: Emulator) -> zen
 
 
 class SimControl:
-    """Client side: ``SimControl(session, "op1").call("faults", drop=0.1)``."""
+    """Client side: ``SimControl(session, "op1").call("faults", drop=0.1)``.
 
-    def __init__(self, session: zenoh.Session, robot: str, timeout: float = 5.0) -> None:
+    Behind access control only :data:`~schemas.roles.SIM_CONTROL_ROLE` reaches the emulator,
+    and a denied query gets no reply at all: so, like ``Robot.command``, a call first checks
+    the session's role (``role``, else learnt from the daemon's role keys) and raises
+    ``ForbiddenError`` naming the role that may, instead of "no emulator answers"."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        robot: str,
+        timeout: float = 5.0,
+        role: Role | str | None = None,
+        user: str = "",
+    ) -> None:
         self.session = session
-        self.key = Keys(robot).sim_control
+        self.keys = Keys(robot)
+        self.key = self.keys.sim_control
         self.timeout = timeout
+        self.role: Role | str | None = role
+        self.user = user
 
     def call(self, op: str, **fields: Any) -> dict[str, Any]:
+        if self.role is None:
+            # None (no daemon answers: a bare `darwin sim`) is asked again next time.
+            self.role = discover_role(self.session, self.keys, min(self.timeout, 2.0))
+        require(self.role, SIM_CONTROL_ROLE, f"the emulator's control ({op})", self.user, op)
+
         def unreachable() -> Exception:
             return UnavailableError(
                 ErrorCode.UNAVAILABLE,

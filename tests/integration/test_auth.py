@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from clients.robot import Robot
+from robot_daemon.sim.control import SimControl
 from schemas.errors import ForbiddenError, RefusedError, RobotUnreachableError
 from schemas.keys import Keys
 from schemas.messages import command_payload, decode_dict
@@ -75,6 +76,39 @@ def test_an_observer_watches_and_reads_but_every_command_is_refused_naming_the_r
         # dropped by the daemon's session, so nothing answers.
         assert raw_replies(robot, robot.keys.cmd("lease"), op="acquire") == []
         assert raw_replies(robot, robot.keys.cmd("halt")) == []
+
+
+def test_an_observer_reads_the_gait_parameters_but_may_not_set_them(
+    auth_system: RunningSystem,
+) -> None:
+    with login(auth_system, "obs") as robot:
+        params = robot.command("walk_params")["params"]  # a read: on read/walk_params
+        assert params["period_time"] > 0
+        change = {"period_time": params["period_time"] + 10}
+        with pytest.raises(ForbiddenError) as info:
+            robot.command("walk_params", set=change)
+        assert info.value.role == "operator"
+        # Past the client's check: the set on cmd/ is dropped by access control, and the read
+        # key refuses anything but the read (the arbiter), so the gait never changed.
+        assert raw_replies(robot, robot.keys.cmd("walk_params"), set=change) == []
+        (reply,) = raw_replies(robot, robot.keys.read("walk_params"), set=change)
+        assert reply.err is not None  # type: ignore[attr-defined]
+        assert decode_dict(reply.err.payload.to_bytes())["code"] == "forbidden"  # type: ignore[attr-defined]
+        assert robot.command("walk_params")["params"]["period_time"] == params["period_time"]
+
+
+def test_the_emulator_control_refuses_operators_and_observers_naming_the_admin_role(
+    auth_system: RunningSystem,
+) -> None:
+    for user in ("obs", "op"):
+        with login(auth_system, user) as robot:
+            # Access control would drop the query unanswered ("no emulator answers", after
+            # the whole timeout); the early check names the role instead.
+            with pytest.raises(ForbiddenError) as info:
+                SimControl(robot.session, auth_system.robot).call("faults")
+            assert info.value.role == "admin" and "emulator" in str(info.value)
+    with login(auth_system, "adm") as robot:
+        assert isinstance(SimControl(robot.session, auth_system.robot).call("faults"), dict)
 
 
 def test_an_operator_drives_but_admin_only_operations_are_refused(

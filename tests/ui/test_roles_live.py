@@ -16,7 +16,7 @@ from schemas.roles import Role
 from schemas.session import Credentials
 from tests.fixtures.system import RunningSystem, start_system
 from tests.integration.test_auth import PASSWORDS, make_users
-from tests.ui.live import connected, show_tab
+from tests.ui.live import connected, show_tab, until
 
 
 @pytest.fixture(scope="module")
@@ -68,6 +68,9 @@ async def test_an_observer_sees_commands_greyed_and_they_do_nothing(
         await show_tab(pilot, 5)  # Walk
         assert not enabled(app, "move(1, 0, 0)")
         assert "Forward" in greyed(app)
+        # Reading the gait is not a command: the observer's Walk tab shows the parameters.
+        await until(pilot, lambda: app.model.edits.walk_params, "the gait parameters read")
+        await until(pilot, lambda: app.screen.query("#param-period_time"), "the gait form")
 
 
 async def test_an_operator_keeps_every_key(

@@ -15,7 +15,7 @@ from schemas.session import credentials, server_config
 
 
 def test_each_role_includes_the_one_below() -> None:
-    assert verbs_allowed(Role.OBSERVER) == {"config", "behaviours"}
+    assert verbs_allowed(Role.OBSERVER) == {"config", "behaviours", "walk_params"}  # its read
     assert verbs_allowed(Role.OPERATOR) == set(VERBS) == verbs_allowed(Role.ADMIN)
     write = {"id": 19, "address": 25, "data": [1]}
     assert required_role("registers", write) == Role.ADMIN
@@ -39,6 +39,25 @@ def test_admin_only_operations_have_a_key_of_their_own() -> None:
     assert command_key(keys, "registers", {"data": [1]}) == "darwin/op1/admin/registers"
     assert command_key(keys, "registers", {"length": 1}) == "darwin/op1/cmd/registers"
     assert command_key(keys, "walk", {"op": "start"}) == "darwin/op1/cmd/walk"
+
+
+def test_reads_that_share_a_verb_with_a_write_have_a_key_observers_may_query() -> None:
+    keys = Keys("op1")
+    assert command_key(keys, "walk_params", {}) == "darwin/op1/read/walk_params"
+    assert command_key(keys, "walk_params", {"set": {"x": 1}}) == "darwin/op1/cmd/walk_params"
+    assert allows(Role.OBSERVER, "walk_params", {})
+    assert not allows(Role.OBSERVER, "walk_params", {"set": {"x": 1}})
+    rules = {r["id"]: r for r in access_control({"b": User("b", Role.OBSERVER, "pw-1")})["rules"]}
+    assert "darwin/*/read/walk_params" in rules["query-observer"]["key_exprs"]
+    assert "darwin/*/sim/control" in rules["query-admin"]["key_exprs"]
+
+
+def test_the_ros_key_space_is_watched_by_observers_and_driven_by_operators() -> None:
+    assert "ros-watch" in rules_of(Role.OBSERVER) and "ros-drive" not in rules_of(Role.OBSERVER)
+    assert "ros-drive" in rules_of(Role.OPERATOR) and "ros-drive" in rules_of(Role.ADMIN)
+    rules = {r["id"]: r for r in access_control({"b": User("b", Role.OBSERVER, "pw-1")})["rules"]}
+    assert {"@ros2_lv/**", "0/**", "232/**"} <= set(rules["ros-drive"]["key_exprs"])
+    assert not any(k.startswith("darwin") for k in rules["ros-drive"]["key_exprs"])
 
 
 def test_access_control_gives_each_role_its_rules_by_name_and_certificate() -> None:
