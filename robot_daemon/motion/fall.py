@@ -14,7 +14,8 @@ plays the matching get-up page (10 front, 11 back). While that page plays the ro
 "upright again", whatever the accelerometer reads: sitting up on the way reads upright for longer
 than ``settle_ticks``, and lying back on the way (page 11 rocks onto its back) then read as a new
 fall that restarted the page from step 1, in a loop (the MuJoCo plant, issue 18). The ROBOTIS
-framework does the same: its StatusCheck waits for the get-up page to end before it looks again.
+framework does the same: its demo's StatusCheck::Check (Linux/project/demo/StatusCheck.cpp)
+starts page 10/11 and waits while ``Action::IsRunning()`` before it reads ``FALLEN`` again.
 
 This is the daemon's one fall detector: ``imu.fall`` is its classification of the present window
 and every ``fall`` event comes from it, always with the same data::
