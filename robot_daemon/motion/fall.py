@@ -10,7 +10,12 @@ MuJoCo plant: 40 N for 0.2 s reads accel Y ~250 while the body is still upright)
 framework's rule alone the detector latched the wrong direction before the robot landed on the
 other side. A fall
 stops every module (walking, behaviours), publishes an event, and when ``[fall] recover`` is on,
-plays the matching get-up page (10 front, 11 back).
+plays the matching get-up page (10 front, 11 back). While that page plays the robot is not
+"upright again", whatever the accelerometer reads: sitting up on the way reads upright for longer
+than ``settle_ticks``, and lying back on the way (page 11 rocks onto its back) then read as a new
+fall that restarted the page from step 1, in a loop (the MuJoCo plant, issue 18). The ROBOTIS
+framework does the same: its demo's StatusCheck::Check (Linux/project/demo/StatusCheck.cpp)
+starts page 10/11 and waits while ``Action::IsRunning()`` before it reads ``FALLEN`` again.
 
 This is the daemon's one fall detector: ``imu.fall`` is its classification of the present window
 and every ``fall`` event comes from it, always with the same data::
@@ -65,6 +70,7 @@ class FallMonitor(MotionModule):
         self.now = UPRIGHT  # the present window's classification (state latches until settled)
         self.falls = 0
         self._upright_ticks = 0
+        self._get_up: int | None = None  # the get-up page this detector started, while it plays
 
     @property
     def direction(self) -> str:
@@ -89,6 +95,9 @@ class FallMonitor(MotionModule):
         else:
             self.window.append(float(frame.accel_raw[0]))
         now = self.now = self.classify()
+        if self._getting_up():
+            self._upright_ticks = 0
+            return
         if now == UPRIGHT:
             self._upright_ticks += 1
             if self.state != UPRIGHT and self._upright_ticks >= self.settle_ticks:
@@ -101,6 +110,19 @@ class FallMonitor(MotionModule):
         self.state = now
         self.falls += 1
         self._on_fall(now)
+
+    def _getting_up(self) -> bool:
+        if self._get_up is None or self.manager is None:
+            return False
+        action = self.manager.get("action")
+        status = action.status() if action is not None else {}
+        if status.get("playing") and status.get("page") in (self._get_up, None):
+            return True  # None: play() accepted the page, it starts at the next tick
+        self._get_up = None
+        return False
+
+    def halt(self) -> None:
+        self._get_up = None
 
     def _on_fall(self, state: str) -> None:
         manager = self.manager
@@ -117,6 +139,7 @@ class FallMonitor(MotionModule):
             try:
                 action.play(page)  # type: ignore[attr-defined]
                 recovering = True
+                self._get_up = page
             except (KeyError, ValueError):
                 recovering = False
         self._event(

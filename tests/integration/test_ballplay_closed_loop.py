@@ -98,3 +98,28 @@ def test_without_a_ball_it_searches_turns_and_reports_lost_without_falling() -> 
     turned = abs(math.remainder(rig.world.snapshot().robot["yaw"] - yaw0, 2 * math.pi))
     assert turned > math.radians(30)
     assert not any(d.found for d in rig.detections)
+
+
+def test_the_kick_page_starts_after_the_walk_stopped_and_the_body_stood_still() -> None:
+    rig = make_rig(1)
+    settle = rig.ball_play.settings.follower.kick_settle_s
+    assert settle > 0  # config/ballplay.toml: the page starts from rest, not mid-sway
+    rig.world.place_robot(0.0, 0.0, 0.0)
+    rig.world.place_ball(0.5, 0.1)
+    rig.run(0.3)
+    walking, action = rig.manager.get("walking"), rig.manager.get("action")
+    seen: dict[str, float] = {}
+
+    def watch(r: SimRig) -> bool:
+        if r.ball_play.phase == "kicking":
+            if walking.running:
+                seen.pop("walk_stopped", None)
+            else:
+                seen.setdefault("walk_stopped", r.time)
+            if action.playing:
+                seen.setdefault("page", r.time)
+        return "page" in seen or not r.ball_play.playing
+
+    rig.ball_play.start()
+    assert rig.run_until(watch, timeout=60.0) and "page" in seen, rig.ball_play.phase
+    assert seen["page"] - seen["walk_stopped"] >= settle - 0.01

@@ -175,3 +175,35 @@ def test_play_from_a_step_goes_there_from_where_the_joints_are() -> None:
     assert rig.tick < 60  # one step of 40 units, not three
     with pytest.raises(KeyError, match=r"steps 1\.\.3"):
         rig.action.play(7, step=4)
+
+
+def test_page_slopes_set_the_p_gain_while_the_page_plays_as_action_cpp_does() -> None:
+    # Action.cpp (MX-28 build): P = (256 >> (slope >> 4)) << 2 — 0x55 → 32 (the default, not
+    # written), 0x44 → 64, 0x33 → 128, 0x77 → 8; back to the configured gains when it ends.
+    slopes = bytearray(bytes.fromhex("55" * 26 + "00" * 5))
+    slopes[10], slopes[15], slopes[3] = 0x33, 0x44, 0x77
+    page = Page(
+        number=5,
+        name="stiff",
+        steps=[step(20, r_shoulder_roll=-20, l_hip_roll=5, r_ankle_pitch=5, r_knee=10)],
+        slopes=bytes(slopes),
+    )
+    rig = Rig([page])
+    rig.action.play(5)
+    rig.run(2)
+
+    def gains() -> dict[int, tuple[int, int, int]]:
+        frame = JointFrame(rig.tick, rig.tick * DT, DT, position=rig.pos.copy())
+        return rig.manager.step(frame).gains
+
+    assert gains() == {3: (8, 0, 0), 10: (128, 0, 0), 15: (64, 0, 0)}
+    rig.run_until_idle()
+    assert gains() == {}
+
+
+def test_the_kick_pages_stiffen_the_standing_legs_roll_joints() -> None:
+    lib = load_library()
+    for number, stance in ((12, (10, 18)), (13, (9, 17))):
+        page = lib.page(number)
+        assert [page.slopes[j] for j in stance] == [0x33, 0x33]  # P 128
+        assert page.slopes[15] == page.slopes[16] == 0x44  # the stock file's ankle pitch

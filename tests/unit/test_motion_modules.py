@@ -99,6 +99,30 @@ def test_a_backward_fall_plays_get_up_back_and_recovery_can_be_disabled() -> Non
     assert rig.m("fall").state == "upright"
 
 
+def test_sitting_up_during_the_get_up_page_does_not_restart_it() -> None:
+    """Getting up from the back sits up (reads upright for longer than settle_ticks) and rocks
+    back again on the way: one fall and one page, played to the end (the MuJoCo plant restarted
+    page 11 from step 1 in a loop before); upright again is reported once the page is over."""
+    rig = Rig()
+    fall, action = rig.m("fall"), rig.m("action")
+    rig.accel_y = 700
+    rig.run(31)
+    assert action.status()["page"] == 11
+    rig.accel_y = 512  # sitting up
+    rig.run(fall.settle_ticks + 20)
+    assert fall.state == "fallen_backward"  # not upright again while the page plays
+    rig.accel_y = 700  # leaning back on the hands
+    rig.run(40)
+    assert action.status()["page"] == 11 and action.status()["step"] > 1
+    rig.accel_y = 512
+    while action.playing:
+        rig.run(1)
+    rig.run(fall.settle_ticks)
+    falls = [d for k, _, d in rig.manager.drain_events() if k == "fall"]
+    assert [d["state"] for d in falls] == ["fallen_backward", "upright"]
+    assert fall.falls == 1 and fall.state == "upright"
+
+
 def test_sound_is_an_event_in_the_simulator_and_a_subprocess_on_the_robot() -> None:
     got: list[tuple[str, str, dict]] = []
 

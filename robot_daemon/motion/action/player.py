@@ -10,6 +10,11 @@ page instead; ``brake`` ends the current step at rest and stops.
 Time: one time unit is 8 ms at page speed 32 (``unit = 0.008 · 32 / speed`` s). Time-based pages
 (schedule 0x0A) take ``time`` units per step. Speed-based pages (schedule 0) have no time: there
 ``time`` is the speed of the joint that moves most, in units of 2 °/s.
+
+Gains: a page's per-joint slope byte sets that joint's P gain while the page plays, as the
+framework's Action.cpp does for the MX-28 (which has no compliance slopes): P = (256 >> (slope
+>> 4)) << 2, so the default 0x55 gives 32, 0x44 64, 0x33 128, 0x77 8 (capped at the register's
+254). When the page ends the joints fall back to the configured gains.
 """
 
 from __future__ import annotations
@@ -29,6 +34,13 @@ from schemas.units import raw_to_rad
 
 TIME_UNIT_S = 0.008  # at speed 32
 SPEED_BASED_DEG_S = 2.0
+P_GAIN_MAX = 254  # the MX-28's P gain register
+
+
+def slope_p_gain(slope: int) -> int:
+    """The P gain a page's slope byte asks for: Action.cpp's ``(256 >> (slope >> 4)) << 2``
+    (ROBOTIS DARwIn-OP framework, MX-28 build), capped at the register's range."""
+    return min(P_GAIN_MAX, (256 >> (slope >> 4)) << 2)
 
 
 @dataclass
@@ -201,6 +213,20 @@ class ActionModule(MotionModule):
             return {}
         self._advance(frame.dt)
         return {j: float(self._pos[k]) for k, j in enumerate(self._ids)}
+
+    def gains(self) -> dict[int, tuple[int, int, int]]:
+        page = self._page
+        if page is None or self.manager is None:
+            return {}
+        out: dict[int, tuple[int, int, int]] = {}
+        for j in self._ids:
+            cfg = self.manager.robot.by_id.get(j)
+            if cfg is None or j >= len(page.slopes):
+                continue
+            p = slope_p_gain(page.slopes[j])
+            if p != cfg.p:
+                out[j] = (p, cfg.i, cfg.d)
+        return out
 
     def _unit(self, page: Page) -> float:
         return TIME_UNIT_S * 32.0 / max(page.speed, 1)

@@ -52,6 +52,7 @@ class BallPlayModule(MotionModule):
         self._last_frame_time: float | None = None
         self._kick_side = 0
         self._kick_started: float | None = None
+        self._walk_stopped: float | None = None  # when the walk was seen stopped for the kick
         self._kick_playing = False
         self._pending_start = False
 
@@ -63,7 +64,7 @@ class BallPlayModule(MotionModule):
         self.frames = 0
         self._pending_start = True
         self._kick_side = 0
-        self._kick_started = None
+        self._kick_started = self._walk_stopped = None
         self._kick_playing = False
         with self._slot_lock:
             self._slot = None
@@ -147,7 +148,7 @@ class BallPlayModule(MotionModule):
             self._kick_side = cmd.kick
             self._set_phase("kicking", f"kicking with the {_foot(cmd.kick)} foot")
             walk.stop()
-            self._kick_started = None
+            self._kick_started = self._walk_stopped = None
             return
         if cmd.walk:
             walk.walk(cmd.step, cmd.turn)
@@ -171,7 +172,12 @@ class BallPlayModule(MotionModule):
         if self._kick_started is None:
             if walk.running():
                 walk.stop()  # the walk ends its step first
+                self._walk_stopped = None
                 return
+            if self._walk_stopped is None:
+                self._walk_stopped = frame.time
+            if frame.time - self._walk_stopped < f.kick_settle_s:
+                return  # the body still sways from the last step: the page starts from rest
             page = f.left_kick_page if self._kick_side > 0 else f.right_kick_page
             self._kick_playing = True  # before play(): it takes the head, on_released gives it back
             try:

@@ -52,6 +52,7 @@ class FollowerSettings:
     right_kick_page: int = 12
     left_kick_page: int = 13
     kick_timeout_s: float = 6.0
+    kick_settle_s: float = 0.0
 
 
 @dataclass(frozen=True)
