@@ -21,6 +21,7 @@ from schemas.session import free_tcp_port
 from tests.fixtures.emulator import darwin_command
 from tests.fixtures.fleet import RunningRouter, start_router
 from tests.fixtures.system import REPO, run_darwin, start_system, stop_group
+from tests.integration.test_auth import add_user as auth_user
 from tests.integration.test_auth import make_users
 from tests.legacy_client import LegacyClient
 
@@ -28,12 +29,7 @@ DEADLINE_S = 60.0
 
 
 def add_user(users: Path, name: str, role: str) -> Path:
-    pw = users.parent / f"{name}.pw"
-    pw.write_text(f"{name}-password-1\n")
-    done = run_darwin("users", "add", name, "--role", role, "--password-file", str(pw),
-                      "--users", str(users))
-    assert done.returncode == 0, done.stderr
-    return pw
+    return auth_user(users, name, role, f"{name}-password-1")
 
 
 @pytest.fixture(scope="module")

@@ -24,14 +24,20 @@ PASSWORDS = {"obs": "observer-pass-1", "op": "operator-pass-1", "adm": "admin-pa
 ROLES = {"obs": "observer", "op": "operator", "adm": "admin"}
 
 
+def add_user(users: Path, name: str, role: str, password: str) -> Path:
+    """``darwin users add`` into ``users``; the password's file (beside it) is returned."""
+    pw = users.parent / f"{name}.pw"
+    pw.write_text(password + "\n")
+    done = run_darwin("users", "add", name, "--role", role, "--password-file", str(pw),
+                      "--users", str(users))
+    assert done.returncode == 0, done.stderr
+    return pw
+
+
 def make_users(directory: Path) -> Path:
     users = directory / "users.toml"
     for name, role in ROLES.items():
-        pw = directory / f"{name}.pw"
-        pw.write_text(PASSWORDS[name] + "\n")
-        done = run_darwin("users", "add", name, "--role", role, "--password-file", str(pw),
-                          "--users", str(users))
-        assert done.returncode == 0, done.stderr
+        add_user(users, name, role, PASSWORDS[name])
     return users
 
 

@@ -18,6 +18,7 @@ and the ``sim`` camera source sends.
 
 from __future__ import annotations
 
+import atexit
 import logging
 import os
 import queue
@@ -42,6 +43,22 @@ START_TIMEOUT_S = 30.0
 FRAME_TIMEOUT_S = 10.0
 _DISABLED = ("disable", "disabled", "off", "false", "0")
 _OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX", "mjRND_HAZE")
+# Render threads still running, with their request queues: ended at exit while the interpreter
+# can still run them (a daemon thread left to finalization died there with a traceback).
+_RUNNING: dict[threading.Thread, queue.Queue[Any]] = {}
+
+
+def _end(thread: threading.Thread) -> None:
+    requests = _RUNNING.pop(thread, None)
+    if requests is not None:
+        requests.put(None)
+
+
+@atexit.register
+def _end_render_threads() -> None:
+    for thread in list(_RUNNING):
+        _end(thread)
+        thread.join(timeout=5.0)
 
 
 class GLUnavailableError(CameraError):
@@ -128,7 +145,8 @@ class MujocoCamera:
             self._thread.join(timeout=5.0)
             raise outcome
         self.backend = outcome
-        weakref.finalize(self, self._requests.put, None)
+        _RUNNING[self._thread] = self._requests
+        weakref.finalize(self, _end, self._thread)
 
     def __repr__(self) -> str:
         state = "closed" if self._closed else f"{self.frames} frames"
@@ -168,7 +186,7 @@ class MujocoCamera:
             if self._closed:
                 return
             self._closed = True
-            self._requests.put(None)
+            _end(self._thread)
         self._thread.join(timeout=5.0)
 
     def __enter__(self) -> MujocoCamera:
