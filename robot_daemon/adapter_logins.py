@@ -17,6 +17,7 @@ in ``config/adapters.toml``, ``--adapter-role``).
 from __future__ import annotations
 
 import argparse
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,7 +25,12 @@ from config.loader import refuse_unknown
 from robot_daemon.security.internal import Internal
 from schemas.errors import ConfigError
 from schemas.roles import Role, parse_role
-from schemas.session import credential_args, credentials, credentials_from_args
+from schemas.session import (
+    credential_args,
+    credentials,
+    credentials_from_args,
+    login_free_env,
+)
 
 ADAPTERS: tuple[str, ...] = ("gateway", "ros2", "foxglove", "web")
 UI = "tui"
@@ -36,6 +42,14 @@ class Login:
     role: Role
     args: list[str]  # the client options it logs in with
     refused: str = ""  # why it may not run (then args is empty)
+    # The args are the whole login: the program runs without the DARWIN_USER… variables and
+    # the client file of whoever started ``darwin up`` (else an adapter could log in as them,
+    # or mix their certificate into its own login, or present a password to an open robot).
+    isolated: bool = True
+
+    def env(self) -> dict[str, str] | None:
+        """The child's environment (None: this one's)."""
+        return login_free_env(os.environ) if self.isolated else None
 
 
 def roles(settings: dict[str, Any], overrides: list[str] | None) -> dict[str, Role]:
@@ -114,10 +128,12 @@ def ui_login(
                 f"(DARWIN_USER/DARWIN_PASSWORD_FILE, ~/.config/darwin/client.toml, or user and "
                 f"password_file in [adapters.{UI}] of --config)"
             ))
-        return Login(role, [])
+        return Login(role, [], isolated=False)
     person_args = credential_args(args)
-    if person_args or internal is None or _identity():
+    if person_args or internal is None:
         return Login(role, person_args)  # the person at this terminal (none: an open robot)
+    if _identity():
+        return Login(role, [], isolated=False)  # the person's own environment or client file
     return Login(role, internal.identity_args(UI, role))
 
 

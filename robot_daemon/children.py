@@ -19,7 +19,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import IO
 
 from schemas.errors import DarwinError
@@ -85,12 +85,15 @@ class Child:
         relay: Callable[[str, str], None] | None = None,
         ready: bool = False,
         own_group: bool = False,
+        env: Mapping[str, str] | None = None,
     ) -> None:
         """``ready=True``: relay every line at once (nobody waits for an address line).
         ``own_group=True``: out of the terminal's process group, so Ctrl-C reaches only the
-        parent, which stops this child when it is done with it (still dying with the parent)."""
+        parent, which stops this child when it is done with it (still dying with the parent).
+        ``env``: its environment (default this process's)."""
         self.name = name
         self.args = args
+        self.env = env
         self._relay = relay
         self._lines: queue.Queue[str | None] = queue.Queue()
         self._ready = ready
@@ -106,7 +109,11 @@ class Child:
                 stderr=subprocess.PIPE,
                 stdin=subprocess.DEVNULL,
                 text=True,
-                env=dict(os.environ, PYTHONUNBUFFERED="1", **{PARENT_FD_ENV: str(watch_r)}),
+                env=dict(
+                    os.environ if env is None else env,
+                    PYTHONUNBUFFERED="1",
+                    **{PARENT_FD_ENV: str(watch_r)},
+                ),
                 pass_fds=(watch_r,),
                 preexec_fn=_die_with(os.getpid(), own_group),
             )

@@ -253,7 +253,7 @@ def _run(
                 gw += ["--listen", gw_listen]
             if args.config:
                 gw += ["--config", args.config]
-            gateway = Child("gateway", gw, relay)
+            gateway = Child("gateway", gw, relay, env=logins["gateway"].env())
             children.append(gateway)
             adapters.append(Adapter(gateway))
             print(f"gateway: {gateway.wait_line('gateway:', START_TIMEOUT)}", flush=True)
@@ -268,7 +268,7 @@ def _run(
                 extra = ["--listen", where] if where else []
                 command = [name, "--connect", endpoint, "--robot", robot, *logins[name].args]
                 command += extra
-                child = Child(name, command, relay)
+                child = Child(name, command, relay, env=logins[name].env())
                 children.append(child)
                 adapters.append(Adapter(child))
                 print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
@@ -278,7 +278,7 @@ def _run(
             login = list(ui.args)
             if internal is not None and internal.security.tls and "--ca" not in login:
                 login += ["--ca", str(ca_paths(internal.security.certs_dir).cert)]
-            return run_tui(endpoint, robot, login)
+            return run_tui(endpoint, robot, login, ui.env())
         # Run until a signal or the daemon's death; adapters that die are started again.
         while not stop.wait(0.5):
             if not daemon.running():
@@ -319,7 +319,7 @@ def tend(adapter: Adapter, children: list[Child], relay: Callable[[str, str], No
     adapter.restart_at = None
     child.stop()  # already gone: this lets go of its pipe
     children.remove(child)
-    adapter.child = Child(child.name, child.args, relay, ready=True)
+    adapter.child = Child(child.name, child.args, relay, ready=True, env=child.env)
     adapter.started = now
     children.append(adapter.child)
 
@@ -332,10 +332,12 @@ def daemon_robot(daemon: Child, default: str) -> str:
     return default
 
 
-def run_tui(endpoint: str, robot: str, login: list[str] | None = None) -> int:
+def run_tui(
+    endpoint: str, robot: str, login: list[str] | None = None, env: dict[str, str] | None = None
+) -> int:
     """The terminal UI in the foreground; everything stops when it exits."""
     cmd = [sys.executable, "-m", "robot_daemon.cli", "tui", "--connect", endpoint, "--robot", robot]
     cmd += login or []
     # The UI handles Ctrl-C itself; this process waits for it instead of dying first.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    return subprocess.call(cmd)
+    return subprocess.call(cmd, env=env)

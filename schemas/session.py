@@ -22,6 +22,7 @@ import json
 import os
 import socket
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,6 +47,15 @@ ENV_CERT = "DARWIN_CERT"
 ENV_KEY = "DARWIN_KEY"
 ENV_CA = "DARWIN_CA"
 ENV_CLIENT_CONFIG = "DARWIN_CLIENT_CONFIG"
+LOGIN_ENV = (ENV_USER, ENV_PASSWORD, ENV_PASSWORD_FILE, ENV_CERT, ENV_KEY, ENV_CA)
+
+
+def login_free_env(environ: Mapping[str, str]) -> dict[str, str]:
+    """``environ`` for a child program whose login is all in its arguments: no login
+    variables, and no client file (``/dev/null`` is not a file, so none is read)."""
+    env = {k: v for k, v in environ.items() if k not in LOGIN_ENV}
+    env[ENV_CLIENT_CONFIG] = os.devnull
+    return env
 
 
 @dataclass(frozen=True)

@@ -207,3 +207,22 @@ def test_the_ui_of_up_router_logs_in_as_the_person_not_the_robot(
     assert done.returncode == 2, done.stderr
     assert "--tui would log in as the robot (r3)" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_the_login_of_whoever_starts_up_does_not_leak_into_the_adapters(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """An open robot started by someone whose environment carries their login (DARWIN_USER,
+    DARWIN_PASSWORD, a client file): the adapters' login is only what `darwin up` gives them,
+    so the gateway does not present that person's password to a robot with no logins (Zenoh
+    refuses such a client) and works."""
+    client_file = tmp_path / "client.toml"
+    client_file.write_text('user = "alice"\npassword = "alice-password-1"\n')
+    monkeypatch.setenv("DARWIN_USER", "alice")
+    monkeypatch.setenv("DARWIN_PASSWORD", "alice-password-1")
+    monkeypatch.setenv("DARWIN_CLIENT_CONFIG", str(client_file))
+    with start_system() as system:
+        assert system.gateway is not None
+        with LegacyClient(*system.gateway) as client:
+            client.send({"monitor": {"motors": 1}})
+            assert client.recv_until(lambda m: "motors" in m.get("monitor", {}))

@@ -193,8 +193,7 @@ def test_page_slopes_set_the_p_gain_while_the_page_plays_as_action_cpp_does() ->
     rig.run(2)
 
     def gains() -> dict[int, tuple[int, int, int]]:
-        frame = JointFrame(rig.tick, rig.tick * DT, DT, position=rig.pos.copy())
-        return rig.manager.step(frame).gains
+        return rig.step().gains
 
     assert gains() == {3: (8, 0, 0), 10: (128, 0, 0), 15: (64, 0, 0)}
     rig.run_until_idle()
