@@ -71,11 +71,15 @@ async def test_an_observer_sees_commands_greyed_and_they_do_nothing(
         # Reading the gait is not a command: the observer's Walk tab shows the parameters.
         await until(pilot, lambda: app.model.edits.walk_params, "the gait parameters read")
         await until(pilot, lambda: app.screen.query("#param-period_time"), "the gait form")
+        assert app.screen.query_one("#params-apply").disabled  # setting it needs an operator
 
 
 async def test_an_operator_keeps_every_key(
     auth_system: RunningSystem, settings_file: Path
 ) -> None:
-    async with signed_in(auth_system, settings_file, "op", Role.OPERATOR) as (app, _pilot):
+    async with signed_in(auth_system, settings_file, "op", Role.OPERATOR) as (app, pilot):
         assert enabled(app, "lease") and enabled(app, "halt")
         assert greyed(app) == set()
+        await show_tab(pilot, 5)  # Walk: the operator may set the gait
+        await until(pilot, lambda: app.screen.query("#param-period_time"), "the gait form")
+        assert not app.screen.query_one("#params-apply").disabled

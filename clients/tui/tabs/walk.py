@@ -13,7 +13,7 @@ from textual.widgets import Button, Input, Label, Static
 
 from clients.tui.i18n import N_, _
 from clients.tui.model import Model
-from clients.tui.tabs.base import TabView
+from clients.tui.tabs.base import TabView, role_at_least
 from schemas.gait import gait_label
 from schemas.roles import Role
 
@@ -129,6 +129,10 @@ class WalkTab(TabView):
         if model.version("params") != self._params_version:
             self._params_version = model.version("params")
             self.build_form()
+        # Observers read the gait but may not set it (schemas.roles): Apply greys out.
+        self.query_one("#params-apply", Button).disabled = not role_at_least(
+            self.app, Role.OPERATOR
+        )
         x, y, turn = model.edits.walk
         motion = model.status.motion if model.status else {}
         t = Text()
