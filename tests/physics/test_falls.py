@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from robot_daemon.sim.world.rig import SimRig
+from tests.physics import parallel
 
 TRIES = 10
 NEEDED = 8
@@ -104,7 +105,7 @@ def test_a_push_topples_it_the_detector_sees_it_and_the_get_up_page_stands_it_up
     direction: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("MUJOCO_GL", "disable")  # no camera here: no GL context per rig
-    tries = [one_try(direction, seed) for seed in range(100, 100 + TRIES)]
+    tries = parallel.tries(one_try, [(direction, seed) for seed in range(100, 100 + TRIES)])
     seen = sum(t.seen == direction and t.page == PAGE[direction] for t in tries)
     stood = [t for t in tries if t.stood]
     times = [t.get_up_s for t in stood]
