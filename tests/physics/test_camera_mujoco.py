@@ -206,6 +206,30 @@ def test_without_a_gl_backend_it_says_so_in_one_line() -> None:
     assert "egl:" in lines[0] and "osmesa:" in lines[0] and "apt-get install" in lines[0]
 
 
+def test_a_camera_still_open_at_exit_ends_its_thread_before_the_interpreter_finalizes(
+    camera: MujocoCamera,
+) -> None:
+    """A program that exits holding a camera: its render thread frees GL and ends while Python
+    can still run it (a daemon thread left to finalization died with a traceback). The hook
+    registered first runs last, after the camera module's own, and sees what is still alive."""
+    code = (
+        "import atexit, threading\n"
+        "def last():\n"
+        "    alive = [t.name for t in threading.enumerate() if 'mujoco-camera' in t.name]\n"
+        "    print('alive at exit:', alive, flush=True)\n"
+        "atexit.register(last)\n"
+        "import mujoco\n"
+        "from robot_daemon.sim.physics.camera import MujocoCamera\n"
+        f"m = mujoco.MjModel.from_xml_string({SCENE!r})\n"
+        "cam = MujocoCamera(m, 32, 24)\n"
+        "cam.render(mujoco.MjData(m))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "alive at exit: []", out.stdout
+    assert "Traceback" not in out.stderr and "Exception in thread" not in out.stderr, out.stderr
+
+
 def test_the_world_camera_starts_on_the_first_frame_and_draws_with_mujoco(
     model: mujoco.MjModel, camera: MujocoCamera
 ) -> None:

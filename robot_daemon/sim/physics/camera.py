@@ -43,9 +43,12 @@ START_TIMEOUT_S = 30.0
 FRAME_TIMEOUT_S = 10.0
 _DISABLED = ("disable", "disabled", "off", "false", "0")
 _OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX", "mjRND_HAZE")
-# Render threads still running, with their request queues: ended at exit while the interpreter
-# can still run them (a daemon thread left to finalization died there with a traceback).
+# Render threads, ended at exit while the interpreter can still run them (a daemon thread left
+# to finalization died there with a traceback). The queues are those not yet told to end; the
+# threads are joined whoever told them (a camera's finalizer may already have, at exit too).
 _RUNNING: dict[threading.Thread, queue.Queue[Any]] = {}
+_THREADS: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
+_exit_hook: list[bool] = []  # registered once, see _end_at_exit
 
 
 def _end(thread: threading.Thread) -> None:
@@ -54,11 +57,19 @@ def _end(thread: threading.Thread) -> None:
         requests.put(None)
 
 
-@atexit.register
 def _end_render_threads() -> None:
     for thread in list(_RUNNING):
         _end(thread)
+    for thread in list(_THREADS):
         thread.join(timeout=5.0)
+
+
+def _end_at_exit() -> None:
+    # After the first context exists: mujoco.egl registers the termination of its display then,
+    # and exit hooks run last-registered first, so the threads free their contexts before it.
+    if not _exit_hook:
+        _exit_hook.append(True)
+        atexit.register(_end_render_threads)
 
 
 class GLUnavailableError(CameraError):
@@ -146,6 +157,8 @@ class MujocoCamera:
             raise outcome
         self.backend = outcome
         _RUNNING[self._thread] = self._requests
+        _THREADS.add(self._thread)
+        _end_at_exit()
         weakref.finalize(self, _end, self._thread)
 
     def __repr__(self) -> str:
