@@ -69,7 +69,7 @@ class BehaviourTable:
             raise MessageError(
                 ErrorCode.UNKNOWN,
                 f"{where}: type {type_} is unknown; the robot's types are {self.describe()} "
-                "(README, 'Legacy gateway', or the behaviours query)",
+                "(docs/gateway.md, or the behaviours query)",
             )
         behaviour = self.behaviours.get(page)
         if kind == "action" and behaviour is None:

@@ -9,6 +9,7 @@ import importlib
 import logging
 import re
 import sys
+from types import ModuleType
 
 from robot_daemon.children import watch_parent
 from schemas.errors import DarwinError
@@ -45,6 +46,17 @@ def _usage() -> str:
     return "\n".join(lines)
 
 
+def command_parser(name: str) -> tuple[ModuleType, argparse.ArgumentParser]:
+    """The module of subcommand `name` and its argument parser (the docs' CLI reference and
+    their command checks use the very parser `darwin NAME` runs)."""
+    module_name, helptext = COMMANDS[name]
+    module = importlib.import_module(module_name)
+    parser = argparse.ArgumentParser(prog=f"darwin {name}", description=helptext)
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging")
+    module.add_arguments(parser)
+    return module, parser
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in {"-h", "--help", "help"}:
@@ -54,18 +66,14 @@ def main(argv: list[str] | None = None) -> int:
     if name not in COMMANDS:
         print(f"darwin: unknown command {name!r}\n\n{_usage()}", file=sys.stderr)
         return 2
-    module_name, helptext = COMMANDS[name]
     watch_parent()  # started by `darwin up`/`darwin daemon --sim`: end with that parent
     try:
-        module = importlib.import_module(module_name)
+        module, parser = command_parser(name)
     except ModuleNotFoundError as exc:
-        if exc.name and module_name.startswith(exc.name):
+        if exc.name and COMMANDS[name][0].startswith(exc.name):
             print(f"darwin {name}: not available in this build ({exc})", file=sys.stderr)
             return 2
         raise
-    parser = argparse.ArgumentParser(prog=f"darwin {name}", description=helptext)
-    parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging")
-    module.add_arguments(parser)
     args = parser.parse_args(argv[1:])
     logging.basicConfig(
         level=logging.DEBUG

@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     listen = listen_endpoints(args, settings, security)
     conf = router_config(listen, settings)
     # The router enforces the roles for everyone who goes through it: robots (role robot)
-    # and every client of the fleet (README, "Roles and security").
+    # and every client of the fleet (docs/security.md).
     if security is not None:
         security.apply(conf)
     stop = threading.Event()

@@ -53,7 +53,7 @@ kind: ``action`` (page), ``walk`` (duration s, x, y, turn), ``sound`` (file/say)
 "type": T}`` / ``{"time": S}`` (the ``behaviours`` reply has the ``type`` table). ``choreography``
 and ``sound`` take an optional ``lang``: "en" (default) or "pt". ``action`` may name the
 page's ``name`` instead of its number; ``walk_params`` ``set`` values are the
-``config/walking.toml`` names and units (README, "Motion").
+``config/walking.toml`` names and units (docs/motion.md).
 
 A ``registers`` write to a register that can disable or lose hardware (``PROTECTED`` in
 ``robot_daemon/arbiter/protected.py``: power, ID, baud rate, return level and delay, angle,

@@ -320,7 +320,7 @@ class MotionInfo(TypedDict, total=False):
 
 @dataclass
 class Status(Message):
-    """Daemon state, ~10 Hz and on change. Sub-maps are typed above (README, Status)."""
+    """Daemon state, ~10 Hz and on change. Sub-maps are typed above (docs/daemon.md, Status)."""
 
     TYPE: ClassVar[str] = "status"
     state: str  # starting | scanning | running | degraded | port_lost | stopping

@@ -112,8 +112,8 @@ def login_hint(
     if who:
         return (f" as {who}: check the user, password or certificate (a robot with --auth or "
                 "--secure refuses a wrong one at connection)")
-    return (f"; if it requires a login (--auth or --secure), pass {options} (README, "
-            "\"Roles and security\")")
+    return (f"; if it requires a login (--auth or --secure), pass {options} "
+            "(docs/security.md)")
 
 
 def client_config_path() -> Path:
@@ -244,7 +244,7 @@ def credential_env(creds: Credentials, secrets_dir: Path | None = None) -> dict[
 
 def add_credential_arguments(parser: argparse.ArgumentParser) -> None:
     """``--user``/``--password-file``/``--cert``/``--key``/``--ca``, for every client."""
-    group = parser.add_argument_group("credentials (see README, \"Roles and security\")")
+    group = parser.add_argument_group("credentials (see docs/security.md)")
     group.add_argument("--user", help=f"user name to log in as (default: ${ENV_USER})")
     group.add_argument(
         "--password-file",

@@ -1,5 +1,5 @@
 """Recording the robot's publications to MCAP (or the original's plain-text log) and replaying
-them on the key space. See README, "Notebooks, recording and replay".
+them on the key space. See docs/recording.md.
 
     >>> from clients.recording import Recorder, read_recording
     >>> with Recorder(robot, "walk.mcap"):

@@ -1,4 +1,4 @@
 """Authentication, TLS certificates and access control.
 
-`darwin users`, `darwin certs` and what `--auth`/`--secure` turn on (README, "Roles and security").
+`darwin users`, `darwin certs` and what `--auth`/`--secure` turn on (docs/security.md).
 """

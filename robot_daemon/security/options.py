@@ -11,7 +11,7 @@ from robot_daemon.security.users import default_users_file
 
 
 def add_security_arguments(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("security (README, \"Roles and security\")")
+    group = parser.add_argument_group("security (docs/security.md)")
     group.add_argument(
         "--auth",
         metavar="FILE",

@@ -1,4 +1,4 @@
-"""Write the README's screenshots (SVG) of every tab on the fixed scene:
+"""Write the screenshots (SVG) of every tab on the fixed scene, shown in docs/tui.md:
 ``python -m tests.ui.screenshots [OUT_DIR]`` (default ``docs/screenshots``)."""
 
 from __future__ import annotations

@@ -74,7 +74,7 @@ STEP_KEYS = {"time", "pause", "raw", "spare"}
 MAX_TEXT_STEPS = 32  # a text page's steps (+ leftover); the .bin holds binfile.MAX_STEPS
 
 HEADER = """\
-# DARwIn-OP action pages, darwin-zenoh text format (README, "Motion").
+# DARwIn-OP action pages, darwin-zenoh text format (docs/motion-files.md).
 # time, pause: time units (8 ms at speed 32). Joints: servo degrees (0 = raw 2048);
 # a joint left out of a step is not driven by it.
 """
