@@ -150,10 +150,6 @@ class PageEditor:
         self.dirty = True
         return True
 
-    @property
-    def can_undo(self) -> bool:
-        return bool(self._undo)
-
     # -- reading -------------------------------------------------------------------------------
     @property
     def steps(self) -> list[dict[str, Any]]:

@@ -97,10 +97,6 @@ class Hub:
             self._camera_sub = None
             self._camera_frame = None
 
-    @property
-    def camera_watched(self) -> bool:
-        return self._camera_sub is not None
-
     def _on_camera(self, msg: Message) -> None:
         # A Zenoh thread: swapping one reference is atomic, readers take whichever is newest.
         if isinstance(msg, CameraFrame):
@@ -110,14 +106,8 @@ class Hub:
     def add_event_listener(self, fn: EventListener) -> None:
         self._event_listeners.add(fn)
 
-    def remove_event_listener(self, fn: EventListener) -> None:
-        self._event_listeners.discard(fn)
-
     def add_status_listener(self, fn: StatusListener) -> None:
         self._status_listeners.add(fn)
-
-    def remove_status_listener(self, fn: StatusListener) -> None:
-        self._status_listeners.discard(fn)
 
     def _from_zenoh(self, msg: Message) -> None:
         with contextlib.suppress(RuntimeError):  # the loop is closing: nobody to tell

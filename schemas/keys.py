@@ -138,10 +138,6 @@ class Keys:
         its own roles' keys, so the ones that answer tell a client what it may do."""
         return f"{self.prefix}/role/{role}"
 
-    @property
-    def cmd_all(self) -> str:
-        return f"{self.prefix}/cmd/*"
-
     def client(self, client_id: str) -> str:
         return f"{self.prefix}/clients/{client_id}"
 

@@ -74,13 +74,6 @@ def speed_raw_to_rad_s(raw: int | np.ndarray) -> float | np.ndarray:
     return signed_11bit(raw) * RAD_S_PER_SPEED_UNIT
 
 
-def rad_s_to_moving_speed(rad_s: float) -> int:
-    """Moving speed register (32) for a speed limit; 0 stays 0, meaning 'no limit'."""
-    if rad_s <= 0:
-        return 0
-    return max(1, min(SPEED_MAX, int(round(rad_s / RAD_S_PER_SPEED_UNIT))))
-
-
 def load_raw_to_fraction(raw: int | np.ndarray) -> float | np.ndarray:
     """Present load register to a signed fraction of max torque (-1..1); scalar or array."""
     return signed_11bit(raw) * LOAD_PERCENT_PER_UNIT / 100.0

@@ -72,12 +72,6 @@ def to_urdf(body: Body) -> str:
     return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 
 
-def urdf_from_config_reply(cfg: Mapping[str, object]) -> str:
-    """The robot's URDF for a client, from the daemon's ``config`` reply (its own joint limits),
-    so every client that shows the robot describes the same body."""
-    return to_urdf(body_from_config_reply(cfg))
-
-
 def body_from_config_reply(cfg: Mapping[str, object]) -> Body:
     speed = cfg.get("max_speed")
     max_speed = float(speed) if isinstance(speed, int | float) else 5.65

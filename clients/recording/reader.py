@@ -11,7 +11,6 @@ with :mod:`schemas.messages` like live ones.
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 import os
 from collections import Counter
@@ -178,11 +177,3 @@ def read_session(
     rec.messages.sort(key=lambda m: m.log_ns)
     return rec
 
-
-def recorded_topics(rec: Recording) -> dict[str, str]:
-    """The topic → key map the recorder stored in its metadata."""
-    raw = rec.metadata.get("darwin", {}).get("topics", "{}")
-    try:
-        return dict(json.loads(raw))
-    except ValueError:
-        return {}

@@ -189,10 +189,6 @@ class Adapter:
                 self._camera_sub.close()
                 self._camera_sub = None
 
-    @property
-    def camera_on(self) -> bool:
-        return self._camera_sub is not None
-
     def _timer_loop(self) -> None:
         next_diag = time.monotonic()
         while not self._stop.wait(0.1):

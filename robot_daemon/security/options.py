@@ -53,20 +53,6 @@ def security_from_args(args: argparse.Namespace) -> Security | None:
     )
 
 
-def forward_security_args(args: argparse.Namespace) -> list[str]:
-    """The same options for a child program (``darwin up`` → ``darwin daemon``)."""
-    out: list[str] = []
-    if getattr(args, "auth", None):
-        out += ["--auth", str(Path(args.auth).resolve())]
-    if getattr(args, "secure", False):
-        out.append("--secure")
-    if getattr(args, "mtls", False):
-        out.append("--mtls")
-    if getattr(args, "certs", None):
-        out += ["--certs", str(Path(args.certs).resolve())]
-    return out
-
-
 def secure_listen(listen: list[str], security: Security | None, explicit: bool) -> list[str]:
     """With TLS the shipped default endpoints become ``tls/`` (an explicit ``tcp/`` is an
     error); returns the endpoints and prints the open-address warnings."""
