@@ -18,6 +18,7 @@ import copy
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
+from schemas.errors import DarwinError
 from schemas.units import deg_to_raw, raw_to_deg
 
 JOINTS: tuple[str, ...] = (
@@ -62,7 +63,7 @@ MAX_UNDO = 200
 DEFAULT_TIME = 100  # time units (0.8 s at speed 32) of a new step
 
 
-class EditError(ValueError):
+class EditError(DarwinError, ValueError):
     """An edit that cannot be made (unknown joint or group, no such step)."""
 
 

@@ -72,7 +72,7 @@ def watch_parent() -> None:
 
 
 class ChildError(DarwinError):
-    pass
+    """A child program exited, or never printed its address; the message says which."""
 
 
 class Child:

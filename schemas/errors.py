@@ -4,6 +4,11 @@ DarwinError
 ├── ConfigError             a config file or value is wrong
 ├── StateError              an object used in the wrong state (closed, already running)
 ├── CameraError             a camera source gives no frames or cannot encode them
+│   └── GLUnavailableError  no OpenGL for the MuJoCo camera (robot_daemon/sim/physics)
+├── ChildError              a program `darwin up` started exited or never became ready
+├── ListenError             the daemon cannot listen on its Zenoh endpoint (robot_daemon/daemon)
+├── RouterError             `darwin router` cannot listen (robot_daemon/router)
+├── MotionFileError         a motion file that cannot be read (robot_daemon/motion/action)
 ├── BusError                serial port and Dynamixel bus
 │   ├── PortError           cannot open / lost the serial port
 │   │   └── PortInUseError  another process holds it
@@ -11,7 +16,18 @@ DarwinError
 │   └── PacketError         a reply was corrupt or malformed
 ├── ProtocolError           malformed input on a wire (legacy framing, JSON, msgpack)
 │   ├── PayloadTooLargeError a payload over the size limit, refused before decoding
-│   └── SlowReaderError     a peer lets replies pile up: closed rather than buffered
+│   ├── SlowReaderError     a peer lets replies pile up: closed rather than buffered
+│   ├── LegacyError         the legacy protocol's errors (gateway/messages.py)
+│   │   ├── FramingError    the byte stream cannot be framed: closed after the error reply
+│   │   └── MessageError    a well-framed message that cannot be applied: answered, kept
+│   ├── BadRequest          a Foxglove request refused before the arbiter (clients/foxglove)
+│   ├── CdrError            a ROS 2 message whose CDR bytes do not decode (clients/ros2)
+│   ├── AttachmentError     an rmw_zenoh attachment that does not decode (clients/ros2)
+│   └── CommandRejected     a ROS 2 command that must not reach the arbiter (clients/ros2)
+├── RecordingError          a recording cannot be read or recovered (clients/recording)
+│   ├── NotMcapError        the file holds no MCAP data at all
+│   └── RecoverError        nothing could be recovered, or the output is not allowed
+├── EditError               a page edit that cannot be made (clients/pages.py)
 ├── CommandError            a refused command (code, message, field); one class per ErrorCode
 │   ├── LeaseBusyError      busy: another client holds the control lease
 │   ├── NoLeaseError        no_lease: the command needs the lease and the caller has none
@@ -113,6 +129,10 @@ class PacketError(BusError):
 class ProtocolError(DarwinError):
     """Malformed input on a wire: legacy framing, JSON, msgpack or a payload of the wrong shape
     or schema version."""
+
+
+class RecordingError(DarwinError):
+    """A recording cannot be read or recovered; the message names the file and what is wrong."""
 
 
 class PayloadTooLargeError(ProtocolError):

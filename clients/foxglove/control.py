@@ -17,7 +17,7 @@ from collections.abc import Callable
 from typing import Any
 
 from clients.robot import Commander, Robot
-from schemas.errors import DarwinError
+from schemas.errors import DarwinError, ProtocolError
 
 log = logging.getLogger(__name__)
 
@@ -25,7 +25,7 @@ TELEOP_SILENCE = 0.5  # s without a Teleop message stops a walk it started
 MAX_REQUEST = 64 * 1024  # bytes of a service request or client message we decode at most
 
 
-class BadRequest(ValueError):
+class BadRequest(ProtocolError, ValueError):
     """A request Foxglove sent that we refuse before it reaches the arbiter."""
 
 

@@ -19,13 +19,14 @@ from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
 from clients.recording.scan import NotMcapError, RecordScanner, ScanReport
+from schemas.errors import RecordingError
 
 RECOVERED_SUFFIX = ".recovered.mcap"
 CHUNK_BYTES = 1024 * 1024
 LIBRARY = "darwin record recover"
 
 
-class RecoverError(Exception):
+class RecoverError(RecordingError):
     """Nothing could be recovered, or the output is not allowed; the message says which."""
 
 

@@ -43,6 +43,8 @@ from mcap.records import (
     Schema,
 )
 
+from schemas.errors import RecordingError
+
 MAGIC = b"\x89MCAP0\r\n"
 RECORD_HEAD = 9  # opcode (1) + length (8)
 _PARSE_ERRORS = (
@@ -71,7 +73,7 @@ _READERS: dict[int, Any] = {
 _CONTENT = (Schema, Channel, Message, Metadata, Attachment)
 
 
-class NotMcapError(Exception):
+class NotMcapError(RecordingError):
     """The file holds no MCAP data at all (empty, another format, cut inside the header)."""
 
 

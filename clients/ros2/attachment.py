@@ -15,13 +15,15 @@ from dataclasses import dataclass
 
 import xxhash
 
+from schemas.errors import ProtocolError
+
 GID_SIZE = 16
 SIZE = 8 + 8 + 1 + GID_SIZE
 _HEAD = struct.Struct("<qqB")
 
 
-class AttachmentError(ValueError):
-    pass
+class AttachmentError(ProtocolError, ValueError):
+    """An rmw_zenoh attachment (sequence number, stamp, GID) that does not decode."""
 
 
 def gid_of(token: str) -> bytes:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from schemas.body import MX28_STALL_TORQUE, Body
+from schemas.errors import ProtocolError
 from schemas.kinematics import quaternion
 from schemas.messages import Imu, Joints, Status, World
 
@@ -23,7 +24,7 @@ STALL_VOLTAGE = 12.0
 YAW_UNKNOWN_VARIANCE = 1.0e6  # rad²: no magnetometer, the yaw is not observed at all
 
 
-class CommandRejected(ValueError):
+class CommandRejected(ProtocolError, ValueError):
     """A ROS command that must not reach the arbiter (the message says why)."""
 
 

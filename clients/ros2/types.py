@@ -17,6 +17,8 @@ from rosbags.typesys import Stores, get_types_from_msg
 from rosbags.typesys import get_typestore as _get_typestore
 from rosbags.typesys.base import Nodetype
 
+from schemas.errors import ProtocolError
+
 # ros type name -> (request fields, response fields) in .msg syntax
 SERVICES: dict[str, tuple[str, str]] = {
     "std_srvs/srv/Trigger": (
@@ -30,8 +32,8 @@ SERVICES: dict[str, tuple[str, str]] = {
 _EVENT_INFO = "service_msgs/msg/ServiceEventInfo"
 
 
-class CdrError(ValueError):
-    pass
+class CdrError(ProtocolError, ValueError):
+    """CDR bytes that do not decode as the message type says."""
 
 
 def _fields(msg_text: str) -> list[Any]:
