@@ -399,6 +399,22 @@ class Commander:
     def head(self, pan: float, tilt: float) -> dict[str, Any]:
         return self.command("head", pan=pan, tilt=tilt)
 
+    def walk_params(self, **values: float) -> dict[str, Any]:
+        """The gait parameters (``config/walking.toml`` names and units); with values, set them
+        (needs the lease; each is checked against its range)."""
+        return self.command("walk_params", set=values) if values else self.command("walk_params")
+
+    def say(self, text: str, lang: str = "en") -> dict[str, Any]:
+        return self.command("sound", say=text, lang=lang)
+
+    def play_sound(self, file: str) -> dict[str, Any]:
+        """Play a sound file on the robot (a path on the robot's disk)."""
+        return self.command("sound", file=file)
+
+    def behaviours(self) -> dict[str, Any]:
+        """The behaviour library and the legacy ``type`` table (no lease needed)."""
+        return self.command("behaviours")
+
 
 class Robot(Commander, TeachMixin):
     """Commands plus the robot's live state and subscriptions; action pages and teach mode

@@ -12,8 +12,7 @@ from typing import Any
 from gateway.messages import JOINT_IDS, Led, Operate, Playball, Request, Walk
 from gateway.settings import GatewaySettings, WalkMapping
 from schemas import units
-from schemas.commands import OPS_WITHOUT_LEASE
-from schemas.keys import LEASE_FREE_VERBS
+from schemas.commands import needs_lease
 
 
 @dataclass(frozen=True)
@@ -23,9 +22,7 @@ class Command:
 
     @property
     def needs_lease(self) -> bool:
-        if self.verb in LEASE_FREE_VERBS:
-            return False
-        return self.fields.get("op") not in OPS_WITHOUT_LEASE.get(self.verb, frozenset())
+        return needs_lease(self.verb, self.fields)
 
 
 def deg_to_rad(deg: float) -> float:

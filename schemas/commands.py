@@ -26,25 +26,10 @@ what was actually applied after conversion — or ``{"v":1, "ok": false, "verb":
 "message": m, "field": f}`` sent with ``query.reply_err``; codes are :class:`ErrorCode`.
 Angles are rad, speeds rad/s or m/s, durations s. Joints are named by id (1..20) or name.
 
-| verb | fields | lease |
-|---|---|---|
-| lease | op: "acquire" \\| "release" \\| "renew" \\| "status", name: str (human) | no |
-| joint | id \\| name, position: rad, speed: rad/s (optional, 0 = servo max) | yes |
-| pose | positions: {id-or-name: rad}, duration: s (> 0, interpolated) | yes |
-| torque | enable: bool, ids: [id-or-name] (absent = all) | yes |
-| led | head: [r,g,b] 0..255, eye: [r,g,b], panel: 0..7 (each optional, ≥ 1 present) | yes |
-| halt | — (stop every motion module, hold the present pose) | never |
-| config | — → joints, limits, offsets, tick period, walk params, robot name | no |
-| registers | id, address, length (read) \\| id, address, data: [bytes] (write; see below) | write |
-| action | op: "play" \\| "stop" \\| "brake", page: int \\| name: str \\| behaviour: id | play |
-| walk | op: "start" \\| "set" \\| "stop", x: m/s, y: m/s, turn: rad/s | start/set |
-| walk_params | set: {name: value} (absent = read, also on ``read/walk_params``) | set |
-| head | pan: rad, tilt: rad \\| track: {pan_error, tilt_error} \\| op: "home" | yes |
-| choreography | op: "play", items: [item…] \\| op: "stop" | play |
-| sound | file: path \\| say: text | yes |
-| playball | op: "start" \\| "stop", color: name (default "red") | start |
-| behaviours | — → the behaviour library and the legacy ``type`` table | no |
-| pages | op: list, get, put, delete, reload, export, play; number, page, step | put… |
+Each verb is declared once, in :data:`SPEC` below: its fields, which of its ops need the lease,
+which are reads an observer may send, which are admin-only, whether it is a bus transaction,
+and its help line. Every other table (the verbs served, the lease rules, the roles and their
+access-control rules, the arbiter's bus budget, the docs' verb table) is derived from it.
 
 A choreography item is ``{"behaviour": id, ...params}`` where params depend on the behaviour's
 kind: ``action`` (page), ``walk`` (duration s, x, y, turn), ``sound`` (file/say), ``led``
@@ -66,6 +51,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Any
 
 
 class LeaseOp(StrEnum):
@@ -82,18 +68,6 @@ class MotionOp(StrEnum):
     STOP = "stop"
     BRAKE = "brake"
     HOME = "home"
-
-
-# Verb → ops that are allowed without the lease (stopping is always allowed).
-OPS_WITHOUT_LEASE: dict[str, frozenset[str]] = {
-    "action": frozenset({"stop", "brake"}),
-    "walk": frozenset({"stop"}),
-    "choreography": frozenset({"stop"}),
-    "playball": frozenset({"stop"}),
-    "registers": frozenset({"read"}),
-    "walk_params": frozenset({"read"}),
-    "pages": frozenset({"list", "get", "export"}),
-}
 
 
 # Fields of every command that are not the verb's own.
@@ -126,34 +100,170 @@ REF = Field("ref", 32)
 RGB = Field("rgb")
 LANG = Field("str", 8, ("en", "pt"))
 
-# Verb → its fields: the one declaration the arbiter checks every command against (before the
-# lease check and the handler), and what a client may send.
-COMMAND_FIELDS: dict[str, dict[str, Field]] = {
-    "lease": {"op": _op(*(o.value for o in LeaseOp)), "name": Field("str", MAX_NAME)},
-    "joint": {"id": REF, "name": REF, "position": NUMBER, "speed": NUMBER},
-    "pose": {"positions": Field("map", 32), "duration": NUMBER},
-    "torque": {"enable": BOOL, "ids": Field("list", 32)},
-    "led": {"head": RGB, "eye": RGB, "panel": INT},
-    "halt": {},
-    "config": {},
-    "registers": {"id": INT, "address": INT, "length": INT, "data": Field("list", 128)},
-    "action": {
-        "op": _op("play", "stop", "brake"),
-        "page": INT,
-        "name": Field("str", 64),
-        "behaviour": REF,
-    },
-    "walk": {"op": _op("start", "set", "stop"), "x": NUMBER, "y": NUMBER, "turn": NUMBER},
-    "walk_params": {"set": Field("map", 64)},
-    "head": {"op": _op("home"), "pan": NUMBER, "tilt": NUMBER, "track": Field("map", 2)},
-    "choreography": {"op": _op("play", "stop"), "items": Field("list", 256), "lang": LANG},
-    "sound": {"file": Field("str", 256), "say": Field("str", 500), "lang": LANG},
-    "playball": {"op": _op("start", "stop"), "color": Field("str", 32)},
-    "behaviours": {},
-    "pages": {
-        "op": _op("list", "get", "put", "delete", "reload", "export", "play"),
-        "number": INT,
-        "step": INT,
-        "page": Field("map", 16),
-    },
+
+@dataclass(frozen=True)
+class Verb:
+    """Everything about one verb, declared once.
+
+    ``lease``: whether it ever needs the control lease; ``free_ops`` are its ops that do not
+    (stopping is always allowed). ``read``: an observer may query it on ``cmd/<verb>`` (it never
+    changes anything). ``read_ops``: its read-only ops, sent on ``read/<verb>`` so access
+    control can let observers have them while the writes stay on ``cmd/<verb>``. ``admin_ops``:
+    ops only an admin may send, on ``admin/<verb>``. ``bus``: a bus transaction in the motion
+    thread, inside the arbiter's per-tick bus budget. ``help``: what the docs' verb table says
+    of its fields."""
+
+    name: str
+    fields: dict[str, Field]
+    help: str
+    lease: bool = True
+    free_ops: frozenset[str] = frozenset()
+    read: bool = False
+    read_ops: frozenset[str] = frozenset()
+    admin_ops: frozenset[str] = frozenset()
+    bus: bool = False
+
+
+def _ops(*ops: str) -> frozenset[str]:
+    return frozenset(ops)
+
+
+# The verbs, in the order the docs list them.
+SPEC: dict[str, Verb] = {
+    v.name: v
+    for v in (
+        Verb(
+            "lease",
+            {"op": _op(*(o.value for o in LeaseOp)), "name": Field("str", MAX_NAME)},
+            "`op`: acquire \\| release \\| renew \\| status, `name` (the holder's human name)",
+            lease=False,
+        ),
+        Verb(
+            "joint",
+            {"id": REF, "name": REF, "position": NUMBER, "speed": NUMBER},
+            "`id` or `name`, `position` rad (inside the joint's limits, never clamped), `speed` "
+            "rad/s (0 or absent = the servo's maximum)",
+        ),
+        Verb(
+            "pose",
+            {"positions": Field("map", 32), "duration": NUMBER},
+            "`positions` {joint: rad}, `duration` s (cosine-interpolated)",
+        ),
+        Verb(
+            "torque",
+            {"enable": BOOL, "ids": Field("list", 32)},
+            "`enable`, `ids` (absent = all; enabling holds the present position first)",
+            bus=True,
+        ),
+        Verb(
+            "led",
+            {"head": RGB, "eye": RGB, "panel": INT},
+            "`head` / `eye` [r,g,b] 0..255, `panel` 0..7 (each optional, one at least)",
+            bus=True,
+        ),
+        Verb("halt", {}, "— stop every module, hold the present pose; always taken", lease=False),
+        Verb(
+            "config",
+            {},
+            "— joints, limits, offsets, gains, tick, walking and IMU settings, robot name",
+            lease=False,
+            read=True,
+        ),
+        Verb(
+            "registers",
+            {"id": INT, "address": INT, "length": INT, "data": Field("list", 128)},
+            "`id`, `address`, `length` (read) or `data` (write RAM; EEPROM only with "
+            "`--allow-eeprom`; goal writes still inside the limits)",
+            free_ops=_ops("read"),
+            admin_ops=_ops("write"),
+            bus=True,
+        ),
+        Verb(
+            "action",
+            {"op": _op("play", "stop", "brake"), "page": INT, "name": Field("str", 64),
+             "behaviour": REF},
+            "`op`: play \\| stop \\| brake, `page` number or `name`, or `behaviour` id",
+            free_ops=_ops("stop", "brake"),
+        ),
+        Verb(
+            "walk",
+            {"op": _op("start", "set", "stop"), "x": NUMBER, "y": NUMBER, "turn": NUMBER},
+            "`op`: start \\| set \\| stop, `x`, `y` m/s, `turn` rad/s (within the gait's limits)",
+            free_ops=_ops("stop"),
+        ),
+        Verb(
+            "walk_params",
+            {"set": Field("map", 64)},
+            "`set` {name: value} in `config/walking.toml` names and units; absent = read (also "
+            "on `read/walk_params`, for observers)",
+            free_ops=_ops("read"),
+            read_ops=_ops("read"),
+        ),
+        Verb(
+            "head",
+            {"op": _op("home"), "pan": NUMBER, "tilt": NUMBER, "track": Field("map", 2)},
+            "`pan`, `tilt` rad \\| `track` {pan_error, tilt_error} \\| `op`: home",
+        ),
+        Verb(
+            "choreography",
+            {"op": _op("play", "stop"), "items": Field("list", 256), "lang": LANG},
+            "`op`: play with `items` [item…] (`lang` en \\| pt) \\| stop",
+            free_ops=_ops("stop"),
+        ),
+        Verb(
+            "sound",
+            {"file": Field("str", 256), "say": Field("str", 500), "lang": LANG},
+            "`file` path \\| `say` text (`lang` en \\| pt)",
+        ),
+        Verb(
+            "playball",
+            {"op": _op("start", "stop"), "color": Field("str", 32)},
+            "`op`: start \\| stop, `color` name (default red; needs a camera)",
+            free_ops=_ops("stop"),
+        ),
+        Verb(
+            "behaviours",
+            {},
+            "— the behaviour library and the legacy `type` table",
+            lease=False,
+            read=True,
+        ),
+        Verb(
+            "pages",
+            {"op": _op("list", "get", "put", "delete", "reload", "export", "play"),
+             "number": INT, "step": INT, "page": Field("map", 16)},
+            "`op`: list \\| get \\| put \\| delete \\| reload \\| export \\| play, `number`, "
+            "`page`, `step` (the action-page library: files on the robot)",
+            free_ops=_ops("list", "get", "export"),
+            admin_ops=_ops("put", "delete", "reload"),
+        ),
+    )
 }
+
+# Verb → its fields: what the arbiter checks every command against (before the lease check and
+# the handler), and what a client may send.
+COMMAND_FIELDS: dict[str, dict[str, Field]] = {name: v.fields for name, v in SPEC.items()}
+
+
+def op_of(verb: str, fields: dict[str, Any]) -> str:
+    """The operation a command does: its ``op`` field, or for the verbs whose op is implied by
+    a field, ``read``/``write`` (registers) and ``read``/``set`` (walk_params)."""
+    if verb == "registers":
+        return "write" if fields.get("data") is not None else "read"
+    if verb == "walk_params":
+        return "set" if fields.get("set") is not None else "read"
+    op = fields.get("op")
+    return op if isinstance(op, str) else ""
+
+
+def needs_lease(verb: str, fields: dict[str, Any]) -> bool:
+    """Whether this command needs the control lease: the one rule the arbiter and every
+    adapter apply. An unknown verb, or a command with no op where the verb has lease-free
+    ops, needs it (the safe answer)."""
+    spec = SPEC.get(verb)
+    if spec is None:
+        return True
+    if not spec.lease:
+        return False
+    op = op_of(verb, fields)
+    return not op or op not in spec.free_ops

@@ -9,32 +9,15 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from schemas.commands import SPEC
+
 ROOT = "darwin"
 DEFAULT_ROBOT = "op1"
 
-# Verbs the arbiter serves under ``…/cmd/<verb>``.
-VERBS: tuple[str, ...] = (
-    "lease",
-    "joint",
-    "pose",
-    "torque",
-    "led",
-    "halt",
-    "config",
-    "registers",
-    "action",
-    "walk",
-    "walk_params",
-    "head",
-    "choreography",
-    "sound",
-    "playball",
-    "behaviours",
-    "pages",
-)
-
-# Verbs that are accepted without the control lease (they never move the robot, or stop it).
-LEASE_FREE_VERBS: frozenset[str] = frozenset({"lease", "halt", "config", "behaviours"})
+# Verbs the arbiter serves under ``…/cmd/<verb>``, and those that never need the control lease
+# (they never move the robot, or stop it): both from the one spec, ``schemas.commands.SPEC``.
+VERBS: tuple[str, ...] = tuple(SPEC)
+LEASE_FREE_VERBS: frozenset[str] = frozenset(v.name for v in SPEC.values() if not v.lease)
 
 # rmw_zenoh's key space (``clients/ros2/graph.py``), beside ours on the same routers: liveliness
 # tokens under ``@ros2_lv/<domain>/…``, data and services under ``<domain>/…``.

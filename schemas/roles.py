@@ -25,6 +25,7 @@ from __future__ import annotations
 from enum import StrEnum
 from typing import Any
 
+from schemas.commands import SPEC, op_of
 from schemas.errors import ErrorCode, ForbiddenError
 from schemas.keys import VERBS, Keys
 
@@ -40,21 +41,16 @@ class Role(StrEnum):
 LADDER: tuple[Role, ...] = (Role.OBSERVER, Role.OPERATOR, Role.ADMIN)
 
 # Verbs an observer may query (their key ``cmd/<verb>``): reads that never change anything.
-READ_VERBS: frozenset[str] = frozenset({"config", "behaviours"})
+READ_VERBS: frozenset[str] = frozenset(v.name for v in SPEC.values() if v.read)
 
 # verb → the ops (``op`` field, or "write" for a registers write) that only an admin may send;
 # they travel on ``admin/<verb>``.
-ADMIN_OPS: dict[str, frozenset[str]] = {
-    "registers": frozenset({"write"}),
-    "pages": frozenset({"put", "delete", "reload"}),
-}
+ADMIN_OPS: dict[str, frozenset[str]] = {v.name: v.admin_ops for v in SPEC.values() if v.admin_ops}
 ADMIN_VERBS: tuple[str, ...] = tuple(ADMIN_OPS)
 
 # verb → its read-only ops that an observer may send, where the verb's other ops change the
 # robot; they travel on ``read/<verb>`` (the writes stay on ``cmd/<verb>``, for operators).
-READ_OPS: dict[str, frozenset[str]] = {
-    "walk_params": frozenset({"read"}),
-}
+READ_OPS: dict[str, frozenset[str]] = {v.name: v.read_ops for v in SPEC.values() if v.read_ops}
 READ_OP_VERBS: tuple[str, ...] = tuple(READ_OPS)
 
 # The emulator's control interface (``Keys.sim_control``: world ops, faults): admins only.
@@ -71,16 +67,6 @@ def parse_role(text: str, people_only: bool = False) -> Role:
     if role is None or role not in allowed:
         raise ValueError(f"role {text!r} is not one of {', '.join(allowed)}")
     return role
-
-
-def op_of(verb: str, fields: dict[str, Any]) -> str:
-    """The operation a command does, as :data:`ADMIN_OPS` names it."""
-    if verb == "registers":
-        return "write" if fields.get("data") is not None else "read"
-    if verb == "walk_params":
-        return "set" if fields.get("set") is not None else "read"
-    op = fields.get("op")
-    return op if isinstance(op, str) else ""
 
 
 def is_admin_op(verb: str, fields: dict[str, Any]) -> bool:

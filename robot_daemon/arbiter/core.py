@@ -30,19 +30,19 @@ from robot_daemon.arbiter.lease import Lease
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request
 from robot_daemon.arbiter.request import decode_command, execute, parse_request, request_from
 from robot_daemon.arbiter.throttle import ArbiterLimits, Buckets
-from schemas.commands import MAX_CLIENT_ID, LeaseOp
+from schemas.commands import MAX_CLIENT_ID, SPEC, LeaseOp, op_of
 from schemas.errors import CommandError, ErrorCode, ProtocolError, brief
 from schemas.keys import VERBS, Keys, verb_of
 from schemas.messages import error_reply, ok_reply
 from schemas.query import answer, error_payload, request_bytes
-from schemas.roles import ADMIN_VERBS, READ_OP_VERBS, is_admin_op, is_read_op, op_of
+from schemas.roles import ADMIN_VERBS, READ_OP_VERBS, is_admin_op, is_read_op
 
 __all__ = ["Arbiter", "Pending", "decode_command", "execute", "parse_request", "request_from"]
 
 log = logging.getLogger(__name__)
 
 # Commands that are bus transactions in the motion thread: they share a per-tick budget.
-BUS_VERBS = frozenset({"registers", "torque", "led"})
+BUS_VERBS = frozenset(v.name for v in SPEC.values() if v.bus)
 # Halts are cheap (no bus I/O) and always first; this only bounds a flood of them per tick.
 MAX_HALTS_PER_TICK = 64
 # Throttled answers held back until their retry time (see Arbiter._park).

@@ -27,10 +27,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from config.loader import nearest
-from schemas.commands import COMMAND_FIELDS, OPS_WITHOUT_LEASE, Field
+from schemas.commands import COMMAND_FIELDS, Field, needs_lease
 from schemas.errors import ErrorCode, Reject, brief
-from schemas.keys import LEASE_FREE_VERBS
-from schemas.roles import op_of
 
 if TYPE_CHECKING:
     from config.loader import RobotConfig
@@ -41,7 +39,9 @@ if TYPE_CHECKING:
     from schemas.messages import Message
 
 
-__all__ = ["REGISTRY", "BusCommands", "MotionContext", "Reject", "Request", "verb"]
+__all__ = [
+    "REGISTRY", "BusCommands", "MotionContext", "Reject", "Request", "needs_lease", "verb",
+]
 
 M = TypeVar("M")
 
@@ -169,14 +169,3 @@ def _check_kind(name: str, f: Field, value: Any) -> None:
         raise Reject(
             ErrorCode.INVALID, f"{name}={brief(value)} is not one of {', '.join(f.choices)}", name
         )
-
-
-def needs_lease(verb_name: str, fields: dict[str, Any]) -> bool:
-    """Whether this call needs the lease; fields must have passed :func:`check_fields`
-    (anything else is treated as needing it, the safe answer)."""
-    if verb_name in LEASE_FREE_VERBS:
-        return False
-    op = op_of(verb_name, fields)
-    if not op:
-        return True
-    return op not in OPS_WITHOUT_LEASE.get(verb_name, frozenset())

@@ -3,17 +3,24 @@ the lease check and the handler: nothing reaches the bus."""
 
 from __future__ import annotations
 
+import ast
 import dataclasses
+from pathlib import Path
 
 import pytest
 
+from gateway.translate import Command
+from robot_daemon.arbiter.core import BUS_VERBS
 from robot_daemon.arbiter.protected import PROTECTED
 from robot_daemon.arbiter.registry import REGISTRY, SPECS, Reject, Request
 from robot_daemon.bus.tables import CM730, MX28
 from robot_daemon.motion.manager import MotionManager
-from schemas.commands import COMMAND_FIELDS
-from schemas.keys import VERBS
+from schemas.commands import COMMAND_FIELDS, SPEC, needs_lease
+from schemas.keys import LEASE_FREE_VERBS, VERBS
+from schemas.roles import ADMIN_OPS, READ_VERBS
 from tests.unit.arbiter_rig import ArbiterRig
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
@@ -23,8 +30,47 @@ def rig() -> ArbiterRig:
 
 def test_every_verb_is_declared_and_registered_with_its_declaration() -> None:
     ArbiterRig()
-    assert set(COMMAND_FIELDS) == set(VERBS) == set(REGISTRY)
-    assert all(SPECS[v] is COMMAND_FIELDS[v] for v in VERBS)
+    assert set(SPEC) == set(COMMAND_FIELDS) == set(VERBS) == set(REGISTRY)
+    assert all(SPECS[v] is COMMAND_FIELDS[v] is SPEC[v].fields for v in VERBS)
+
+
+def _client_verbs() -> set[str]:
+    """The verbs the Python clients send: the first argument of every ``command("verb", …)``
+    call in clients/ (the Robot API and the modules it is built from)."""
+    sent: set[str] = set()
+    for path in (REPO / "clients").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                    and node.func.attr == "command" and node.args
+                    and isinstance(node.args[0], ast.Constant)):
+                sent.add(node.args[0].value)
+    return sent
+
+
+def test_every_verb_has_a_client_method_and_clients_send_only_verbs() -> None:
+    sent = _client_verbs()
+    assert set(VERBS) <= sent, f"verbs no Robot method sends: {set(VERBS) - sent}"
+    assert sent <= set(VERBS), f"clients send verbs the spec does not declare: {sent - set(VERBS)}"
+
+
+def test_the_spec_decides_the_lease_the_roles_and_the_bus_budget() -> None:
+    """Every table is derived from the spec, so they cannot disagree: the arbiter's and the
+    gateway's lease rule are the same function (they used to differ on register reads)."""
+    assert {v for v, s in SPEC.items() if not s.lease} == LEASE_FREE_VERBS
+    assert {v for v, s in SPEC.items() if s.bus} == BUS_VERBS
+    assert set(ADMIN_OPS) == {v for v, s in SPEC.items() if s.admin_ops}
+    assert {v for v, s in SPEC.items() if s.read} == READ_VERBS
+    read = {"id": 1, "address": 36, "length": 2}
+    write = {"id": 1, "address": 36, "data": [0]}
+    cases = [("registers", read, False), ("registers", write, True), ("walk_params", {}, False),
+             ("walk_params", {"set": {"x_offset": 0.0}}, True), ("walk", {"op": "stop"}, False),
+             ("walk", {"op": "start"}, True), ("halt", {}, False), ("pose", {}, True),
+             ("no_such_verb", {}, True)]
+    for verb, fields, expected in cases:
+        assert needs_lease(verb, fields) is expected, (verb, fields)
+        assert Command(verb, fields).needs_lease is expected, (verb, fields)
+    for verb, spec in SPEC.items():
+        assert all(not needs_lease(verb, {"op": op}) for op in spec.free_ops if op != "read")
 
 
 @pytest.mark.parametrize(

@@ -92,8 +92,8 @@ def test_documented_command_parses(page: str, command: str) -> None:
             assert exc.code == 0, f"{page}: `{command}` does not parse: {err.getvalue()}"
 
 
-def test_cli_reference_is_in_step_with_help() -> None:
-    run = subprocess.run([sys.executable, "scripts/cli_reference.py", "--check"], cwd=REPO,
+def test_reference_pages_are_in_step_with_programs_and_spec() -> None:
+    run = subprocess.run([sys.executable, "scripts/reference.py", "--check"], cwd=REPO,
                          capture_output=True, text=True, env={**os.environ, "CI": "1"})
     assert run.returncode == 0, run.stderr
 
