@@ -399,6 +399,20 @@ class Commander:
     def head(self, pan: float, tilt: float) -> dict[str, Any]:
         return self.command("head", pan=pan, tilt=tilt)
 
+    def trajectory(
+        self, joints: list[int | str], points: list[tuple[float, list[float]]]
+    ) -> dict[str, Any]:
+        """Play a joint trajectory in the daemon's loop: ``points`` are (seconds from the start,
+        [rad per joint]), linear in between. Checked whole before anything moves."""
+        return self.command(
+            "trajectory",
+            joints=list(joints),
+            points=[{"t": float(t), "positions": [float(p) for p in pos]} for t, pos in points],
+        )
+
+    def trajectory_stop(self) -> dict[str, Any]:
+        return self.command("trajectory", op="stop")
+
     def walk_params(self, **values: float) -> dict[str, Any]:
         """The gait parameters (``config/walking.toml`` names and units); with values, set them
         (needs the lease; each is checked against its range)."""

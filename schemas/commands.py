@@ -200,6 +200,14 @@ SPEC: dict[str, Verb] = {
             read_ops=_ops("read"),
         ),
         Verb(
+            "trajectory",
+            {"op": _op("play", "stop"), "joints": Field("list", 20),
+             "points": Field("list", 1000)},
+            "`joints` [id-or-name…], `points` [{`t` s from the start, `positions` [rad…]}…] "
+            "(checked whole, played in the loop, linear between points) \\| `op`: stop",
+            free_ops=_ops("stop"),
+        ),
+        Verb(
             "head",
             {"op": _op("home"), "pan": NUMBER, "tilt": NUMBER, "track": Field("map", 2)},
             "`pan`, `tilt` rad \\| `track` {pan_error, tilt_error} \\| `op`: home",

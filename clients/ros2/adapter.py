@@ -73,7 +73,6 @@ class Adapter:
         self._walking = False
         self._last_twist = 0.0
         self._refused_burst = False
-        self._traj_cancel = threading.Event()
         self._threads = [
             threading.Thread(target=self._publish_loop, name="ros2-publish", daemon=True),
             threading.Thread(target=self._command_loop, name="ros2-commands", daemon=True),
@@ -282,25 +281,26 @@ class Adapter:
             self._command(self.robot.walk_stop)
 
     def _on_trajectory(self, msg: Any) -> None:
+        """The whole trajectory goes to the daemon once and plays in its loop (as a ros2_control
+        controller would), never point by point across the network."""
         self._last_cmd = time.monotonic()
         try:
-            points = convert.trajectory_points(msg, self.limits)
+            joints, points = convert.trajectory_command(msg, self.limits)
         except convert.CommandRejected as exc:
             self._reject(str(exc))
             return
+        took = not self._holding
         if not self._take_lease():
             return
-        self._traj_cancel.clear()
-        for duration, pose in points:
-            if self._traj_cancel.is_set() or self._stop.is_set():
-                return
-            try:
-                self._command(self.robot.pose, pose, duration=max(duration, 0.008))
-            except CommandError as exc:
-                self._reject(f"joint_trajectory refused by the arbiter: {exc}")
-                return
-            self._traj_cancel.wait(duration)
-            self._last_cmd = time.monotonic()
+        try:
+            applied = self._command(self.robot.trajectory, joints, points)
+        except CommandError as exc:
+            self._reject(f"joint_trajectory refused by the arbiter: {exc}")
+            if took and self._holding:
+                self._release("its only command was refused")  # keep no lease for nothing
+            return
+        # Playing counts as activity: the lease is not given back while the robot follows it.
+        self._last_cmd = time.monotonic() + float(applied.get("duration", 0.0))
 
     def _on_tick(self) -> None:
         now = time.monotonic()
@@ -313,7 +313,6 @@ class Adapter:
             self._release("ROS went quiet")
 
     def _release(self, why: str) -> None:
-        self._traj_cancel.set()
         if self._walking:
             self._stop_walk()  # the arbiter stops it too when the lease ends; do not rely on it
         self._walking = False
@@ -332,7 +331,6 @@ class Adapter:
         return msg_class("std_srvs/srv/SetBool_Response")(success=ok, message=message)
 
     def _srv_halt(self, _req: Any) -> Any:
-        self._traj_cancel.set()
         self._walking = False
         try:
             self.robot.halt()

@@ -240,48 +240,20 @@ class Limit:
     upper: float
 
 
-def trajectory_points(
+def trajectory_command(
     msg: Any, limits: Mapping[str, Limit]
-) -> list[tuple[float, dict[int, float]]]:
-    """(duration from the previous point in s, {servo id: rad}) per point, all checked first:
-    a bad point rejects the whole trajectory before any servo moves."""
+) -> tuple[list[int], list[tuple[float, list[float]]]]:
+    """A JointTrajectory as the ``trajectory`` verb's joints (servo ids, from the URDF joint
+    names) and points (seconds from the start, positions). Only what ROS alone knows is checked
+    here (the joint names); the daemon checks every point before anything moves."""
     names = list(msg.joint_names)
-    if not names:
-        raise CommandRejected("joint_trajectory has no joint_names")
     unknown = [n for n in names if n not in limits]
     if unknown:
         raise CommandRejected(
             f"joint_trajectory names unknown joints {unknown}; joints are {sorted(limits)}"
         )
-    if len(set(names)) != len(names):
-        raise CommandRejected("joint_trajectory repeats a joint name")
-    if not msg.points:
-        raise CommandRejected("joint_trajectory has no points")
-    out = []
-    prev = 0.0
-    for k, p in enumerate(msg.points):
-        if len(p.positions) != len(names):
-            raise CommandRejected(
-                f"joint_trajectory point {k} has {len(p.positions)} positions "
-                f"for {len(names)} joints"
-            )
-        t = p.time_from_start.sec + p.time_from_start.nanosec * 1e-9
-        if not t > prev:
-            raise CommandRejected(
-                f"joint_trajectory point {k}: time_from_start {t:.3f} s must increase "
-                f"(after {prev:.3f} s)"
-            )
-        pose = {}
-        for n, v in zip(names, p.positions, strict=True):
-            lim = limits[n]
-            if not math.isfinite(v):
-                raise CommandRejected(f"joint_trajectory point {k}: {n} is {v}")
-            if not lim.lower - 1e-9 <= v <= lim.upper + 1e-9:
-                raise CommandRejected(
-                    f"joint_trajectory point {k}: {n} = {v:.3f} rad is outside its limits "
-                    f"[{lim.lower:.3f}, {lim.upper:.3f}]"
-                )
-            pose[lim.id] = float(v)
-        out.append((t - prev, pose))
-        prev = t
-    return out
+    points = [
+        (p.time_from_start.sec + p.time_from_start.nanosec * 1e-9, [float(v) for v in p.positions])
+        for p in msg.points
+    ]
+    return [limits[n].id for n in names], points
