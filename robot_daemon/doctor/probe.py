@@ -15,9 +15,10 @@ from robot_daemon.bus.tables import CM730, CM730_ID, MX28
 from robot_daemon.doctor.checks import ServoInfo
 from schemas.errors import BusError, DarwinError
 
-# The rates a Dynamixel is tried at when nothing answers at the configured one (its baud rate
-# register's common values: 1 M, 57,600 as shipped, and the rest of the standard list).
-STANDARD_BAUDS = (1_000_000, 57_600, 115_200, 500_000, 200_000, 400_000, 250_000, 9_600)
+# The rates a Dynamixel is tried at when nothing answers at the configured one: the MX-28's
+# baud rate register values that a serial port sets without a custom divisor (the SDK's list):
+# 1 M, 57,600 as shipped, then the rest (115,200 is register 16, 117,647 bps, 2 % off).
+STANDARD_BAUDS = (1_000_000, 57_600, 115_200, 500_000, 2_000_000, 19_200, 9_600)
 
 
 @dataclass

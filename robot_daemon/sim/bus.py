@@ -156,10 +156,11 @@ class Bus:
         self.broken_after, self.cut_off = sorted(set(after)), cut
         self._index = None
 
-    def factory_fresh(self, dxl_id: int) -> None:
-        """Swap servo ``dxl_id`` for a factory-fresh MX-28 (ID 1, 57,600 bps): what a servo
-        replacement starts from. ``restore`` keeps it fresh."""
+    def factory_fresh(self, dxl_id: int, fresh_id: int = 1) -> None:
+        """Swap servo ``dxl_id`` for a factory-fresh MX-28 (ID 1, 57,600 bps; tests may give it
+        another ``fresh_id``): what a servo replacement starts from. ``restore`` keeps it fresh."""
         make_factory_fresh(self.servo(dxl_id))
+        self.servo(dxl_id).table[MX28.ID] = fresh_id
         self.fresh.add(dxl_id)
         self._index = None
 

@@ -329,7 +329,9 @@ class Emulator(EmulatorApi):
             self.byte_time_s = 10.0 / bps
 
     def _process(self, frames: list[Frame], t_rx: float) -> None:
-        replies, self._bus_free = self._answer(frames, max(t_rx, self._bus_free), self.wire_timing)
+        replies, self._bus_free = self._answer(
+            frames, max(t_rx, self._bus_free), self.wire_timing
+        )
         self._out.extend(replies)
 
     def _answer(

@@ -4,7 +4,9 @@ and what a servo straight out of its box looks like.
 * A device hears the host only when its baud rate register's rate is within a UART's tolerance
   of the line's rate (2 Mbps / (register + 1), Protocol 1.0); at any other rate the bytes it
   sees are noise and it stays silent. So a factory-fresh MX-28 (57,600 bps) answers only when
-  the host's port is at 57,600, and the robot's servos (1 Mbps) only at 1 Mbps.
+  the host's port is at 57,600, and the robot's servos (1 Mbps) only at 1 Mbps. The rate is
+  read when the bytes reach the emulator, so a host that changes rate must first let its last
+  instruction go (wait for its reply or time-out), as a real UART needs its bytes drained.
 * A broken chain (``broken_after``): every servo behind the break on its branch
   (:mod:`robot_daemon.bus.chains`) neither hears nor answers, nor gets power.
 * A factory-fresh MX-28 (ROBOTIS e-manual, MX-28 control table, factory defaults): ID 1,
