@@ -93,6 +93,7 @@ OPS_WITHOUT_LEASE: dict[str, frozenset[str]] = {
     "registers": frozenset({"read"}),
     "walk_params": frozenset({"read"}),
     "pages": frozenset({"list", "get", "export"}),
+    "offsets": frozenset({"get"}),
 }
 
 
@@ -156,4 +157,5 @@ COMMAND_FIELDS: dict[str, dict[str, Field]] = {
         "step": INT,
         "page": Field("map", 16),
     },
+    "offsets": {"op": _op("get", "set"), "offsets": Field("map", 32)},
 }

@@ -31,6 +31,7 @@ VERBS: tuple[str, ...] = (
     "playball",
     "behaviours",
     "pages",
+    "offsets",
 )
 
 # Verbs that are accepted without the control lease (they never move the robot, or stop it).

@@ -47,6 +47,7 @@ READ_VERBS: frozenset[str] = frozenset({"config", "behaviours"})
 ADMIN_OPS: dict[str, frozenset[str]] = {
     "registers": frozenset({"write"}),
     "pages": frozenset({"put", "delete", "reload"}),
+    "offsets": frozenset({"set"}),
 }
 ADMIN_VERBS: tuple[str, ...] = tuple(ADMIN_OPS)
 
@@ -54,6 +55,7 @@ ADMIN_VERBS: tuple[str, ...] = tuple(ADMIN_OPS)
 # robot; they travel on ``read/<verb>`` (the writes stay on ``cmd/<verb>``, for operators).
 READ_OPS: dict[str, frozenset[str]] = {
     "walk_params": frozenset({"read"}),
+    "offsets": frozenset({"get"}),
 }
 READ_OP_VERBS: tuple[str, ...] = tuple(READ_OPS)
 
