@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from clients.robotis_offsets import import_offsets
-from config.loader import load_robot, load_section, robot_from_dict
+from config.loader import load_robot, robot_from_dict, shipped
 from config.user_file import set_joint_offsets, target_path
 
 
@@ -34,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     target = target_path(args.config)
     # The file is created by the first import: until then the shipped joints are the robot's.
-    robot = load_robot(target) if target.exists() else robot_from_dict(load_section("robot"))
+    robot = load_robot(target) if target.exists() else robot_from_dict(shipped()["robot"])
     imported = import_offsets(args.ini, robot)
     for name, deg in imported.degrees.items():
         joint = robot.joint(name)
