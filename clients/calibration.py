@@ -18,6 +18,7 @@ stand, so that nothing but gravity loads the joints while each is checked agains
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from config.user_file import set_joint_offsets
@@ -37,61 +38,101 @@ def partner(name: str) -> str | None:
     return None
 
 
+class OffsetEdits:
+    """The editing logic shared by :class:`OffsetTuner` and the TUI's calibration view: the
+    offsets as the daemon last reported them and the history of changes; each method returns
+    the ``{joint: degrees}`` to send with ``offsets`` ``op: set`` (nothing is sent here)."""
+
+    def __init__(self, offsets: dict[str, float] | None = None) -> None:
+        self.offsets: dict[str, float] = dict(offsets or {})
+        self.history: list[dict[str, float]] = []  # offsets before each change, newest last
+
+    def applied(self, offsets: dict[str, float]) -> None:
+        """The daemon's reply: what the offsets are now."""
+        self.offsets = dict(offsets)
+
+    def _change(self, changes: dict[str, float]) -> dict[str, float]:
+        self.history.append(dict(self.offsets))
+        return changes
+
+    def nudge(self, joint: str, delta_deg: float) -> dict[str, float]:
+        return self._change({joint: self.offsets[joint] + delta_deg})
+
+    def mirror(self, joint: str) -> dict[str, float]:
+        """``joint``'s partner on the other side gets the mirrored offset. The DARwIn-OP's left
+        and right servos are mounted as mirror images (ROBOTIS's pages hold 2048 ± x for a pair
+        in a symmetric pose), so the same correction is the opposite servo turn."""
+        other = partner(joint)
+        if other is None:
+            raise ValueError(f"{joint} has no partner on the other side to mirror to")
+        return self._change({other: -self.offsets[joint]})
+
+    def reset(self, joints: list[str] | None = None) -> dict[str, float]:
+        return self._change(dict.fromkeys(joints or list(self.offsets), 0.0))
+
+    def undo(self) -> dict[str, float]:
+        """The changes that restore the offsets before the last change (empty: nothing)."""
+        if not self.history:
+            raise ValueError("nothing to undo")
+        before = self.history.pop()
+        return {k: v for k, v in before.items() if self.offsets.get(k) != v}
+
+
 class OffsetTuner:
     """Nudge, mirror, undo, reset and save the joints' offsets on a live daemon."""
 
     def __init__(self, robot: Commander) -> None:
         self.robot = robot
-        self.history: list[dict[str, float]] = []  # offsets before each change, newest last
-        self._offsets: dict[str, float] | None = None
+        self.edits = OffsetEdits()
+        self._read = False
 
     @property
     def offsets(self) -> dict[str, float]:
         """The daemon's offsets (degrees by joint name), as last read or set."""
-        if self._offsets is None:
+        if not self._read:
             self.refresh()
-        assert self._offsets is not None
-        return dict(self._offsets)
+        return dict(self.edits.offsets)
+
+    @property
+    def history(self) -> list[dict[str, float]]:
+        return self.edits.history
 
     def refresh(self) -> dict[str, float]:
-        self._offsets = dict(self.robot.command("offsets", op="get")["offsets"])
-        return dict(self._offsets)
+        self.edits.applied(self.robot.command("offsets", op="get")["offsets"])
+        self._read = True
+        return dict(self.edits.offsets)
+
+    def _send(self, changes: dict[str, float]) -> dict[str, float]:
+        if changes:
+            self.edits.applied(self.robot.command("offsets", op="set", offsets=changes)["offsets"])
+        return dict(self.edits.offsets)
+
+    def _edit(self, make: Callable[[], dict[str, float]]) -> dict[str, float]:
+        self.offsets  # noqa: B018 (read them first)
+        changes = make()
+        try:
+            return self._send(changes)
+        except Exception:
+            self.edits.history.pop()  # refused: nothing changed
+            raise
 
     def set(self, changes: dict[str, float]) -> dict[str, float]:
-        """Set some joints' offsets (degrees); the previous ones can be restored by :meth:`undo`."""
-        before = self.offsets
-        reply = self.robot.command("offsets", op="set", offsets=dict(changes))
-        self.history.append(before)
-        self._offsets = dict(reply["offsets"])
-        return dict(self._offsets)
+        """Set some joints' offsets (degrees); :meth:`undo` restores the previous ones."""
+        return self._edit(lambda: self.edits._change(dict(changes)))
 
     def nudge(self, joint: str, delta_deg: float) -> dict[str, float]:
-        return self.set({joint: self.offsets[joint] + delta_deg})
+        return self._edit(lambda: self.edits.nudge(joint, delta_deg))
 
     def mirror(self, joint: str) -> dict[str, float]:
-        """Give ``joint``'s partner on the other side the mirrored offset. The DARwIn-OP's left
-        and right servos are mounted as mirror images (ROBOTIS's pages hold 2048 ± x for a
-        pair in a symmetric pose), so the same correction is the opposite servo turn."""
-        other = partner(joint)
-        if other is None:
-            raise ValueError(f"{joint} has no partner on the other side to mirror to")
-        return self.set({other: -self.offsets[joint]})
-
-    def undo(self) -> dict[str, float]:
-        if not self.history:
-            raise ValueError("nothing to undo")
-        before = self.history.pop()
-        now = self.offsets
-        changed = {k: v for k, v in before.items() if now.get(k) != v}
-        if changed:
-            reply = self.robot.command("offsets", op="set", offsets=changed)
-            self._offsets = dict(reply["offsets"])
-        return self.offsets
+        return self._edit(lambda: self.edits.mirror(joint))
 
     def reset(self, joints: list[str] | None = None) -> dict[str, float]:
         """Offsets back to 0 (every joint, or ``joints``); undoable."""
-        names = joints or list(self.offsets)
-        return self.set(dict.fromkeys(names, 0.0))
+        return self._edit(lambda: self.edits.reset(joints))
+
+    def undo(self) -> dict[str, float]:
+        self.offsets  # noqa: B018
+        return self._send(self.edits.undo())
 
     def reference_pose(self, duration: float = 2.0) -> dict[str, Any]:
         """Every joint to 0 rad: ROBOTIS's offset-tuner posture (see the module's docstring)."""

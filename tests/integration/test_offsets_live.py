@@ -12,7 +12,12 @@ import pytest
 from clients.robot import Robot
 from robot_daemon.bus.tables import MX28
 from schemas import units
-from schemas.errors import ForbiddenError, InvalidCommandError, OutOfRangeError
+from schemas.errors import (
+    ForbiddenError,
+    InvalidCommandError,
+    OutOfRangeError,
+    UnavailableError,
+)
 from schemas.messages import decode_dict
 from schemas.roles import Role
 from tests.fixtures.system import RunningSystem, start_system
@@ -25,12 +30,17 @@ def system() -> Iterator[RunningSystem]:
         yield running
 
 
-def goal_raw(robot: Robot, dxl_id: int) -> int:
-    data = robot.registers(dxl_id, MX28.GOAL_POSITION.reg.address, 2)["data"]
+def goal_raw(robot: Robot, dxl_id: int) -> int | None:
+    """The servo's goal register; None when this read went unanswered (a loaded machine's
+    emulator may miss the daemon's reply margin: the caller asks again)."""
+    try:
+        data = robot.registers(dxl_id, MX28.GOAL_POSITION.reg.address, 2)["data"]
+    except UnavailableError:
+        return None
     return data[0] | data[1] << 8
 
 
-def wait_goal(robot: Robot, dxl_id: int, wanted: int) -> int:
+def wait_goal(robot: Robot, dxl_id: int, wanted: int) -> int | None:
     """The servo's goal register once it reads ``wanted`` (each read is a bus round trip
     through the arbiter; a bounded number of them)."""
     got = goal_raw(robot, dxl_id)
