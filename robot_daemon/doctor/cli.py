@@ -20,7 +20,7 @@ from robot_daemon.bus.tables import SERVO_IDS
 from robot_daemon.doctor import checks as C
 from robot_daemon.doctor.probe import Facts, from_bus, from_daemon
 from schemas.errors import DarwinError, PortError
-from schemas.session import add_target_arguments, resolve
+from schemas.session import add_target_arguments, resolve_args
 
 
 @dataclass
@@ -57,13 +57,19 @@ def client_version() -> str:
 
 
 def _daemon_facts(args: argparse.Namespace, ids: list[int]) -> tuple[Facts | None, str, str]:
-    target = resolve(args.connect, args.robot)
+    target = resolve_args(args)
     if args.no_daemon:
         return None, target.endpoint, target.robot
     from clients.robot import Robot  # a client of the key space only when one is asked
 
     try:
-        with Robot(target.endpoint, target.robot, name="darwin doctor", timeout=2.0) as robot:
+        with Robot(
+            target.endpoint,
+            target.robot,
+            name="darwin doctor",
+            timeout=2.0,
+            credentials=target.credentials,
+        ) as robot:
             if not robot.alive(timeout=1.5):
                 return None, target.endpoint, target.robot
             return from_daemon(robot, ids), target.endpoint, target.robot
