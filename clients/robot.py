@@ -28,6 +28,7 @@ from typing import Any, Self
 
 import zenoh
 
+from clients.calibration import OffsetTuner
 from clients.fleet import RobotRecord, discover_at
 from clients.lease_keeper import LeaseKeeper
 from clients.teach import TeachMixin
@@ -190,6 +191,7 @@ class Commander:
         self._role_asked = False  # asked once: a daemon without role keys is not asked again
         self._role_cap: Role | None = parse_role(role, people_only=True) if role else None
         self._closed = False
+        self._tuner: OffsetTuner | None = None
         # The lease secret while we hold the lease, renewed from a thread.
         self._lease = LeaseKeeper(
             lambda: self.command("lease", timeout=1.0, op="renew"), self.client_id
@@ -324,6 +326,14 @@ class Commander:
 
     def config(self) -> dict[str, Any]:
         return self.command("config")
+
+    @property
+    def calibration(self) -> OffsetTuner:
+        """Offsets: read, nudge, mirror, undo, save (:mod:`clients.calibration`; setting is
+        admin only)."""
+        if self._tuner is None:
+            self._tuner = OffsetTuner(self)
+        return self._tuner
 
     def joint(
         self, joint: int | str, position: float, speed: float | None = None

@@ -62,6 +62,11 @@ def _shipped() -> dict[str, Any]:
     return data
 
 
+def shipped() -> dict[str, Any]:
+    """The shipped config alone (no user file): e.g. before the first user file is written."""
+    return copy.deepcopy(_shipped())
+
+
 def load_all(path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     """Shipped config with the user file merged on top."""
     data = _shipped()

@@ -111,7 +111,7 @@ class Verb:
     control can let observers have them while the writes stay on ``cmd/<verb>``. ``admin_ops``:
     ops only an admin may send, on ``admin/<verb>``. ``bus``: a bus transaction in the motion
     thread, inside the arbiter's per-tick bus budget. ``help``: what the docs' verb table says
-    of its fields."""
+    of its fields. ``default_op``: what a command without ``op`` does (its handler's default)."""
 
     name: str
     fields: dict[str, Field]
@@ -122,6 +122,7 @@ class Verb:
     read_ops: frozenset[str] = frozenset()
     admin_ops: frozenset[str] = frozenset()
     bus: bool = False
+    default_op: str = ""  # the op a command without one does
 
 
 def _ops(*ops: str) -> frozenset[str]:
@@ -230,6 +231,16 @@ SPEC: dict[str, Verb] = {
             free_ops=_ops("stop"),
         ),
         Verb(
+            "offsets",
+            {"op": _op("get", "set"), "offsets": Field("map", 32)},
+            "`op`: get (default) \\| set with `offsets` {joint: degrees} (applied live, from "
+            "the next goal; the client saves them to the user's config)",
+            free_ops=_ops("get"),
+            read_ops=_ops("get"),
+            admin_ops=_ops("set"),
+            default_op="get",
+        ),
+        Verb(
             "behaviours",
             {},
             "— the behaviour library and the legacy `type` table",
@@ -261,7 +272,10 @@ def op_of(verb: str, fields: dict[str, Any]) -> str:
     if verb == "walk_params":
         return "set" if fields.get("set") is not None else "read"
     op = fields.get("op")
-    return op if isinstance(op, str) else ""
+    if isinstance(op, str):
+        return op
+    spec = SPEC.get(verb)
+    return spec.default_op if spec is not None else ""
 
 
 def needs_lease(verb: str, fields: dict[str, Any]) -> bool:

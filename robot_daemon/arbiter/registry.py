@@ -33,6 +33,7 @@ from schemas.errors import ErrorCode, Reject, brief
 if TYPE_CHECKING:
     from config.loader import RobotConfig
     from robot_daemon.arbiter.lease import Lease
+    from robot_daemon.bus.calibration import Calibration
     from robot_daemon.motion.interface import JointFrame
     from robot_daemon.motion.manager import MotionManager
     from robot_daemon.services import CameraFeed, DaemonInfo
@@ -63,6 +64,8 @@ class BusCommands(Protocol):
     def set_torque(self, ids: list[int], enable: bool) -> None: ...
     def read_registers(self, dxl_id: int, address: int, length: int) -> bytes: ...
     def write_registers(self, dxl_id: int, address: int, data: bytes) -> None: ...
+
+    calibration: Calibration  # joint ↔ servo conversion; the offsets verb changes it live
 
 
 @dataclass

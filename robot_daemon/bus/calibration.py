@@ -53,6 +53,11 @@ class Calibration:
             self.offset[j.id] = math.radians(j.offset_deg)
             self.min[j.id], self.max[j.id] = j.min_rad, j.max_rad
 
+    def set_offset(self, jid: int, offset_deg: float) -> None:
+        """A new offset for joint ``jid``, used from the next conversion on (the next goal
+        written shifts by the change)."""
+        self.offset[jid] = math.radians(offset_deg)
+
     def to_joint(self, jid: int, raw: int | float) -> float:
         return float(servo_to_joint(raw, self.sign[jid], self.offset[jid]))
 

@@ -156,6 +156,12 @@ class DxlBus:
             tries, lambda: self._transact(dxl_id, Instruction.WRITE, params, 0, what)[1]
         )
 
+    def write_unanswered(self, dxl_id: int, address: int, data: bytes) -> None:
+        """WRITE without waiting for its status: an ID or baud rate write is answered from the
+        new ID, or at the old rate, which the next transaction must not wait for."""
+        self._send(dxl_id, Instruction.WRITE, (address, *data))
+        self.port.is_using = False  # the SDK frees the port on a receive; none follows
+
     # -- group transactions -------------------------------------------------------------------
     def sync_write(self, start: int, length: int, rows: dict[int, bytes]) -> int:
         """SYNC_WRITE ``length`` bytes from ``start`` to each id in ``rows``; returns bytes sent."""

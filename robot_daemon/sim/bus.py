@@ -14,7 +14,9 @@ Which instructions answer (as the firmware does):
 * an unknown instruction, wrong parameter count, ACTION with nothing registered or SYNC_WRITE
   and BULK_READ to a single ID earn INSTRUCTION (0x40);
 * servos behind the CM-730 are silent and inert while DXL_POWER is 0 and for
-  ``power_on_delay_s`` after it becomes 1; a ``silent`` ID never answers but still obeys.
+  ``power_on_delay_s`` after it becomes 1; a ``silent`` ID never answers but still obeys;
+* only devices at the line's baud rate hear a frame, and servos behind a broken cable hear
+  nothing (:mod:`robot_daemon.sim.wiring`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robot_daemon.bus.chains import hidden_behind
 from robot_daemon.bus.packet import BadChecksum, Frame, Packet, status_packet
 from robot_daemon.bus.tables import (
     BROADCAST_ID,
@@ -35,6 +38,7 @@ from robot_daemon.bus.tables import (
     Instruction,
 )
 from robot_daemon.sim.devices import CM730Device, Device, Environment, Servo
+from robot_daemon.sim.wiring import hears, make_factory_fresh
 from schemas import units
 
 _MAX_READ = 250 - 6  # a status packet must fit the SDK's 250-byte receive buffer
@@ -75,6 +79,10 @@ class Bus:
         self.servos = {i: Servo(i, self.env, positions.get(i, centre)) for i in servo_ids}
         self.power_on_delay_s = power_on_delay_s
         self.silent: set[int] = set()
+        self.line_bps = 1_000_000  # the rate the host's port runs at (set by the emulator)
+        self.broken_after: list[int] = []  # cable breaks, each right after this servo
+        self.cut_off: set[int] = set()  # the servos (configured IDs) those breaks hide
+        self.fresh: set[int] = set()  # servos (configured IDs) swapped for factory-fresh ones
         self.time = 0.0
         self._power_ready_at: float | None = None
         self._registered: dict[int, tuple[int, bytes]] = {}
@@ -122,6 +130,8 @@ class Bus:
             servo.factory_reset()
             servo.table[MX28.ID] = dxl_id
             servo.power(False)
+            if dxl_id in self.fresh:
+                make_factory_fresh(servo)
         if powered:
             self.cm730.table[CM730.DXL_POWER] = 1
             for servo in self.servos.values():
@@ -132,7 +142,27 @@ class Bus:
 
     def devices(self) -> list[Device]:
         """Every device that hears the bus right now (CM-730 first)."""
-        return [self.cm730, *(s for s in self.servos.values() if s.powered)]
+        servos = (s for i, s in self.servos.items() if s.powered and i not in self.cut_off)
+        return [d for d in (self.cm730, *servos) if hears(d, self.line_bps)]
+
+    def set_line_bps(self, bps: int) -> None:
+        if bps != self.line_bps:
+            self.line_bps = bps
+            self._index = None
+
+    def break_chain(self, after: list[int]) -> None:
+        """Cable breaks right after each servo of ``after`` ([] mends them all)."""
+        cut = hidden_behind(after)  # refuses an ID on no chain before anything changes
+        self.broken_after, self.cut_off = sorted(set(after)), cut
+        self._index = None
+
+    def factory_fresh(self, dxl_id: int, fresh_id: int = 1) -> None:
+        """Swap servo ``dxl_id`` for a factory-fresh MX-28 (ID 1, 57,600 bps; tests may give it
+        another ``fresh_id``): what a servo replacement starts from. ``restore`` keeps it fresh."""
+        make_factory_fresh(self.servo(dxl_id))
+        self.servo(dxl_id).table[MX28.ID] = fresh_id
+        self.fresh.add(dxl_id)
+        self._index = None
 
     def device(self, dxl_id: int) -> Device | None:
         if self._index is None:

@@ -68,6 +68,20 @@ _OVERRIDES: tuple[tuple[str, str, str, Any, str], ...] = (
     ("--delay-ms", "delay_ms", "MS", float, "how late a delayed reply is (ms)"),
     ("--silent-ids", "silent_ids", "IDS", _ids, "IDs that never answer, e.g. 7,8"),
     ("--overheat", "overheat_ids", "IDS", _ids, "servo IDs stuck above their limit"),
+    (
+        "--broken-after",
+        "broken_after",
+        "IDS",
+        _ids,
+        "a cable break right after each of these servos, e.g. 11 (hides 13, 15, 17)",
+    ),
+    (
+        "--fresh-servo",
+        "fresh_servo",
+        "ID",
+        int,
+        "swap this servo for a factory-fresh MX-28 (ID 1, 57,600 bps)",
+    ),
     ("--voltage", "voltage", "V", float, "supply voltage (V)"),
     ("--imu-noise", "imu_noise", "COUNTS", float, "IMU noise, standard deviation in counts"),
     (

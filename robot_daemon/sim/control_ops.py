@@ -5,7 +5,7 @@
 | `ops` | | lists the ops |
 | `state` | | snapshot: time, power, LEDs, buttons, IMU, faults, stats, servos |
 | `faults` | `drop`, `corrupt`, `delay` (0..1), `delay_ms`, `silent_ids` | sets reply faults |
-| `clear_faults` | | no dropped/corrupt/delayed replies, no silent or overheated servo, 12 V |
+| `clear_faults` | | no lost/corrupt/late replies, silent or hot servo, broken chain; 12 V |
 | `restore` | | every device back to its defaults and IDs (power kept) |
 | `silence` | `id`, `silent` (true) | a device stops (or resumes) answering |
 | `overheat` | `id`, `on` (true) | pins a servo above its temperature limit |
@@ -16,6 +16,8 @@
 | `load` | `id`, `fraction` | external load on a servo (−1..1 of max torque) |
 | `advance` | `dt` (s) | steps the dynamics now |
 | `vanish` / `reappear` | | the serial port goes away / comes back (reply: `port`) |
+| `chain` | `broken_after` [IDs] | cable breaks right after these servos ([] mends them) |
+| `fresh_servo` | `id` | swaps that servo for a factory-fresh MX-28 (ID 1, 57,600 bps) |
 """
 
 from __future__ import annotations
@@ -66,6 +68,7 @@ def _clear_faults(emu, req: Request) -> dict[str, Any]:
             if servo.forced_temperature is not None:
                 emu.overheat(dxl_id, False)
         emu.set_voltage(emu.settings.voltage)
+        emu.bus.break_chain([])
         return emu.fault_state()
 
 
@@ -135,3 +138,20 @@ def _vanish(emu, req: Request) -> dict[str, Any]:
 @control_op("reappear")
 def _reappear(emu, req: Request) -> dict[str, Any]:
     return {"port": emu.reappear()}
+
+
+@control_op("chain")
+def _chain(emu, req: Request) -> dict[str, Any]:
+    after = field(req, "broken_after", list)
+    if not all(isinstance(i, int) and not isinstance(i, bool) for i in after):
+        raise ValueError(f"field 'broken_after' must be a list of servo IDs, got {after!r}")
+    with emu.lock:
+        emu.bus.break_chain(after)
+    return emu.fault_state()
+
+
+@control_op("fresh_servo")
+def _fresh_servo(emu, req: Request) -> dict[str, Any]:
+    with emu.lock:
+        emu.bus.factory_fresh(field(req, "id", int))
+    return emu.fault_state()

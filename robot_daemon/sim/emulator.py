@@ -75,10 +75,14 @@ class Emulator(EmulatorApi):
             self.silence(dxl_id)
         for dxl_id in s.overheat_ids:
             self.overheat(dxl_id)
+        self.bus.line_bps = s.baud
+        self.bus.break_chain(s.broken_after)
+        if s.fresh_servo:
+            self.bus.factory_fresh(s.fresh_servo)
         self.faults = Faults(s.drop, s.corrupt, s.delay, s.delay_ms)
         self.wire_timing = s.wire_timing
         self.byte_time_s = 10.0 / s.baud
-        self.link = PtyLink(s.link)
+        self.link = PtyLink(s.link, s.baud)
         self.parser = PacketParser()
         self.received: deque[Frame] = deque(maxlen=1000)
         self.stats: dict[str, int] = dict.fromkeys(
@@ -299,6 +303,7 @@ class Emulator(EmulatorApi):
             # most of the emulator's CPU, holding the GIL when replies were due.
             self._sync_servos()
         if data:
+            self._follow_line_rate()
             now = time.perf_counter()
             if self._out:  # the host talks while a reply is pending: they collide
                 self.stats["collisions"] += len(self._out)
@@ -314,6 +319,14 @@ class Emulator(EmulatorApi):
         self._flush()
         if self._bus_quiet():
             self._quiet.set()
+
+    def _follow_line_rate(self) -> None:
+        """The devices hear the host at the rate its port is set to, and bytes take that
+        long on the wire."""
+        bps = self.link.baud() or self.settings.baud
+        if bps != self.bus.line_bps:
+            self.bus.set_line_bps(bps)
+            self.byte_time_s = 10.0 / bps
 
     def _process(self, frames: list[Frame], t_rx: float) -> None:
         replies, self._bus_free = self._answer(

@@ -3,7 +3,9 @@
 The emulator reads and writes the master side; clients open the slave path with pyserial as
 they would ``/dev/ttyUSB0``. The emulator keeps its own slave descriptor open, because reads on
 the master fail with EIO while no process has the slave open. The slave is put in raw mode here
-(no echo, no line discipline); any baud rate a client sets is accepted and ignored.
+(no echo, no line discipline) at ``baud``; the baud rate a client sets on the slave is what
+:meth:`PtyLink.baud` reads back (a pty's two ends share one termios), so the emulator can let
+only the devices at that rate hear it, as on a real wire.
 """
 
 from __future__ import annotations
@@ -12,13 +14,15 @@ import contextlib
 import errno
 import fcntl
 import os
+import termios
 import tty
 from pathlib import Path
 
 
 class PtyLink:
-    def __init__(self, link: str | os.PathLike[str] | None = None) -> None:
+    def __init__(self, link: str | os.PathLike[str] | None = None, baud: int = 1_000_000) -> None:
         self.link = Path(link) if link else None
+        self.initial_baud = baud
         self.master: int | None = None
         self._slave: int | None = None
         self.slave_path = ""
@@ -37,6 +41,7 @@ class PtyLink:
             return
         master, slave = os.openpty()
         tty.setraw(slave)
+        _set_speed(slave, self.initial_baud)
         flags = fcntl.fcntl(master, fcntl.F_GETFL)
         fcntl.fcntl(master, fcntl.F_SETFL, flags | os.O_NONBLOCK)
         self.master, self._slave = master, slave
@@ -67,6 +72,16 @@ class PtyLink:
             with contextlib.suppress(FileNotFoundError):
                 self.link.unlink()
 
+    def baud(self) -> int | None:
+        """The line's baud rate as the client last set it (None: closed or not a standard rate)."""
+        if self.master is None:
+            return None
+        try:
+            speed = termios.tcgetattr(self.master)[5]
+        except termios.error:
+            return None
+        return _SPEEDS.get(speed)
+
     def read(self, n: int = 4096) -> bytes:
         assert self.master is not None
         try:
@@ -85,3 +100,41 @@ class PtyLink:
             return os.write(self.master, data)
         except BlockingIOError:
             return 0
+
+
+# termios speed constants → bits per second (the rates pyserial sets with a plain tcsetattr).
+_SPEEDS: dict[int, int] = {
+    getattr(termios, f"B{bps}"): bps
+    for bps in (
+        9600,
+        19200,
+        38400,
+        57600,
+        115200,
+        230400,
+        460800,
+        500000,
+        576000,
+        921600,
+        1000000,
+        1152000,
+        1500000,
+        2000000,
+        2500000,
+        3000000,
+        3500000,
+        4000000,
+    )
+    if hasattr(termios, f"B{bps}")
+}
+
+
+def _set_speed(fd: int, bps: int) -> None:
+    """Start the line at ``bps`` so a client that never sets a rate is heard at the
+    emulator's configured one."""
+    code = next((c for c, b in _SPEEDS.items() if b == bps), None)
+    if code is None:
+        return
+    attrs = termios.tcgetattr(fd)
+    attrs[4] = attrs[5] = code
+    termios.tcsetattr(fd, termios.TCSANOW, attrs)

@@ -59,6 +59,10 @@ class EmulatorSettings:
     delay_ms: float = 50.0
     silent_ids: list[int] = field(default_factory=list)
     overheat_ids: list[int] = field(default_factory=list)
+    # A cable break right after each of these servos hides the ones behind it on its branch.
+    broken_after: list[int] = field(default_factory=list)
+    # This servo is swapped for a factory-fresh MX-28 (ID 1, 57,600 bps); 0: none.
+    fresh_servo: int = 0
     ambient_c: float = 35.0
     heat_gain_c: float = 70.0
     thermal_tau_s: float = 60.0

@@ -124,6 +124,8 @@ class EmulatorApi:
                     i for i, s in self.bus.servos.items() if s.forced_temperature is not None
                 ),
                 "voltage": self.env.voltage,
+                "broken_after": list(self.bus.broken_after),
+                "fresh_servos": sorted(self.bus.fresh),
             }
 
     def silence(self, dxl_id: int, silent: bool = True) -> None:

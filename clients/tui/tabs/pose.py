@@ -31,7 +31,7 @@ class PoseTab(TabView):
     PoseTab Button { min-width: 0; margin-right: 1; }
     PoseTab #pose-duration, PoseTab #pose-value { width: 9; }
     """
-    ACTION_ROLES = {"apply": Role.OPERATOR}
+    ACTION_ROLES = {"apply": Role.OPERATOR, "offsets": Role.ADMIN}
     BINDINGS = [
         Binding("m", "manipulate", N_("Monitor/Manipulate")),
         Binding("r", "get_pose", N_("Get robot pose")),
@@ -40,6 +40,7 @@ class PoseTab(TabView):
         Binding("z", "reset", N_("Reset")),
         Binding("left_square_bracket", "step(-5)", N_("−5°"), show=False),
         Binding("right_square_bracket", "step(5)", N_("+5°"), show=False),
+        Binding("o", "offsets", N_("Joint offsets (admin)"), show=False),
     ]
 
     def __init__(self, model: Model, robot: RobotConfig) -> None:
@@ -152,6 +153,11 @@ class PoseTab(TabView):
             return
         positions = {str(jid): rad for jid, rad in edits.pose.items()}
         self.send("pose", tag="pose", positions=positions, duration=duration)
+
+    def action_offsets(self) -> None:
+        from clients.tui.calibration import CalibrationScreen
+
+        self.app.push_screen(CalibrationScreen(self.model, self.robot))
 
     def action_step(self, degrees: float) -> None:
         if not self.model.edits.manipulate:

@@ -1,0 +1,1 @@
+"""`darwin doctor`: checks of a robot and its computer (docs/doctor.md)."""
