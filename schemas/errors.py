@@ -9,6 +9,7 @@ DarwinError
 ├── ListenError             the daemon cannot listen on its Zenoh endpoint (robot_daemon/daemon)
 ├── RouterError             `darwin router` cannot listen (robot_daemon/router)
 ├── MotionFileError         a motion file that cannot be read (robot_daemon/motion/action)
+├── ReplaceRefused          a servo replacement that would be unsafe (robot_daemon/bus/replace)
 ├── BusError                serial port and Dynamixel bus
 │   ├── PortError           cannot open / lost the serial port
 │   │   └── PortInUseError  another process holds it
