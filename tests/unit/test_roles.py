@@ -15,7 +15,7 @@ from schemas.session import credentials, server_config
 
 
 def test_each_role_includes_the_one_below() -> None:
-    assert verbs_allowed(Role.OBSERVER) == {"config", "behaviours", "walk_params", "offsets"}  # reads
+    assert verbs_allowed(Role.OBSERVER) == {"config", "behaviours", "walk_params", "offsets"}
     assert verbs_allowed(Role.OPERATOR) == set(VERBS) == verbs_allowed(Role.ADMIN)
     write = {"id": 19, "address": 25, "data": [1]}
     assert required_role("registers", write) == Role.ADMIN
