@@ -43,6 +43,7 @@ from schemas.errors import BusError, DarwinError, ErrorCode, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, NetworkInfo, Status
 from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config
+from schemas.versions import announced_protocol, package_version
 
 if TYPE_CHECKING:
     from robot_daemon.camera import CameraThread
@@ -104,6 +105,7 @@ class Daemon:
         fall = self.manager.get("fall")
         self.fall = fall if isinstance(fall, FallMonitor) else None  # the one fall detector
         self.info = DaemonInfo(robot=options.robot, tick_ms=options.tick_ms)
+        self.protocol = announced_protocol()
         self.tick = 0
         self.bus_errors = 0
         self.frame: JointFrame | None = None
@@ -460,6 +462,8 @@ class Daemon:
             voltage=cm["voltage"],
             alarms=alarms,
             network=self.network_info(),
+            version=package_version(),
+            protocol=list(self.protocol),
             **extra,
         )
 

@@ -23,7 +23,7 @@ from textual.message import Message
 
 from clients.robot import Robot, Subscription
 from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
-from schemas.errors import ClientError, DarwinError
+from schemas.errors import ClientError, DarwinError, IncompatibleProtocolError
 from schemas.roles import Role
 from schemas.session import Credentials, resolve
 
@@ -116,6 +116,11 @@ class Link:
             self.role = robot.role  # asked here, off the UI thread, before CONNECTED is posted
         except Exception:  # a session closing under us: the role stays unknown
             self.role = None
+        try:
+            robot.check_protocol(2.0)
+        except IncompatibleProtocolError as exc:
+            self._set(LinkState.UNREACHABLE, ep, name, str(exc))
+            return
         self._set(LinkState.CONNECTED if robot.alive(1.0) else LinkState.NO_DAEMON, ep, name)
 
         def on_token(sample: zenoh.Sample) -> None:
