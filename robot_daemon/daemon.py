@@ -35,6 +35,7 @@ from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
+from robot_daemon.power_actions import PowerGuard
 from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
 from robot_daemon.security.acl import Security, serve_roles
@@ -106,6 +107,7 @@ class Daemon:
         self.fall = fall if isinstance(fall, FallMonitor) else None  # the one fall detector
         self.info = DaemonInfo(robot=options.robot, tick_ms=options.tick_ms)
         self.protocol = announced_protocol()
+        self.guard = PowerGuard(robot, settings, self.manager, self.bus, self._emit)
         self.tick = 0
         self.bus_errors = 0
         self.frame: JointFrame | None = None
@@ -397,6 +399,9 @@ class Daemon:
         if self.lease.expire():
             self._status_dirty = True
         if self._status_dirty or now - self._last_status >= self.status_period:
+            # The battery and heat policy at the status rate (10 Hz), not per tick.
+            st = self.bus.state
+            self.guard.check(self.bus.cm730_status()["voltage"], st.temperature, st.online, now)
             self._publish_status(now)
 
     def _joints_message(self, frame: JointFrame) -> Joints:
@@ -463,6 +468,8 @@ class Daemon:
             alarms=alarms,
             network=self.network_info(),
             version=package_version(),
+            power=self.guard.status()[0],
+            heat=self.guard.status()[1],
             protocol=list(self.protocol),
             **extra,
         )
