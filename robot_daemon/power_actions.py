@@ -43,12 +43,26 @@ class PowerGuard:
         temps = {j: float(temperature[j]) for j in self.robot.ids if online[j]}
         for kind, level, message, data in self.policy.update(voltage, temps, now):
             self.emit(kind, message, level=level, **data)
+            if level != "ok" and self.policy.power_settings.beep:
+                self._say(message)
             try:
                 self._act(kind, level, data)
             except Exception as exc:  # a bus error must not end the loop: said, retried never
                 log.warning("%s %s: acting failed: %s", kind, level, exc)
         self.cost_s += time.process_time() - t0
         self.runs += 1
+
+    def _say(self, message: str) -> None:
+        # The CM-730 has no buzzer register (ROBOTIS Framework CM730.h: nothing between BUTTON
+        # 30 and GYRO_Z 38; its firmware beeps by itself near 10 V): the robot says it through
+        # the [sound] player instead, an event in the simulator.
+        choreography = self.manager.get("choreography")
+        player = getattr(choreography, "sound", None)
+        if player is not None:
+            try:
+                player.play(self.emit, say=message)
+            except ValueError as exc:  # no player installed: the event above says it anyway
+                log.info("cannot say %r: %s", message, exc)
 
     def _act(self, kind: str, level: str, data: dict[str, Any]) -> None:
         if level == "sit":

@@ -7,10 +7,10 @@ when the value is back past the threshold by ``hysteresis`` for ``hold_s`` (no f
 change of level is one event. The daemon evaluates it at the status rate (10 Hz), not per tick.
 
 What the daemon does on entering a level (``robot_daemon/power_actions.py``): warn → an event
-(every UI shows ``status.power``/``status.heat``) and a beep; sit → stop the motion, play the
-sit-down page and limit the torque; off → torque off. The MX-28's own overheat shutdown (its
-Limit Temperature, 80 °C by default, ROBOTIS e-manual MX-28 address 11) stays the last resort:
-the policy's thresholds sit below it.
+(every UI shows ``status.power``/``status.heat``) and the robot says it (``beep``); sit → stop
+the motion, play the sit-down page and limit the torque; off → torque off. The MX-28's own
+overheat shutdown (its Limit Temperature, 80 °C by default, ROBOTIS e-manual MX-28 address 11)
+stays the last resort: the policy's thresholds sit below it.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ class PowerSettings:
     off_v: float = ranged(10.0, 0.0)
     hysteresis_v: float = ranged(0.3, 0.0)
     hold_s: float = ranged(2.0, 0.0)
-    beep: bool = True
+    beep: bool = True  # say each level past ok through the [sound] player (power_actions.py)
     torque_limit: float = ranged(0.5, 0.0, 1.0)  # fraction of max torque once sitting
 
 

@@ -24,6 +24,8 @@ def test_voltage_ramp_and_heating_servo(tmp_path: Path) -> None:
         for volts, level in ((10.9, "warn"), (10.4, "sit"), (9.8, "off")):
             sim.call("voltage", volts=volts)
             robot.wait_for("status", lambda s, lv=level: s.power["level"] == lv, timeout=15)
+        sat = events.wait(lambda e: e.kind == "action" and e.data["state"] == "started")
+        assert sat.data["name"] == "sit down"
         status = robot.wait_for("status", lambda s: len(s.bus["torque_off"]) == 20, timeout=15)
         assert status.power["volts"] < 10.0
         sim.call("voltage", volts=12.0)
@@ -31,6 +33,10 @@ def test_voltage_ramp_and_heating_servo(tmp_path: Path) -> None:
         events.wait(lambda e: e.kind == "power" and e.data["level"] == "ok")
         power = [e.data["level"] for e in events.items if e.kind == "power"]
         assert power == ["warn", "sit", "off", "ok"]
+        said = [e.data["say"] for e in events.items if e.kind == "sound"]
+        assert said[:3] == [
+            f"battery {v} V: {lv}" for v, lv in (("10.9", "warn"), ("10.4", "sit"), ("9.8", "off"))
+        ]
 
         sim.call("overheat", id=5, on=True, celsius=71.0)
         status = robot.wait_for("status", lambda s: 5 in s.heat.get("alarms", []), timeout=15)

@@ -122,3 +122,23 @@ def test_without_systemd_one_line(
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
     assert err.startswith("darwin service: systemd is not running on this machine")
+
+
+def test_the_commands_docs_service_md_shows(tmp_path: Path) -> None:
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "service.md").read_text()
+    block = doc.split("```sh\n", 1)[1].split("```", 1)[0]
+    commands = [line.split() for line in block.splitlines() if line.strip()]
+    assert len(commands) == 4
+    config = tmp_path / "config.toml"
+    config.write_text("")
+    root = tmp_path / "root"
+    outputs = []
+    for argv in commands:
+        argv = argv[1:] if argv[0] == "sudo" else argv
+        assert argv[0] == ".venv/bin/darwin"
+        argv = [str(config) if a == "/etc/darwin/config.toml" else a for a in argv[1:]]
+        done = run_darwin(*argv, "--root", str(root))
+        assert done.returncode == 0, done.stderr
+        outputs.append(done.stdout)
+    assert "darwin-router.service: installed" in outputs[2]
+    assert not list((root / svc.UNIT_DIR).iterdir())
