@@ -44,7 +44,7 @@ from schemas.errors import BusError, DarwinError, ErrorCode, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, NetworkInfo, Status
 from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config
-from schemas.versions import announced_protocol, package_version
+from schemas.versions import announced_protocol, fmt, package_version
 
 if TYPE_CHECKING:
     from robot_daemon.camera import CameraThread
@@ -215,6 +215,9 @@ class Daemon:
         self.arbiter.gate = self._outage_gate
         self.arbiter.on_wakeup = self._wake.set
         self._alive = self.session.liveliness().declare_token(self.keys.alive)
+        self._alive_version = self.session.liveliness().declare_token(
+            self.keys.alive_version(fmt(self.protocol), package_version())
+        )
         self._roles = serve_roles(self.session, self.keys)
         if self.options.camera != "none":
             from robot_daemon.camera import CameraThread
@@ -257,6 +260,7 @@ class Daemon:
             self.arbiter.close()
         with contextlib.suppress(Exception):
             self._alive.undeclare()
+            self._alive_version.undeclare()
         if self.pub is not None:
             self.pub.close()
         self.bus.close()

@@ -190,7 +190,7 @@ def run_record(args: argparse.Namespace) -> int:
         ) from exc
     try:
         try:
-            skew = check_at(session, Keys(target.robot), "darwin record", 1.0)
+            skew = check_at(session, Keys(target.robot), "darwin record", 3.0)
         except IncompatibleProtocolError:
             session.close()
             raise

@@ -116,12 +116,14 @@ class Link:
             self.role = robot.role  # asked here, off the UI thread, before CONNECTED is posted
         except Exception:  # a session closing under us: the role stays unknown
             self.role = None
+        alive = robot.alive(1.0)
         try:
-            robot.check_protocol(2.0)
+            if alive:  # its first status says its versions (a later one: commands refuse)
+                robot.check_protocol(3.0)
         except IncompatibleProtocolError as exc:
             self._set(LinkState.UNREACHABLE, ep, name, str(exc))
             return
-        self._set(LinkState.CONNECTED if robot.alive(1.0) else LinkState.NO_DAEMON, ep, name)
+        self._set(LinkState.CONNECTED if alive else LinkState.NO_DAEMON, ep, name)
 
         def on_token(sample: zenoh.Sample) -> None:
             up = sample.kind == zenoh.SampleKind.PUT

@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from robot_daemon.sim.control import SimControl
-from tests.fixtures.system import EventLog, start_system
+from tests.fixtures.system import EventLog, run_darwin, start_system
 
 
 def test_voltage_ramp_and_heating_servo(tmp_path: Path) -> None:
@@ -43,5 +43,8 @@ def test_voltage_ramp_and_heating_servo(tmp_path: Path) -> None:
         assert status.heat["hottest"][0]["id"] == 5 and status.heat["level"] == "sit"
         heat = events.wait(lambda e: e.kind == "heat" and e.data["id"] == 5)
         assert heat.data["level"] == "sit" and "servo 5" in heat.message
+        hot = status.heat["hottest"][0]["name"]
+        listed = run_darwin("list", "--connect", system.endpoint, "--robot", system.robot)
+        assert f"hottest {hot} 71 °C" in listed.stdout, listed.stdout + listed.stderr
         sim.call("overheat", id=5, on=False)
         robot.wait_for("status", lambda s: s.heat["level"] == "ok", timeout=15)

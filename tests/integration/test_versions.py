@@ -50,7 +50,7 @@ def test_programs_refuse_in_one_line(newer_daemon: RunningSystem, tmp_path: Path
         assert last.startswith(f"darwin {name}: darwin") or last.startswith(f"darwin {name}:")
         assert "incompatible; upgrade this client" in last
     assert not (tmp_path / "x.mcap").exists()
-    listed = run_darwin("list", "--connect", newer_daemon.endpoint)
+    listed = run_darwin("list", "--connect", newer_daemon.endpoint, "--wait", "10")
     assert listed.returncode == 0, listed.stderr
     line = next(x for x in listed.stdout.splitlines() if x.startswith(newer_daemon.robot))
     assert "(incompatible:" in line
@@ -61,8 +61,12 @@ def test_a_minor_skew_warns_and_works(monkeypatch: pytest.MonkeyPatch) -> None:
     with start_system(gateway=False) as system, system.robot_client(name="older") as robot:
         warning = robot.check_protocol(timeout=10)
         assert warning is not None and "upgrade this client" in warning
-        assert robot.state.status is not None
-        assert robot.state.status.version == package_version()
+        status = robot.wait_for("status", fresh=False)
+        assert status.version == package_version()
         assert robot.command("config")["robot"] == system.robot
+        tokens = robot.session.liveliness().get(f"{robot.keys.alive}/**", timeout=5)
+        keys = [str(r.ok.key_expr) for r in tokens if r.ok is not None]
+        minor = f"{PROTOCOL_VERSION[0]}.{PROTOCOL_VERSION[1] + 1}"
+        assert set(keys) == {robot.keys.alive, robot.keys.alive_version(minor, package_version())}
         listed = run_darwin("list", "--connect", system.endpoint)
         assert f"protocol {PROTOCOL_VERSION[0]}.{PROTOCOL_VERSION[1] + 1}" in listed.stdout
