@@ -53,3 +53,17 @@ def test_settings_out_of_order_are_refused() -> None:
         load_settings({"power": {"warn_v": 10.0}})
     with pytest.raises(Exception, match="nearest known"):
         load_settings({"heat": {"warn": 60}})
+
+
+def test_the_daemon_refuses_a_bad_power_table_in_one_line(tmp_path) -> None:
+    from tests.fixtures.system import run_darwin
+
+    config = tmp_path / "bad.toml"
+    config.write_text("[power]\nwarn_v = 10.0\n")
+    done = run_darwin("daemon", "--port", str(tmp_path / "none"), "--config", str(config))
+    assert done.returncode == 1
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "warn_v > sit_v > off_v" in lines[0], done.stderr
+    config.write_text("[heat]\nwarm_c = 60\n")
+    done = run_darwin("daemon", "--port", str(tmp_path / "none"), "--config", str(config))
+    assert done.returncode == 1 and "[heat] has an unknown setting 'warm_c'" in done.stderr
