@@ -162,6 +162,9 @@ class Daemon:
                 f"the serial port {self.bus.port_name} is lost (status.state is port_lost): "
                 f"{req.verb} not done; send it again once the port is back",
             )
+        why = self.guard.refusal(req.verb, req.fields)
+        if why is not None:
+            raise Reject(ErrorCode.UNAVAILABLE, why)
 
     def _set_state(self, state: DaemonState) -> None:
         if state != self.state:

@@ -13,11 +13,13 @@ from typing import Any
 
 from robot_daemon.bus.tables import MX28
 from robot_daemon.motion.action.player import ActionModule
-from robot_daemon.power_policy import PowerPolicy, load_settings
+from robot_daemon.power_policy import LEVELS, PowerPolicy, load_settings
 
 log = logging.getLogger(__name__)
 
 SIT_PAGE = "sit down"
+# Commands that make the robot work: refused from the sit level on (``refusal``).
+MOVES = frozenset({"walk", "playball", "choreography"})
 
 
 class PowerGuard:
@@ -88,6 +90,26 @@ class PowerGuard:
             address = MX28.TORQUE_LIMIT.reg.address
             for j in self.robot.ids:
                 self.bus.write_registers(j, address, (1023).to_bytes(2, "little"))
+
+    def refusal(self, verb: str, fields: dict[str, Any]) -> str | None:
+        """Why a command that would make the robot work is refused now (None: it is not):
+        from sit on (battery or a servo's heat), walking, ball play and choreographies wait
+        until the level is back below sit; stops, pages (standing up), halt always pass."""
+        if verb not in MOVES or fields.get("op") == "stop":
+            return None
+        if self.policy.battery.level >= 2:
+            return (
+                f"battery at {self.policy.voltage:.1f} V ({LEVELS[self.policy.battery.level]} "
+                f"level of the [power] policy): {verb} refused; charge or swap the battery"
+            )
+        if self.policy.heat_level >= 2:
+            hot = self.policy.heat_info()["hottest"][0]
+            return (
+                f"servo {hot['id']} ({hot['name']}) at {hot['celsius']:.0f} °C "
+                f"({LEVELS[self.policy.heat_level]} level of the [heat] policy): {verb} refused; "
+                "let it cool down"
+            )
+        return None
 
     def status(self) -> tuple[dict[str, Any], dict[str, Any]]:
         return self.policy.power_info(), self.policy.heat_info()

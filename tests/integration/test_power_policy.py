@@ -6,7 +6,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from robot_daemon.sim.control import SimControl
+from schemas.errors import UnavailableError
 from tests.fixtures.system import EventLog, run_darwin, start_system
 
 
@@ -26,6 +29,8 @@ def test_voltage_ramp_and_heating_servo(tmp_path: Path) -> None:
             robot.wait_for("status", lambda s, lv=level: s.power["level"] == lv, timeout=15)
         sat = events.wait(lambda e: e.kind == "action" and e.data["state"] == "started")
         assert sat.data["name"] == "sit down"
+        with robot.control(), pytest.raises(UnavailableError, match="charge or swap"):
+            robot.walk(x=0.02)  # a flat battery does not walk again
         status = robot.wait_for("status", lambda s: len(s.bus["torque_off"]) == 20, timeout=15)
         assert status.power["volts"] < 10.0
         sim.call("voltage", volts=12.0)
