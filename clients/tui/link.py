@@ -118,8 +118,11 @@ class Link:
             self.role = None
         alive = robot.alive(1.0)
         try:
-            if alive:  # its first status says its versions (a later one: commands refuse)
-                robot.check_protocol(3.0)
+            # Its first status says its versions (a later one: commands refuse).
+            skew = robot.check_protocol(3.0) if alive else None
+            if skew:
+                with contextlib.suppress(Exception):  # an app closing under us
+                    self.app.call_from_thread(self.app.notify, skew, severity="warning")
         except IncompatibleProtocolError as exc:
             self._set(LinkState.UNREACHABLE, ep, name, str(exc))
             return

@@ -47,3 +47,18 @@ async def test_battery_level_and_hottest_servo_in_the_header(
             sim.call("overheat", id=5, on=True, celsius=66.0)
             await until(pilot, lambda: "warn" in _header(app), "the battery level")
             await until(pilot, lambda: "66 °C warn" in _header(app), "the hottest servo")
+
+
+async def test_a_minor_skew_is_a_notification(
+    settings_file: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv(ENV_ANNOUNCE, f"{PROTOCOL_VERSION[0]}.{PROTOCOL_VERSION[1] + 1}")
+    with start_system(gateway=False) as system:
+        app = live_app(system, settings_file, "tui-older")
+        async with app.run_test(size=(160, 40)) as pilot:
+            await connected(pilot)
+            await until(
+                pilot,
+                lambda: any("upgrade this client" in str(n.message) for n in app._notifications),
+                "the skew's notification",
+            )
