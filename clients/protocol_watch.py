@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
+from collections.abc import Mapping
 from typing import Any
 
 import zenoh
@@ -27,12 +28,16 @@ class ProtocolWatch:
         self._seen: Any = None  # the last announcement checked
         self._cond = threading.Condition()
 
-    def observe(self, payload: bytes) -> None:
-        """A status payload arrived (raw: a daemon of another major may not decode)."""
-        try:
-            status = decode_dict(payload)
-        except ProtocolError:
-            return
+    def observe(self, payload: bytes | Mapping[str, Any]) -> None:
+        """A status arrived: decoded (its fields), or the raw payload (a daemon of another major
+        may not decode)."""
+        if isinstance(payload, bytes):
+            try:
+                status: Mapping[str, Any] = decode_dict(payload)
+            except ProtocolError:
+                return
+        else:
+            status = payload
         seen = (announcement(status), status.get("robot"))
         if seen == self._seen:
             return

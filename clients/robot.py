@@ -463,12 +463,14 @@ class Robot(Commander, TeachMixin):
             return RobotState(**vars(self._state))
 
     def _on_sample(self, topic: str, sample: zenoh.Sample) -> None:
-        if topic == "status":
-            self.protocol.observe(sample.payload.to_bytes())
         try:
             msg = decode(sample.payload.to_bytes(), TOPICS[topic])
         except ProtocolError:
+            if topic == "status":  # another protocol major: the watch says which
+                self.protocol.observe(sample.payload.to_bytes())
             return  # a foreign or newer publisher: ignore rather than crash the callback
+        if topic == "status":
+            self.protocol.observe(vars(msg))
         with self._lock:
             if topic == "joints":
                 self._state.joints = msg  # type: ignore[assignment]
