@@ -18,10 +18,11 @@ from typing import Any
 
 import zenoh
 
-from schemas.errors import ProtocolError, RobotUnreachableError
+from schemas.errors import IncompatibleProtocolError, ProtocolError, RobotUnreachableError
 from schemas.keys import every_robot, robot_of
-from schemas.messages import AlarmInfo, Status, decode
+from schemas.messages import AlarmInfo, Status, decode, decode_dict
 from schemas.session import Credentials, open_client
+from schemas.versions import announcement, check_daemon, fmt
 
 # How long discovery waits for each live robot's status (it arrives at ~10 Hz).
 STATUS_WAIT_S = 2.0
@@ -38,6 +39,11 @@ class RobotRecord:
     battery: float | None = None  # supply voltage (V)
     alarms: list[AlarmInfo] = field(default_factory=list)  # servos with alarm bits set
     loop_hz: float | None = None  # the motion loop's rate (1 / median period)
+    version: str = ""  # the daemon's package version
+    protocol: str = ""  # the daemon's protocol, MAJOR.MINOR
+    incompatible: str | None = None  # why this client cannot drive it (another protocol major)
+    power: str = ""  # the battery policy's level (ok, warn, sit, off)
+    hottest: list[dict[str, Any]] = field(default_factory=list)  # [{"id", "name", "celsius"}]
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -49,15 +55,31 @@ class RobotRecord:
         alarms = ", ".join(f"id {a['id']} bits {a['bits']}" for a in self.alarms) or "none"
         rate = "?" if self.loop_hz is None else f"{self.loop_hz:.0f} Hz"
         where = self.endpoint or "?"
+        if self.incompatible:
+            return f"{self.name}: {where}  (incompatible: {self.incompatible})"
+        if self.power and self.power != "ok":
+            battery += f" {self.power}"
+        hot = ", ".join(f"{h['name']} {h['celsius']:.0f} °C" for h in self.hottest[:2])
         return (
             f"{self.name}: {where}  ({self.state}; lease {lease}; battery {battery}; "
-            f"alarms {alarms}; loop {rate})"
+            f"hottest {hot or '?'}; alarms {alarms}; loop {rate}; "
+            f"daemon {self.version or '?'} protocol {self.protocol or '?'})"
         )
 
 
-def record_from_status(name: str, status: Status | None) -> RobotRecord:
+def record_from_status(
+    name: str, status: Status | None, raw: dict[str, Any] | None = None
+) -> RobotRecord:
+    raw = raw or {}
     if status is None:
-        return RobotRecord(name)
+        protocol, version = announcement(raw)
+        return RobotRecord(
+            name,
+            incompatible=raw.get("_incompatible"),
+            version=version if raw else "",
+            protocol=fmt(protocol) if raw else "",
+        )
+    protocol, version = announcement(raw or status.to_dict())
     lease = status.lease or None
     period = status.loop.get("period_p50_ms") or 0.0
     tick = status.loop.get("tick_ms") or 0.0
@@ -70,6 +92,10 @@ def record_from_status(name: str, status: Status | None) -> RobotRecord:
         battery=float(status.voltage),
         alarms=list(status.alarms),
         loop_hz=round(1000.0 / loop_ms, 1) if loop_ms > 0 else None,
+        version=version,
+        protocol=fmt(protocol),
+        power=str(status.power.get("level", "")),
+        hottest=list(status.heat.get("hottest", [])),
     )
 
 
@@ -89,17 +115,24 @@ def discover(
     """Every live robot (matching ``pattern``, a robot name or ``*``) with its latest status,
     sorted by name; a robot whose status does not arrive within ``timeout`` is listed with what
     is known (its name, state ``unknown``)."""
-    statuses: dict[str, Status] = {}
+    statuses: dict[str, Status | None] = {}
+    raws: dict[str, dict[str, Any]] = {}
     cond = threading.Condition()
 
     def on_status(sample: zenoh.Sample) -> None:
+        msg: Status | None = None
         try:
-            msg = decode(sample.payload.to_bytes(), Status)
             name = robot_of(str(sample.key_expr))
+            raw = decode_dict(sample.payload.to_bytes())
+            check_daemon(raw, "darwin list")
+            msg = decode(sample.payload.to_bytes(), Status)  # type: ignore[assignment]
+        except IncompatibleProtocolError as exc:
+            raw["_incompatible"] = str(exc)
         except (ProtocolError, ValueError):
-            return  # a foreign or newer publisher: not ours to list
+            return  # a foreign publisher: not ours to list
         with cond:
-            statuses[name] = msg  # type: ignore[assignment]
+            statuses[name] = msg
+            raws[name] = raw
             cond.notify_all()
 
     # Subscribe first: a status published while the token query runs is not missed.
@@ -111,7 +144,7 @@ def discover(
             cond.wait_for(
                 lambda: all(n in statuses for n in names), max(0.0, deadline - time.monotonic())
             )
-            return [record_from_status(n, statuses.get(n)) for n in names]
+            return [record_from_status(n, statuses.get(n), raws.get(n, {})) for n in names]
     finally:
         with contextlib.suppress(Exception):
             sub.undeclare()

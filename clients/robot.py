@@ -31,6 +31,7 @@ import zenoh
 from clients.calibration import OffsetTuner
 from clients.fleet import RobotRecord, discover_at
 from clients.lease_keeper import LeaseKeeper
+from clients.protocol_watch import ProtocolWatch
 from clients.teach import TeachMixin
 from schemas.errors import (
     ClientError,
@@ -149,6 +150,8 @@ class Commander:
     """Commands and the lease, without any subscription: one per legacy connection in the
     gateway, many sharing one Zenoh session (pass ``session``)."""
 
+    protocol: ProtocolWatch | None = None  # a Robot's watch on the daemon's versions
+
     def __init__(
         self,
         endpoint: str | None = None,
@@ -234,6 +237,8 @@ class Commander:
         """Send one arbiter command; return its *applied* map or raise."""
         if self._closed:
             raise ClientError("this Robot is closed; create a new one")
+        if self.protocol is not None and verb != "halt":  # halt is always tried
+            self.protocol.refuse()
         key = command_key(self.keys, verb, fields)
         if required_role(verb, fields) != Role.OBSERVER:
             # Refused here at once, naming the role that may: access control would drop the
@@ -452,8 +457,14 @@ class Robot(Commander, TeachMixin):
         self._conds = threading.Condition()
         self._seq: dict[str, int] = {}
         self._latest: dict[str, Message] = {}
+        self.protocol = ProtocolWatch(f"this client ({self.name})")
         for topic in ALWAYS:
             self._ensure_zsub(topic)
+
+    def check_protocol(self, timeout: float = 3.0) -> str | None:
+        """On connect: the daemon's versions against ours (``schemas/versions.py``); raises
+        ``IncompatibleProtocolError`` on another protocol major, returns a minor skew's warning."""
+        return self.protocol.wait(timeout)
 
     @staticmethod
     def discover(
@@ -495,7 +506,11 @@ class Robot(Commander, TeachMixin):
         try:
             msg = decode(sample.payload.to_bytes(), TOPICS[topic])
         except ProtocolError:
+            if topic == "status":  # another protocol major: the watch says which
+                self.protocol.observe(sample.payload.to_bytes())
             return  # a foreign or newer publisher: ignore rather than crash the callback
+        if topic == "status":
+            self.protocol.observe(vars(msg))
         with self._lock:
             if topic == "joints":
                 self._state.joints = msg  # type: ignore[assignment]

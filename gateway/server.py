@@ -73,6 +73,8 @@ class Gateway:
                 role=self.role,
             )
         )
+        # The daemon's versions against ours: another protocol major refuses to start.
+        await self.blocking(lambda: self._hub_robot.check_protocol(3.0))
         self.hub = Hub(self._hub_robot, loop)
         host, port = self.settings.host_port
         self._server = await asyncio.start_server(self._accept, host, port, reuse_address=True)

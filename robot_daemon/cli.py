@@ -39,6 +39,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "urdf": ("clients.ros2.urdf_cli", "print the robot's URDF (from the body description)"),
     "users": ("robot_daemon.security.users_cli", "manage identities and roles (add/remove/list)"),
     "certs": ("robot_daemon.security.certs_cli", "create TLS certificates: CA, robot, clients"),
+    "service": ("robot_daemon.service_cli", "start the daemon at boot: systemd units, udev rule"),
 }
 
 

@@ -35,6 +35,7 @@ from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
+from robot_daemon.power_actions import PowerGuard
 from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
 from robot_daemon.security.acl import Security, serve_roles
@@ -43,6 +44,7 @@ from schemas.errors import BusError, DarwinError, ErrorCode, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, NetworkInfo, Status
 from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config
+from schemas.versions import announced_protocol, fmt, package_version
 
 if TYPE_CHECKING:
     from robot_daemon.camera import CameraThread
@@ -104,6 +106,8 @@ class Daemon:
         fall = self.manager.get("fall")
         self.fall = fall if isinstance(fall, FallMonitor) else None  # the one fall detector
         self.info = DaemonInfo(robot=options.robot, tick_ms=options.tick_ms)
+        self.protocol = announced_protocol()
+        self.guard = PowerGuard(robot, settings, self.manager, self.bus, self._emit)
         self.tick = 0
         self.bus_errors = 0
         self.frame: JointFrame | None = None
@@ -158,6 +162,9 @@ class Daemon:
                 f"the serial port {self.bus.port_name} is lost (status.state is port_lost): "
                 f"{req.verb} not done; send it again once the port is back",
             )
+        why = self.guard.refusal(req.verb, req.fields)
+        if why is not None:
+            raise Reject(ErrorCode.UNAVAILABLE, why)
 
     def _set_state(self, state: DaemonState) -> None:
         if state != self.state:
@@ -211,6 +218,9 @@ class Daemon:
         self.arbiter.gate = self._outage_gate
         self.arbiter.on_wakeup = self._wake.set
         self._alive = self.session.liveliness().declare_token(self.keys.alive)
+        self._alive_version = self.session.liveliness().declare_token(
+            self.keys.alive_version(fmt(self.protocol), package_version())
+        )
         self._roles = serve_roles(self.session, self.keys)
         if self.options.camera != "none":
             from robot_daemon.camera import CameraThread
@@ -253,6 +263,7 @@ class Daemon:
             self.arbiter.close()
         with contextlib.suppress(Exception):
             self._alive.undeclare()
+            self._alive_version.undeclare()
         if self.pub is not None:
             self.pub.close()
         self.bus.close()
@@ -395,6 +406,9 @@ class Daemon:
         if self.lease.expire():
             self._status_dirty = True
         if self._status_dirty or now - self._last_status >= self.status_period:
+            # The battery and heat policy at the status rate (10 Hz), not per tick.
+            st = self.bus.state
+            self.guard.check(self.bus.cm730_status()["voltage"], st.temperature, st.online, now)
             self._publish_status(now)
 
     def _joints_message(self, frame: JointFrame) -> Joints:
@@ -460,6 +474,10 @@ class Daemon:
             voltage=cm["voltage"],
             alarms=alarms,
             network=self.network_info(),
+            version=package_version(),
+            power=self.guard.status()[0],
+            heat=self.guard.status()[1],
+            protocol=list(self.protocol),
             **extra,
         )
 

@@ -308,3 +308,7 @@ def command_error(
     """The exception that matches an error reply's code (``CommandError`` for a code this build
     does not know, e.g. from a newer daemon)."""
     return ERROR_CLASSES.get(str(code), CommandError)(code, message, field, verb, retry_after)
+
+
+class IncompatibleProtocolError(ClientError):
+    """The daemon speaks a protocol major this client does not (``schemas/versions.py``)."""

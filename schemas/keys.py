@@ -96,6 +96,12 @@ class Keys:
     def alive(self) -> str:
         return f"{self.prefix}/alive"
 
+    def alive_version(self, protocol: str, version: str) -> str:
+        """A second liveliness token beside ``alive``, naming the daemon's protocol and package
+        version (``…/alive/protocol/1.1/0.1.0``): who lists tokens sees them without a status."""
+        safe = "".join(c if c.isalnum() or c in "._+-" else "_" for c in version) or "unknown"
+        return f"{self.prefix}/alive/protocol/{protocol}/{safe}"
+
     def cmd(self, verb: str) -> str:
         if verb not in VERBS:
             raise ValueError(f"unknown command verb {verb!r}; known verbs: {', '.join(VERBS)}")

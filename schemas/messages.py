@@ -338,6 +338,13 @@ class Status(Message):
     stamp: float = field(default_factory=time.time)
     camera: CameraInfo = field(default_factory=lambda: CameraInfo())
     network: NetworkInfo = field(default_factory=lambda: NetworkInfo())
+    # The daemon's package version and [major, minor] protocol (schemas/versions.py): every
+    # client checks them on connect. Empty from a daemon older than protocol 1.1.
+    version: str = ""
+    protocol: list[int] = field(default_factory=list)
+    # The battery and heat policy (robot_daemon/power_policy.py): PowerInfo and HeatInfo.
+    power: dict[str, Any] = field(default_factory=dict)
+    heat: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass

@@ -40,6 +40,7 @@ def run(args: argparse.Namespace) -> int:
         signal.signal(sig, lambda *_: stop.set())
     creds = credentials_from_args(args)
     with Robot(args.connect, args.robot, name="foxglove", credentials=creds) as robot:
+        robot.check_protocol(3.0)
         try:
             bridge = Bridge(robot, host, port, args.tf_rate)
         except RuntimeError as exc:

@@ -17,6 +17,7 @@ from types import FrameType
 
 import zenoh
 
+from clients.protocol_watch import check_at
 from clients.recording.mcap_sink import CHUNK_BYTES
 from clients.recording.profile import PROFILES, get_profile
 from clients.recording.recorder import (
@@ -28,7 +29,8 @@ from clients.recording.recorder import (
     check_topics,
 )
 from clients.robot import TOPICS
-from schemas.errors import ClientError, RobotUnreachableError
+from schemas.errors import ClientError, IncompatibleProtocolError, RobotUnreachableError
+from schemas.keys import Keys
 from schemas.session import add_target_arguments, credentials_from_args, open_client, resolve
 
 
@@ -187,6 +189,13 @@ def run_record(args: argparse.Namespace) -> int:
             "Is the daemon running (`darwin up`)? Check --connect / DARWIN_ENDPOINT."
         ) from exc
     try:
+        try:
+            skew = check_at(session, Keys(target.robot), "darwin record", 3.0)
+        except IncompatibleProtocolError:
+            session.close()
+            raise
+        if skew:
+            notice(skew)
         try:
             rec = Recorder(
                 session,

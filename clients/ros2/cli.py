@@ -97,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
     ros_session = None
     adapter = None
     try:
+        robot.check_protocol(3.0)
         if not robot.alive(timeout=3.0):
             print(
                 f"darwin ros2: no daemon for robot {robot.target.robot!r} at "

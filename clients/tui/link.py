@@ -23,7 +23,7 @@ from textual.message import Message
 
 from clients.robot import Robot, Subscription
 from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
-from schemas.errors import ClientError, DarwinError
+from schemas.errors import ClientError, DarwinError, IncompatibleProtocolError
 from schemas.roles import Role
 from schemas.session import Credentials, resolve
 
@@ -116,7 +116,17 @@ class Link:
             self.role = robot.role  # asked here, off the UI thread, before CONNECTED is posted
         except Exception:  # a session closing under us: the role stays unknown
             self.role = None
-        self._set(LinkState.CONNECTED if robot.alive(1.0) else LinkState.NO_DAEMON, ep, name)
+        alive = robot.alive(1.0)
+        try:
+            # Its first status says its versions (a later one: commands refuse).
+            skew = robot.check_protocol(3.0) if alive else None
+            if skew:
+                with contextlib.suppress(Exception):  # an app closing under us
+                    self.app.call_from_thread(self.app.notify, skew, severity="warning")
+        except IncompatibleProtocolError as exc:
+            self._set(LinkState.UNREACHABLE, ep, name, str(exc))
+            return
+        self._set(LinkState.CONNECTED if alive else LinkState.NO_DAEMON, ep, name)
 
         def on_token(sample: zenoh.Sample) -> None:
             up = sample.kind == zenoh.SampleKind.PUT

@@ -8,7 +8,7 @@
 | `clear_faults` | | no lost/corrupt/late replies, silent or hot servo, broken chain; 12 V |
 | `restore` | | every device back to its defaults and IDs (power kept) |
 | `silence` | `id`, `silent` (true) | a device stops (or resumes) answering |
-| `overheat` | `id`, `on` (true) | pins a servo above its temperature limit |
+| `overheat` | `id`, `on` (true), `celsius` | pins a servo above its limit (or at `celsius`) |
 | `voltage` | `volts` | supply voltage |
 | `body_motion` | `gyro` [x,y,z] rad/s, `accel` [x,y,z] m/s² | what the IMU feels (robot axes) |
 | `button` | `name` (mode/start), `pressed` (true) | presses or releases a button |
@@ -87,7 +87,10 @@ def _silence(emu, req: Request) -> dict[str, Any]:
 
 @control_op("overheat")
 def _overheat(emu, req: Request) -> dict[str, Any]:
-    emu.overheat(field(req, "id", int), field(req, "on", bool, True))
+    celsius = req.get("celsius")
+    if celsius is not None and not isinstance(celsius, int | float):
+        raise ValueError(f"celsius must be a number, got {celsius!r}")
+    emu.overheat(field(req, "id", int), field(req, "on", bool, True), celsius)
     return emu.fault_state()
 
 

@@ -138,12 +138,14 @@ class EmulatorApi:
             else:
                 self.bus.silent.discard(dxl_id)
 
-    def overheat(self, dxl_id: int, on: bool = True) -> None:
-        """Pin a servo 5 °C above its limit; off brings it back to the ambient temperature."""
+    def overheat(self, dxl_id: int, on: bool = True, celsius: float | None = None) -> None:
+        """Pin a servo 5 °C above its limit (or at ``celsius``); off brings it back to the
+        ambient temperature."""
         with self.lock:
             servo = self.bus.servo(dxl_id)
             if on:
-                servo.forced_temperature = servo.table[MX28.TEMPERATURE_LIMIT] + 5.0
+                above = servo.table[MX28.TEMPERATURE_LIMIT] + 5.0
+                servo.forced_temperature = above if celsius is None else float(celsius)
                 servo.temperature = servo.forced_temperature
             else:
                 servo.forced_temperature = None

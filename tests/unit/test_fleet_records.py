@@ -18,11 +18,19 @@ def test_a_record_takes_its_fields_from_the_status() -> None:
     )
     r = record_from_status("op2", status)
     assert r == RobotRecord(
-        "op2", "tcp/10.0.0.2:7447", "degraded", "ana", 11.4, [{"id": 7, "bits": 32}], 125.0
+        "op2",
+        "tcp/10.0.0.2:7447",
+        "degraded",
+        "ana",
+        11.4,
+        [{"id": 7, "bits": 32}],
+        125.0,
+        version="unknown",
+        protocol="1.0",
     )
     assert r.line() == (
-        "op2: tcp/10.0.0.2:7447  (degraded; lease ana; battery 11.4 V; alarms id 7 bits 32; "
-        "loop 125 Hz)"
+        "op2: tcp/10.0.0.2:7447  (degraded; lease ana; battery 11.4 V; hottest ?; "
+        "alarms id 7 bits 32; loop 125 Hz; daemon unknown protocol 1.0)"
     )
 
 
@@ -31,5 +39,8 @@ def test_a_live_robot_without_a_status_yet_is_listed_as_unknown() -> None:
     assert (r.name, r.state, r.battery, r.loop_hz, r.lease_holder) == (
         "op3", "unknown", None, None, None
     )
-    assert r.line() == "op3: ?  (unknown; lease free; battery ?; alarms none; loop ?)"
+    assert r.line() == (
+        "op3: ?  (unknown; lease free; battery ?; hottest ?; alarms none; loop ?; daemon ? "
+        "protocol ?)"
+    )
     assert r.to_dict()["alarms"] == []

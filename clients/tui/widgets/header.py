@@ -100,6 +100,8 @@ class RobotHeader(Static):
         top.append(_field((f"@ {info.endpoint or '—'}", "dim")))
         if info.state in (LinkState.UNREACHABLE, LinkState.NO_DAEMON):
             hint = _("Is `darwin up` running there? Press c to change the robot.")
+            if "protocol" in info.detail:  # an incompatible daemon: say which and what to do
+                hint = info.detail
             return top, [_field((hint, "red"))]
         bottom = []
         holder = model.lease_holder()
@@ -118,6 +120,15 @@ class RobotHeader(Static):
         if st is not None:
             volts = (f"{st.voltage:.1f} V", "red" if st.voltage < LOW_BATTERY_V else "")
             bottom.append(_field((_("battery") + ": ", "dim"), volts))
+            # The battery and heat policy (docs/power.md): shown once it is past ok.
+            level = (st.power or {}).get("level", "ok")
+            if level != "ok":
+                bottom.append(_field((level, "bold red" if level != "warn" else "bold yellow")))
+            heat = st.heat or {}
+            if heat.get("level", "ok") != "ok" and heat.get("hottest"):
+                hot = heat["hottest"][0]
+                text = f"{hot['name']} {hot['celsius']:.0f} °C {heat['level']}"
+                bottom.append(_field((_("hottest") + ": ", "dim"), (text, "bold red")))
             if st.alarms:
                 first = st.alarms[0]
                 what = first.get("message") or first.get("kind") or str(first)

@@ -1,0 +1,78 @@
+"""A client's watch on the daemon's announced versions (``status.version``/``status.protocol``):
+every status is checked by the one check, :func:`schemas.versions.check_daemon`; a minor skew is
+logged once per announcement, a major one is kept and refuses every later command."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import threading
+from collections.abc import Mapping
+from typing import Any
+
+import zenoh
+
+from schemas.errors import IncompatibleProtocolError, ProtocolError
+from schemas.keys import Keys
+from schemas.messages import decode_dict
+from schemas.versions import announcement, check_daemon
+
+log = logging.getLogger(__name__)
+
+
+class ProtocolWatch:
+    def __init__(self, program: str) -> None:
+        self.program = program
+        self.warning: str | None = None
+        self.error: IncompatibleProtocolError | None = None
+        self._seen: Any = None  # the last announcement checked
+        self._cond = threading.Condition()
+
+    def observe(self, payload: bytes | Mapping[str, Any]) -> None:
+        """A status arrived: decoded (its fields), or the raw payload (a daemon of another major
+        may not decode)."""
+        if isinstance(payload, bytes):
+            try:
+                status: Mapping[str, Any] = decode_dict(payload)
+            except ProtocolError:
+                return
+        else:
+            status = payload
+        seen = (announcement(status), status.get("robot"))
+        if seen == self._seen:
+            return
+        warning, error = None, None
+        try:
+            warning = check_daemon(status, self.program)
+        except IncompatibleProtocolError as exc:
+            error = exc
+        with self._cond:
+            self._seen, self.warning, self.error = seen, warning, error
+            self._cond.notify_all()
+        if warning:
+            log.warning("%s", warning)
+        if error:
+            log.error("%s", error)
+
+    def refuse(self) -> None:
+        if self.error is not None:
+            raise self.error
+
+    def wait(self, timeout: float) -> str | None:
+        """Wait up to ``timeout`` for the first announcement; raise on an incompatible one, else
+        the warning (None: compatible, or no daemon answered yet)."""
+        with self._cond:
+            self._cond.wait_for(lambda: self._seen is not None, timeout)
+        self.refuse()
+        return self.warning
+
+
+def check_at(session: zenoh.Session, keys: Keys, program: str, timeout: float = 3.0) -> str | None:
+    """:meth:`ProtocolWatch.wait` on a session of a client that has no ``Robot`` (a recorder)."""
+    watch = ProtocolWatch(program)
+    sub = session.declare_subscriber(keys.status, lambda s: watch.observe(s.payload.to_bytes()))
+    try:
+        return watch.wait(timeout)
+    finally:
+        with contextlib.suppress(Exception):
+            sub.undeclare()

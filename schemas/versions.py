@@ -1,0 +1,95 @@
+"""The versions on the wire: the package's and the protocol's, and the one check every client
+runs on the daemon's announcement (its ``status``: ``version`` and ``protocol``).
+
+``PROTOCOL_VERSION = (major, minor)``: the major is the messages' schema version (a message of
+another major does not decode, :func:`schemas.messages.decode`); the minor counts additive
+changes (a new field, a new verb), which a client of another minor still understands, so a minor
+skew is a warning and a major one a refusal naming both versions and what to upgrade.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from functools import cache
+from typing import Any
+
+from schemas import SCHEMA_VERSION
+from schemas.errors import ConfigError, IncompatibleProtocolError
+
+# 1.1: status carries version, protocol, power and heat.
+PROTOCOL_VERSION: tuple[int, int] = (SCHEMA_VERSION, 1)
+PACKAGE = "darwin-zenoh"
+# A daemon from before versions were announced: protocol 1.0.
+UNANNOUNCED: tuple[int, int] = (1, 0)
+# What the daemon announces instead of PROTOCOL_VERSION ("MAJOR.MINOR"): for testing clients
+# against another protocol without building another daemon.
+ENV_ANNOUNCE = "DARWIN_ANNOUNCE_PROTOCOL"
+
+
+@cache
+def package_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(PACKAGE)
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        return "unknown"
+
+
+def parse_protocol(text: str) -> tuple[int, int]:
+    major, sep, minor = text.strip().partition(".")
+    if not (sep and major.isdigit() and minor.isdigit()):
+        raise ValueError(f"protocol version {text!r} should be MAJOR.MINOR, e.g. 1.1")
+    return int(major), int(minor)
+
+
+def announced_protocol() -> tuple[int, int]:
+    """The protocol the daemon announces (PROTOCOL_VERSION unless ``DARWIN_ANNOUNCE_PROTOCOL``)."""
+    override = os.environ.get(ENV_ANNOUNCE)
+    if not override:
+        return PROTOCOL_VERSION
+    try:
+        return parse_protocol(override)
+    except ValueError as exc:
+        raise ConfigError(
+            f"{ENV_ANNOUNCE}: {exc}; unset it to announce {fmt(PROTOCOL_VERSION)}"
+        ) from None
+
+
+def fmt(protocol: tuple[int, int]) -> str:
+    return f"{protocol[0]}.{protocol[1]}"
+
+
+def announcement(status: Mapping[str, Any]) -> tuple[tuple[int, int], str]:
+    """(protocol, package version) from a status map (decoded or raw msgpack)."""
+    raw = status.get("protocol")
+    protocol = UNANNOUNCED
+    if isinstance(raw, list | tuple) and len(raw) == 2 and all(isinstance(v, int) for v in raw):
+        protocol = (int(raw[0]), int(raw[1]))
+    version = status.get("version")
+    return protocol, version if isinstance(version, str) and version else "unknown"
+
+
+def check_daemon(status: Mapping[str, Any], program: str) -> str | None:
+    """Check the daemon's announcement against this client (``program``: e.g. ``darwin tui``).
+
+    None when both speak the same protocol; a one-line warning on a minor skew; raises
+    :class:`IncompatibleProtocolError` (one line, both versions, what to upgrade) on another
+    major."""
+    theirs, their_version = announcement(status)
+    ours = PROTOCOL_VERSION
+    robot = status.get("robot") or "?"
+    both = (
+        f"{program} speaks protocol {fmt(ours)} ({PACKAGE} {package_version()}), the daemon of "
+        f"robot {robot} speaks {fmt(theirs)} ({PACKAGE} {their_version})"
+    )
+    if theirs == ours:
+        return None
+    newer = "the robot's daemon" if theirs < ours else "this client"
+    if theirs[0] != ours[0]:
+        raise IncompatibleProtocolError(
+            f"{both}: incompatible; upgrade {newer} (pip install -U {PACKAGE}) so both speak "
+            f"protocol {max(theirs, ours)[0]}.x"
+        )
+    return f"{both}: it works, but upgrade {newer} for the newer fields and verbs"
