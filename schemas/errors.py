@@ -10,6 +10,7 @@ DarwinError
 ├── RouterError             `darwin router` cannot listen (robot_daemon/router)
 ├── MotionFileError         a motion file that cannot be read (robot_daemon/motion/action)
 ├── ReplaceRefused          a servo replacement that would be unsafe (robot_daemon/bus/replace)
+├── ServiceError            the boot service cannot be installed, removed or read here
 ├── BusError                serial port and Dynamixel bus
 │   ├── PortError           cannot open / lost the serial port
 │   │   └── PortInUseError  another process holds it
@@ -46,7 +47,8 @@ DarwinError
 │   └── Reject              the daemon side's refusal inside a handler (any code)
 └── ClientError             client side: cannot reach the robot, timed out
     ├── RobotUnreachableError
-    └── CommandTimeoutError
+    ├── CommandTimeoutError
+    └── IncompatibleProtocolError the daemon speaks a protocol major this client does not
 
 Error replies carry the code; :func:`command_error` turns a code back into its class, and
 ``cls.CODE`` gives the code of a class, so both sides agree by construction.
