@@ -167,6 +167,7 @@ def prepare(root: Path) -> None:
     venv from an earlier run."""
     shutil.copyfile("/etc/resolv.conf", root / "etc" / "resolv.conf")
     if HOST_CA.is_file():
+        (root / "etc" / "ssl").mkdir(exist_ok=True)
         shutil.copyfile(HOST_CA, root / "etc" / "ssl" / "host-ca.crt")
     shutil.rmtree(root / "opt" / "darwin", ignore_errors=True)
     src = root / "root" / "darwin-zenoh"
