@@ -50,22 +50,34 @@ def fenced_blocks(text: str, info: str) -> list[str]:
     return [m.group(1) for m in pattern.finditer(text)]
 
 
-def recipe() -> tuple[str, str]:
-    """The page's install commands and its daemon command (one block of each)."""
+def recipe() -> tuple[list[str], str]:
+    """The page's install blocks, in order, and its daemon command."""
     text = DOC.read_text()
     install, run = fenced_blocks(text, "sh recipe"), fenced_blocks(text, "sh robot-run")
-    if len(install) != 1 or len(run) != 1:
-        raise CheckFailed(f"{DOC}: needs one ```sh recipe block and one ```sh robot-run block")
-    return install[0], run[0].strip()
+    if not install or len(run) != 1:
+        raise CheckFailed(f"{DOC}: needs ```sh recipe blocks and one ```sh robot-run block")
+    return install, run[0].strip()
 
 
-def apt_packages(install: str) -> list[str]:
-    """The packages of the recipe's `apt-get install` line: the cached root's key."""
-    for line in install.splitlines():
-        words = shlex.split(line)
-        if words[:2] == ["apt-get", "install"]:
-            return sorted(w for w in words[2:] if not w.startswith("-"))
-    raise CheckFailed(f"{DOC}: the recipe has no `apt-get install` line")
+def apt_packages(blocks: list[str]) -> list[str]:
+    """The packages of the recipe's `apt-get install` lines: the cached root's key."""
+    found = [
+        w
+        for block in blocks
+        for line in block.splitlines()
+        if (words := shlex.split(line, comments=True))[:2] == ["apt-get", "install"]
+        for w in words[2:]
+        if not w.startswith("-")
+    ]
+    if not found:
+        raise CheckFailed(f"{DOC}: the recipe has no `apt-get install` line")
+    return sorted(found)
+
+
+def label(block: str) -> str:
+    """A block's first comment (`# the daemon`), to name it in the disk figures."""
+    first = block.lstrip().splitlines()[0]
+    return first.lstrip("# ").strip() if first.startswith("#") else first
 
 
 def run(cmd: list[str], what: str, log: Path, **kw: object) -> subprocess.CompletedProcess[str]:
@@ -154,10 +166,11 @@ def chroot_cmd(root: Path, *cmd: str) -> list[str]:
         "PATH": "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin",
         "LANG": "C.UTF-8",
         "DEBIAN_FRONTEND": "noninteractive",
-        "PIP_CERT": "/etc/ssl/host-ca.crt",  # this machine's CAs (a TLS proxy may sit in front)
         "PIP_DISABLE_PIP_VERSION_CHECK": "1",
         "PYTHONUNBUFFERED": "1",
     }
+    if HOST_CA.is_file():  # this machine's CAs, copied in by prepare() (a TLS proxy may intercept)
+        env["PIP_CERT"] = "/etc/ssl/host-ca.crt"
     env_args = [f"{k}={v}" for k, v in env.items()]
     return ["setarch", "i686", "chroot", str(root), "/usr/bin/env", "-i", *env_args, *cmd]
 
@@ -189,16 +202,31 @@ def du_mb(*paths: Path) -> float:
     return sum(int(line.split()[0]) for line in out.stdout.splitlines()) / 1e6
 
 
-def footprint(root: Path, base_mb: float) -> str:
-    """What the recipe added to the root, without apt's downloaded .debs and pip's cache."""
-    caches = [root / "var/cache/apt/archives", root / "root/.cache"]
-    total = du_mb(root) - du_mb(*[c for c in caches if c.exists()])
-    venv = du_mb(root / "opt/darwin")
-    return (
-        f"disk: minimal Debian 12 i386 root {base_mb:.0f} MB; the recipe adds "
-        f"{total - base_mb:.0f} MB (apt packages {total - base_mb - venv:.0f} MB, "
-        f"venv /opt/darwin {venv:.0f} MB)"
-    )
+def used_mb(root: Path) -> float:
+    """The root's size as the robot keeps it: without apt's downloaded .debs, pip's cache and
+    the source copy."""
+    caches = [root / "var/cache/apt/archives", root / "root/.cache", root / "root/darwin-zenoh"]
+    return du_mb(root) - du_mb(*[c for c in caches if c.exists()])
+
+
+def install(root: Path, blocks: list[str], built: bool, log: Path) -> None:
+    """Run the recipe's blocks in order. On a root built now, measure what each adds and keep
+    the figures with the cache (later runs find the apt packages there already)."""
+    sizes = [used_mb(root)]
+    for block in blocks:
+        run(chroot_cmd(root, "/bin/bash", "-euxo", "pipefail", "-c", block),
+            f"the recipe of docs/robot.md ({label(block)})", log)
+        sizes.append(used_mb(root))
+    figures = CACHE / "footprint.txt"
+    if built or not figures.is_file():
+        lines = [f"disk: minimal Debian 12 i386 root {sizes[0]:.0f} MB"]
+        lines += [f"disk: + {after - before:.0f} MB for {label(block)}"
+                  for block, before, after in zip(blocks, sizes, sizes[1:], strict=True)]
+        lines.append(f"disk: {sizes[-1]:.0f} MB in all")
+        figures.write_text("\n".join(lines) + "\n")
+    for line in figures.read_text().splitlines():
+        say(line)
+    say(f"disk: of which the venv /opt/darwin {du_mb(root / 'opt/darwin'):.0f} MB")
 
 
 def start_emulator(log: Path) -> tuple[subprocess.Popen[str], str]:
@@ -274,27 +302,21 @@ def stop(proc: subprocess.Popen[str] | None) -> None:
 
 def check(log: Path) -> None:
     t0 = time.monotonic()
-    install, command = recipe()
+    blocks, command = recipe()
     dry_run(log)
     say("pip: every core requirement pip fetches has a manylinux2014_i686 wheel for 3.11")
     CACHE.mkdir(parents=True, exist_ok=True)
     with (CACHE / "lock").open("w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # one check at a time uses the cached root
-        root, built = cached_root(apt_packages(install), log)
+        root, built = cached_root(apt_packages(blocks), log)
         say(f"root: {root} ({'built' if built else 'cached'}, {time.monotonic() - t0:.0f} s)")
         prepare(root)
-        base_file = CACHE / "base.mb"  # the root's size before any recipe ran
-        if built or not base_file.is_file():
-            base_file.write_text(f"{du_mb(root)}")
-        base_mb = float(base_file.read_text())
         emulator = daemon = None
         with mounted(root):
             try:
                 t1 = time.monotonic()
-                run(chroot_cmd(root, "/bin/bash", "-euxo", "pipefail", "-c", install),
-                    "the recipe of docs/robot.md", log)
+                install(root, blocks, built, log)
                 say(f"recipe: done in {time.monotonic() - t1:.0f} s")
-                say(footprint(root, base_mb))
                 info = subprocess.run(
                     chroot_cmd(root, "/opt/darwin/bin/python", "-c",
                                "import platform, struct, numpy, zenoh; print(platform.machine(),"

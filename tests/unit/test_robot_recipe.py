@@ -22,10 +22,11 @@ def load_check() -> ModuleType:
     return module
 
 
-def test_the_recipe_is_one_install_block_and_one_daemon_command() -> None:
+def test_the_recipe_installs_the_daemon_first_and_has_one_daemon_command() -> None:
     check = load_check()
-    install, command = check.recipe()
-    packages = check.apt_packages(install)
+    blocks, command = check.recipe()
+    packages = check.apt_packages(blocks)
+    install = blocks[0]
     for needed in ("python3-venv", "python3-numpy", "python3-opencv", "python3-serial",
                    "python3-msgpack"):
         assert needed in packages
@@ -47,3 +48,11 @@ def test_the_core_requirements_are_the_ones_the_check_dry_runs() -> None:
     reqs = check.core_requirements()
     assert any(r.startswith("eclipse-zenoh") for r in reqs)
     assert any(r.startswith("numpy>=1.24") for r in reqs)
+
+
+def test_opencv_comes_after_the_daemon_and_blocks_are_named_by_their_comment() -> None:
+    check = load_check()
+    blocks, _ = check.recipe()
+    assert "python3-opencv" not in blocks[0]
+    names = [check.label(b) for b in blocks]
+    assert names == ["the daemon", "OpenCV, for the camera and ball play"]
