@@ -30,7 +30,7 @@ def no_extras(*args: str) -> subprocess.CompletedProcess[str]:
 def robot_side_modules() -> list[str]:
     """Every module of the packages the robot runs (the daemon, the gateway, the schemas, the
     config), plus the Robot client a script on the robot may use."""
-    out = ["clients.robot"]
+    out = ["clients", "clients.robot", "clients.notebook.frames"]
     for package in ("robot_daemon", "schemas", "config", "gateway"):
         for path in sorted((REPO / package).rglob("*.py")):
             parts = path.relative_to(REPO).with_suffix("").parts
@@ -79,15 +79,24 @@ def test_a_laptop_command_without_its_extra_is_one_line(command: list[str], extr
     )
 
 
-def test_ball_finding_without_opencv_names_the_extra() -> None:
-    body = (
-        "from robot_daemon.vision.ball_finder import BallFinder, FinderSettings\n"
-        "from config.loader import load_all\n"
-        "try:\n"
-        "    BallFinder(FinderSettings.from_config(load_all(None)['ballplay']))\n"
-        "except ModuleNotFoundError as exc:\n"
-        "    print(exc)\n"
-    )
+@pytest.mark.parametrize(
+    ("call", "expected"),
+    [
+        (
+            "from robot_daemon.vision.ball_finder import BallFinder, FinderSettings\n"
+            "from config.loader import load_all\n"
+            "BallFinder(FinderSettings.from_config(load_all(None)['ballplay']))\n",
+            "ball finding: needs the 'vision' extra: pip install 'darwin-zenoh[vision]'",
+        ),
+        (
+            "from clients.notebook.frames import to_frame\nto_frame('joints', [])\n",
+            "DataFrames: needs the 'notebook' extra: pip install 'darwin-zenoh[notebook]'",
+        ),
+    ],
+)
+def test_a_feature_without_its_package_names_the_extra(call: str, expected: str) -> None:
+    body = "try:\n" + "".join(f"    {line}\n" for line in call.splitlines())
+    body += "except ModuleNotFoundError as exc:\n    print(exc)\n"
     proc = subprocess.run(
         [sys.executable, "-c", _with_blocker(body)],
         capture_output=True,
@@ -95,9 +104,7 @@ def test_ball_finding_without_opencv_names_the_extra() -> None:
         timeout=60,
         cwd=REPO,
     )
-    assert proc.stdout == (
-        "ball finding: needs the 'vision' extra: pip install 'darwin-zenoh[vision]'\n"
-    ), proc.stderr
+    assert proc.stdout == expected + "\n", proc.stderr
 
 
 def _with_blocker(body: str) -> str:
