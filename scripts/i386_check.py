@@ -218,14 +218,17 @@ def install(root: Path, blocks: list[str], built: bool, log: Path) -> None:
             f"the recipe of docs/robot.md ({label(block)})", log)
         sizes.append(used_mb(root))
     figures = CACHE / "footprint.txt"
-    if built or not figures.is_file():
+    if built:
         lines = [f"disk: minimal Debian 12 i386 root {sizes[0]:.0f} MB"]
         lines += [f"disk: + {after - before:.0f} MB for {label(block)}"
-                  for block, before, after in zip(blocks, sizes, sizes[1:], strict=True)]
+                  for block, before, after in zip(blocks, sizes[:-1], sizes[1:], strict=True)]
         lines.append(f"disk: {sizes[-1]:.0f} MB in all")
         figures.write_text("\n".join(lines) + "\n")
-    for line in figures.read_text().splitlines():
-        say(line)
+    if figures.is_file():
+        for line in figures.read_text().splitlines():
+            say(line)
+    else:
+        say(f"disk: no figures kept from the build (remove {CACHE} to measure them)")
     say(f"disk: of which the venv /opt/darwin {du_mb(root / 'opt/darwin'):.0f} MB")
 
 
@@ -364,6 +367,7 @@ def main() -> int:
     except Exception as exc:  # anything else is still one line, with the log for the rest
         say(f"FAILED: {type(exc).__name__}: {exc}; see {log}")
         return 1
+    shutil.rmtree(log.parent, ignore_errors=True)  # kept only when something failed
     return 0
 
 
