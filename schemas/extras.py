@@ -5,8 +5,10 @@ The core install (``pip install darwin-zenoh``) is what the daemon needs on the 
 32-bit computer: Zenoh, the Dynamixel SDK, pyserial, msgpack and numpy. Everything a laptop runs
 (the UIs, notebooks, Foxglove, ROS 2, recording, physics, certificates, OpenCV) is an extra, and
 is imported only when it runs: at the command boundary (``darwin COMMAND`` turns the
-``ModuleNotFoundError`` into :func:`message`'s one line) or through :func:`require` in library
-code a notebook calls. ``pyproject.toml`` lists the same extras; a test checks the two agree.
+``ModuleNotFoundError`` into :func:`explain`'s one line), through :func:`require` in library code
+a notebook calls, or as a :class:`LazyModule` in a module the daemon imports but uses the package
+only in one feature (OpenCV for the camera and ball play). ``pyproject.toml`` lists the same
+extras; a test checks the two agree.
 """
 
 from __future__ import annotations
