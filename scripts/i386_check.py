@@ -271,10 +271,7 @@ def drive(endpoint: str, robot_name: str) -> str:
     from clients.robot import Robot
 
     with Robot(endpoint, robot_name, name="i386-check", timeout=10.0) as robot:
-        joints = robot.wait_for("joints", timeout=WAIT)
-        online = sum(bool(x) for x in joints.online)
-        if online != 20:
-            raise CheckFailed(f"the daemon in the root sees {online} of 20 servos online")
+        robot.wait_for("joints", lambda j: len(j.online) == 20 and all(j.online), WAIT)
         with robot.control():
             robot.walk(x=0.03)
             status = robot.wait_for(
