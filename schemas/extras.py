@@ -35,6 +35,9 @@ EXTRA_OF: dict[str, str] = {
 }
 
 DISTRIBUTION = "darwin-zenoh"
+# On the robot (Debian 12 i386) PyPI has no wheel for these: Debian's package is the way in
+# (docs/robot.md).
+ON_THE_ROBOT: dict[str, str] = {"vision": "python3-opencv"}
 
 
 class MissingExtraError(ModuleNotFoundError):
@@ -56,7 +59,10 @@ def explain(exc: ModuleNotFoundError) -> str | None:
 def message(extra: str, what: str | None = None) -> str:
     """``needs the 'tui' extra: pip install 'darwin-zenoh[tui]'`` (``what`` first when given)."""
     head = f"{what}: " if what else ""
-    return f"{head}needs the {extra!r} extra: pip install '{DISTRIBUTION}[{extra}]'"
+    line = f"{head}needs the {extra!r} extra: pip install '{DISTRIBUTION}[{extra}]'"
+    if extra in ON_THE_ROBOT:
+        line += f" (on the robot: apt-get install {ON_THE_ROBOT[extra]})"
+    return line
 
 
 def require(module: str, what: str | None = None) -> ModuleType:

@@ -86,7 +86,8 @@ def test_a_laptop_command_without_its_extra_is_one_line(command: list[str], extr
             "from robot_daemon.vision.ball_finder import BallFinder, FinderSettings\n"
             "from config.loader import load_all\n"
             "BallFinder(FinderSettings.from_config(load_all(None)['ballplay']))\n",
-            "ball finding: needs the 'vision' extra: pip install 'darwin-zenoh[vision]'",
+            "ball finding: needs the 'vision' extra: pip install 'darwin-zenoh[vision]' "
+            "(on the robot: apt-get install python3-opencv)",
         ),
         (
             "from clients.notebook.frames import to_frame\nto_frame('joints', [])\n",
