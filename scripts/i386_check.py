@@ -214,8 +214,10 @@ def install(root: Path, blocks: list[str], built: bool, log: Path) -> None:
     the figures with the cache (later runs find the apt packages there already)."""
     sizes = [used_mb(root)]
     for block in blocks:
+        t0 = time.monotonic()
         run(chroot_cmd(root, "/bin/bash", "-euxo", "pipefail", "-c", block),
             f"the recipe of docs/robot.md ({label(block)})", log)
+        say(f"recipe: {label(block)}: {time.monotonic() - t0:.0f} s")
         sizes.append(used_mb(root))
     figures = CACHE / "footprint.txt"
     if built:
@@ -314,9 +316,7 @@ def check(log: Path) -> None:
         emulator = daemon = None
         with mounted(root):
             try:
-                t1 = time.monotonic()
                 install(root, blocks, built, log)
-                say(f"recipe: done in {time.monotonic() - t1:.0f} s")
                 info = subprocess.run(
                     chroot_cmd(root, "/opt/darwin/bin/python", "-c",
                                "import platform, struct, numpy, zenoh; print(platform.machine(),"
