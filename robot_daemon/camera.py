@@ -16,13 +16,15 @@ import threading
 import time
 from typing import Any
 
-import cv2
 import numpy as np
 import zenoh
 
 from robot_daemon.vision.sources import CameraSource, SourceContext, open_source
+from schemas.extras import LazyModule
 from schemas.keys import Keys
 from schemas.messages import CameraFrame, encode
+
+cv2 = LazyModule("cv2", "the camera's JPEG encoder")
 
 log = logging.getLogger(__name__)
 

@@ -13,6 +13,7 @@ from types import ModuleType
 
 from robot_daemon.children import watch_parent
 from schemas.errors import DarwinError
+from schemas.extras import explain
 
 # name → (module, one-line help). Keep in the order a newcomer meets them.
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -74,6 +75,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         module, parser = command_parser(name)
     except ModuleNotFoundError as exc:
+        if line := explain(exc):
+            print(f"darwin {name}: {line}", file=sys.stderr)
+            return 2
         if exc.name and COMMANDS[name][0].startswith(exc.name):
             print(f"darwin {name}: not available in this build ({exc})", file=sys.stderr)
             return 2
@@ -93,6 +97,13 @@ def main(argv: list[str] | None = None) -> int:
     except DarwinError as exc:
         print(f"darwin {name}: {one_line(str(exc))}", file=sys.stderr)
         return 1
+    except ModuleNotFoundError as exc:
+        # An optional package imported only when a feature runs (a camera, certificates…).
+        line = explain(exc)
+        if line is None:
+            raise
+        print(f"darwin {name}: {line}", file=sys.stderr)
+        return 2
     except OSError as exc:
         if exc.errno != errno.EADDRINUSE:
             raise

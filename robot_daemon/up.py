@@ -32,13 +32,13 @@ from robot_daemon.adapter_logins import ADAPTERS, UI, adapter_login, roles, ui_l
 from robot_daemon.children import Child, ChildError, relay_to_stderr
 from robot_daemon.daemon_cli import _resolve_listen, router_of
 from robot_daemon.security.acl import check_listen
-from robot_daemon.security.certs import ca_paths
 from robot_daemon.security.internal import Internal
 from robot_daemon.security.options import (
     add_security_arguments,
     secure_listen,
     security_from_args,
 )
+from robot_daemon.security.paths import ca_paths
 from robot_daemon.sim.settings import add_forwarded_options, add_physics_option
 from schemas.errors import ConfigError
 from schemas.roles import LADDER, Role

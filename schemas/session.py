@@ -29,6 +29,7 @@ from typing import Any
 
 import zenoh
 
+from schemas.extras import require
 from schemas.keys import DEFAULT_ROBOT, check_robot_name
 
 DEFAULT_PORT = 7447
@@ -80,11 +81,10 @@ class Credentials:
         if self.user:
             return self.user
         if self.cert:
-            from cryptography import x509
-            from cryptography.x509.oid import NameOID
-
+            x509 = require("cryptography.x509", "reading a client certificate's name")
             cert = x509.load_pem_x509_certificate(Path(self.cert).read_bytes())
-            return str(cert.subject.get_attributes_for_oid(NameOID.COMMON_NAME)[0].value)
+            cn = x509.oid.NameOID.COMMON_NAME
+            return str(cert.subject.get_attributes_for_oid(cn)[0].value)
         return None
 
     def apply(self, conf: zenoh.Config) -> None:
@@ -107,7 +107,7 @@ def login_hint(
     (an endpoint with logins refuses a wrong one, or none, when the link opens)."""
     try:
         who = creds.identity if creds is not None else None
-    except (OSError, ValueError):
+    except (OSError, ValueError, ImportError):  # a hint never fails (no 'security' extra)
         who = None
     if who:
         return (f" as {who}: check the user, password or certificate (a robot with --auth or "

@@ -18,9 +18,11 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
+from schemas.extras import LazyModule, require
 from schemas.messages import Joints, Message
+
+pd = LazyModule("pandas", "DataFrames")
 
 _AXES = ("x", "y", "z")
 _SKIP = {"v", "type"}
@@ -85,7 +87,7 @@ def joint_columns(df: pd.DataFrame, field: str = "position") -> pd.DataFrame:
 
 def decode_jpeg(data: bytes) -> np.ndarray:
     """JPEG bytes → RGB uint8 array (height × width × 3)."""
-    import cv2
+    cv2 = require("cv2", "decoding camera images")
 
     bgr = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
     if bgr is None:

@@ -23,7 +23,7 @@ from typing import Any
 import zenoh
 
 from robot_daemon.security import users as users_mod
-from robot_daemon.security.certs import ca_paths, robot_paths
+from robot_daemon.security.paths import ca_paths, robot_paths
 from schemas.errors import ConfigError
 from schemas.keys import ROOT, Keys, ros_key_space
 from schemas.messages import ok_reply

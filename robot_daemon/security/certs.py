@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import datetime
 import ipaddress
-import os
-from dataclasses import dataclass
 from pathlib import Path
 
 from cryptography import x509
@@ -19,42 +17,18 @@ from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
+from robot_daemon.security.paths import (
+    CertPaths,
+    ca_paths,
+    client_paths,
+    robot_paths,
+    write_private,
+)
 from schemas.errors import ConfigError
 
 CA_NAME = "darwin-ca"
 ROBOT_NAME = "robot"
 DAYS = 825  # the longest validity clients commonly accept for a leaf certificate
-
-
-@dataclass(frozen=True)
-class CertPaths:
-    """Where ``darwin certs`` puts one certificate and its key."""
-
-    cert: Path
-    key: Path
-
-
-def ca_paths(directory: Path) -> CertPaths:
-    return CertPaths(directory / "ca.pem", directory / "ca.key")
-
-
-def robot_paths(directory: Path) -> CertPaths:
-    return CertPaths(directory / "robot.pem", directory / "robot.key")
-
-
-def client_paths(directory: Path, user: str) -> CertPaths:
-    return CertPaths(directory / f"{user}.pem", directory / f"{user}.key")
-
-
-def write_private(path: Path, data: bytes) -> None:
-    """Write ``data`` so that only the owner can ever read it (created 0600, not chmod later)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.unlink(missing_ok=True)
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-    with os.fdopen(fd, "wb") as f:
-        f.write(data)
-    os.replace(tmp, path)
 
 
 def _key_pem(key: ec.EllipticCurvePrivateKey) -> bytes:
@@ -114,9 +88,15 @@ def create_ca(directory: Path, force: bool = False) -> CertPaths:
         .add_extension(x509.BasicConstraints(ca=True, path_length=0), critical=True)
         .add_extension(
             x509.KeyUsage(
-                digital_signature=False, content_commitment=False, key_encipherment=False,
-                data_encipherment=False, key_agreement=False, key_cert_sign=True, crl_sign=True,
-                encipher_only=False, decipher_only=False,
+                digital_signature=False,
+                content_commitment=False,
+                key_encipherment=False,
+                data_encipherment=False,
+                key_agreement=False,
+                key_cert_sign=True,
+                crl_sign=True,
+                encipher_only=False,
+                decipher_only=False,
             ),
             critical=True,
         )

@@ -13,9 +13,9 @@ import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robot_daemon.security import certs, users
+from robot_daemon.security import users
 from robot_daemon.security.acl import Security
-from robot_daemon.security.certs import write_private
+from robot_daemon.security.paths import ca_paths, client_paths, write_private
 from schemas.roles import Role
 
 
@@ -35,9 +35,12 @@ class Internal:
         name = f"{users.RESERVED_PREFIX}{adapter}"
         out: list[str] = []
         if self.security.tls:
-            out += ["--ca", str(certs.ca_paths(self.security.certs_dir).cert)]
+            out += ["--ca", str(ca_paths(self.security.certs_dir).cert)]
         if self.security.mtls:
-            paths = certs.client_paths(self.runtime, name)
+            # Issuing a certificate needs the 'security' extra (cryptography); nothing else here.
+            from robot_daemon.security import certs
+
+            paths = client_paths(self.runtime, name)
             certs.issue(self.security.certs_dir, paths, name, [], server=False)
             self.merged[name] = users.User(name, role, None)
             return [*out, "--cert", str(paths.cert), "--key", str(paths.key)]

@@ -24,7 +24,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from robot_daemon.security.certs import write_private
+from robot_daemon.security.paths import write_private
 from schemas.errors import ConfigError
 from schemas.roles import Role, parse_role
 

@@ -17,12 +17,14 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 
 from config.loader import section_to
 from schemas.errors import ConfigError
+from schemas.extras import LazyModule
 from schemas.messages import BallDetection
+
+cv2 = LazyModule("cv2", "ball finding")
 
 
 @dataclass(frozen=True)
@@ -109,6 +111,7 @@ class BallFinder:
     """Finds the ball in BGR images (320×240 or any size; angles scale with the size)."""
 
     def __init__(self, settings: FinderSettings) -> None:
+        cv2.load()  # MissingExtraError now, before ball play starts, not in the vision thread
         self.settings = settings
         s = settings
         self._erode = np.ones((s.erode, s.erode), np.uint8) if s.erode > 1 else None

@@ -17,10 +17,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-import cv2
 import numpy as np
 
 from schemas.errors import DarwinError
+from schemas.extras import LazyModule
+
+cv2 = LazyModule("cv2", "a camera read through OpenCV")
 
 log = logging.getLogger(__name__)
 

@@ -16,6 +16,7 @@ from robot_daemon.motion.ball.module import BallPlayModule
 from robot_daemon.vision.ball_finder import BallFinder, FinderSettings, color_names
 from robot_daemon.vision.ball_thread import BallVision
 from schemas.errors import ConfigError, ErrorCode
+from schemas.extras import MissingExtraError
 
 # The running finder thread lives with the module it feeds (one daemon, one module).
 _VISION_ATTR = "_vision"
@@ -44,6 +45,8 @@ def playball(req: Request, ctx: MotionContext) -> dict[str, Any]:
         finder = BallFinder(FinderSettings.from_config(ballplay, color))
     except ConfigError as exc:
         raise Reject(ErrorCode.INVALID, str(exc), "color") from None
+    except MissingExtraError as exc:  # this robot's install has no OpenCV
+        raise Reject(ErrorCode.UNAVAILABLE, str(exc)) from None
     camera = ctx.camera
     if camera is None:
         raise Reject(

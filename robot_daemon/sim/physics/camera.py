@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from schemas.errors import CameraError
+from schemas.extras import message
 
 if TYPE_CHECKING:
     import mujoco
@@ -116,9 +117,7 @@ class MujocoCamera:
         try:
             import mujoco
         except ImportError as exc:
-            raise GLUnavailableError(
-                f"the MuJoCo camera needs mujoco ({exc}); install it: pip install -e '.[physics]'"
-            ) from None
+            raise GLUnavailableError(message("physics", f"the MuJoCo camera ({exc})")) from None
         self.model = model
         self.width, self.height = int(width), int(height)
         self.camera_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)

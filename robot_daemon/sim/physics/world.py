@@ -43,11 +43,12 @@ from robot_daemon.sim.world.settings import WorldSettings
 from robot_daemon.sim.world.views import WorldViews
 from schemas import units
 from schemas.body import Body, default_body
+from schemas.extras import message
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
 
-MISSING = "the MuJoCo plant needs the physics extra: pip install -e '.[physics]'"
+MISSING = message("physics", "the MuJoCo plant")
 # Where a removed ball waits, out of the field (m).
 _BALL_PARKED = (0.0, 50.0)
 

@@ -15,11 +15,13 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 
 from config.loader import section_to
 from robot_daemon.vision.ball_finder import CameraView
+from schemas.extras import LazyModule
+
+cv2 = LazyModule("cv2", "the simulated camera")
 
 _GRASS = np.array([40, 140, 50], dtype=np.float32)  # BGR
 _CARPET = np.array([35, 95, 40], dtype=np.float32)
