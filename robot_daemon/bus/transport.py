@@ -47,3 +47,10 @@ class Transport(PortHandler, ABC):
     def latency_timer_ms(self) -> int | None:
         """The USB adapter's latency timer, if the transport has one."""
         return None
+
+    def read_chunk(self, deadline_ms: float) -> bytes:
+        """Whatever has arrived, waiting for it until ``deadline_ms`` (this transport's clock):
+        b"" when nothing came by then. The bulk read's receive path: one call per arriving
+        chunk (a USB packet on an FTDI, a write on the emulator's pty), not one per packet."""
+        self.setPacketTimeoutMillis(deadline_ms - self.getCurrentTime())
+        return self.readPort(4096)
