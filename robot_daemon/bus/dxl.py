@@ -232,6 +232,11 @@ class DxlBus:
         # will be: nobody waits for them. The whole transaction never takes longer than every
         # reply's own wait, however the replies trickle in.
         final = sent + sum(waits)
+        # When every reply should be in if all goes well (no margins): reads wait for that,
+        # never past a deadline, so the loop wakes a few times per bulk read, not per reply.
+        whole = sent + sum(
+            byte_ms * (want[i] + PACKET_OVERHEAD) + budget.delays_ms.get(i, 0.0) for i in order
+        )
         due = 0  # index in ``order`` of the next device waited for; len(order): none
         deadline = sent + waits[0]
         pending = set(order)
@@ -242,7 +247,9 @@ class DxlBus:
         # trip (header, then body, each a read) per device.
         parser = PacketParser()
         while due < len(order):
-            chunk = port.read_chunk(min(deadline, final))
+            limit = min(deadline, final)
+            port.idle_until(min(whole, limit))
+            chunk = port.read_chunk(limit)
             if not chunk:
                 break  # the reply due is not coming
             for frame in parser.feed(chunk):
