@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import difflib
+import functools
 import math
 import os
 import tomllib
@@ -286,11 +287,12 @@ class RobotConfig:
             )
         return found
 
-    @property
+    # Cached (the joints never change): the motion loop asks for them several times a tick.
+    @functools.cached_property
     def ids(self) -> tuple[int, ...]:
         return tuple(j.id for j in self.joints)
 
-    @property
+    @functools.cached_property
     def names(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.joints)
 

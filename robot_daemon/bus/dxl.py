@@ -42,9 +42,11 @@ class ReplyBudget:
 
     margin_ms: float = 1.0
     delays_ms: dict[int, float] = field(default_factory=dict)  # by ID, learnt from the scan
+    version: int = 0  # bumped by every change of a delay (plans made from them are stale)
 
     def set_return_delay(self, dxl_id: int, raw: int) -> None:
         self.delays_ms[dxl_id] = units.return_delay_s(raw) * 1000.0
+        self.version += 1
 
     def reply_ms(self, byte_ms: float, dxl_id: int, reply_bytes: int) -> float:
         """The wait for one reply of ``reply_bytes`` from ``dxl_id``, counted from the moment
@@ -73,6 +75,33 @@ class BulkResult:
     stalled: bool = False  # nothing answered at all
 
 
+@dataclass(frozen=True)
+class _BulkPlan:
+    param: list[int]  # the BULK_READ parameters
+    want: dict[int, int]  # id → data length
+    order: list[int]  # ids in the order asked
+    rank: dict[int, int]  # id → its place in ``order``
+    waits: list[float]  # ms, each reply's own wait (wire time, return delay, margin)
+    all_waits: float  # ms, their sum: the longest the transaction may take after the request
+    wire: float  # ms, when every reply is in if all goes well (no margins)
+
+    @classmethod
+    def make(
+        cls, blocks: list[tuple[int, int, int]], budget: ReplyBudget, byte_ms: float
+    ) -> _BulkPlan:
+        param: list[int] = [0x00]  # the protocol's leading 0
+        for dxl_id, start, length in blocks:
+            param += [length, dxl_id, start]
+        want = {dxl_id: length for dxl_id, _, length in blocks}
+        order = [dxl_id for dxl_id, _, _ in blocks]
+        waits = [budget.reply_ms(byte_ms, i, want[i] + PACKET_OVERHEAD) for i in order]
+        wire = sum(
+            byte_ms * (want[i] + PACKET_OVERHEAD) + budget.delays_ms.get(i, 0.0) for i in order
+        )
+        rank = {dxl_id: k for k, dxl_id in enumerate(order)}
+        return cls(param, want, order, rank, waits, sum(waits), wire)
+
+
 class DxlBus:
     """Transactions on one open transport. Not thread-safe: one thread (the motion loop) owns
     it."""
@@ -84,6 +113,7 @@ class DxlBus:
         # When the last byte the host has handed over is out on the wire (the transport's clock,
         # ms): a write returns before its bytes have crossed, and a reply cannot start before.
         self._wire_free = 0.0
+        self._plans: dict[tuple[object, ...], _BulkPlan] = {}
 
     @property
     def name(self) -> str:
@@ -211,32 +241,36 @@ class DxlBus:
             out.blamed = scattered + tail
         return out
 
+    def _plan(self, blocks: list[tuple[int, int, int]]) -> _BulkPlan:
+        """What a bulk read of ``blocks`` needs beside its replies, made once per block list
+        (the loop cycles through a few dozen) rather than every tick."""
+        budget = self.budget
+        key = (tuple(blocks), budget.margin_ms, budget.version, self.port.tx_time_per_byte)
+        plan = self._plans.get(key)
+        if plan is None:
+            if len(self._plans) > 256:
+                self._plans.clear()
+            plan = self._plans[key] = _BulkPlan.make(blocks, budget, self.port.tx_time_per_byte)
+        return plan
+
     def _bulk_once(
         self, blocks: list[tuple[int, int, int]], out: BulkResult
     ) -> tuple[list[int], set[int]]:
         """One BULK_READ; returns the IDs whose data did not come, and the IDs heard at all
         (a garbled reply was still on the wire)."""
-        param: list[int] = [0x00]  # the protocol's leading 0
-        for dxl_id, start, length in blocks:
-            param += [length, dxl_id, start]
-        sent = self._send(BROADCAST_ID, Instruction.BULK_READ, param)
-        port, budget = self.port, self.budget
-        byte_ms = port.tx_time_per_byte
-        want = {dxl_id: length for dxl_id, _, length in blocks}
-        order = [dxl_id for dxl_id, _, _ in blocks]
-        rank = {dxl_id: k for k, dxl_id in enumerate(order)}
-        waits = [budget.reply_ms(byte_ms, i, want[i] + PACKET_OVERHEAD) for i in order]
+        plan = self._plan(blocks)
+        sent = self._send(BROADCAST_ID, Instruction.BULK_READ, plan.param)
+        port = self.port
+        want, order, rank, waits = plan.want, plan.order, plan.rank, plan.waits
         # Replies come in bus order, so each wait is for the next device due after the last one
         # heard: the first one after the instruction has crossed the wire, each later one after
         # the reply before it. Once a device is heard, the ones before it that were not never
         # will be: nobody waits for them. The whole transaction never takes longer than every
         # reply's own wait, however the replies trickle in.
-        final = sent + sum(waits)
+        final = sent + plan.all_waits
         # When every reply should be in if all goes well (no margins): reads wait for that,
         # never past a deadline, so the loop wakes a few times per bulk read, not per reply.
-        whole = sent + sum(
-            byte_ms * (want[i] + PACKET_OVERHEAD) + budget.delays_ms.get(i, 0.0) for i in order
-        )
+        whole = sent + plan.wire
         due = 0  # index in ``order`` of the next device waited for; len(order): none
         deadline = sent + waits[0]
         pending = set(order)
