@@ -38,6 +38,7 @@ class RobotRecord:
     battery: float | None = None  # supply voltage (V)
     alarms: list[AlarmInfo] = field(default_factory=list)  # servos with alarm bits set
     loop_hz: float | None = None  # the motion loop's rate (1 / median period)
+    loop_overloaded: bool = False  # sustained overruns: the computer cannot keep the loop
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -48,6 +49,8 @@ class RobotRecord:
         battery = "?" if self.battery is None else f"{self.battery:.1f} V"
         alarms = ", ".join(f"id {a['id']} bits {a['bits']}" for a in self.alarms) or "none"
         rate = "?" if self.loop_hz is None else f"{self.loop_hz:.0f} Hz"
+        if self.loop_overloaded:
+            rate += " OVERLOADED"
         where = self.endpoint or "?"
         return (
             f"{self.name}: {where}  ({self.state}; lease {lease}; battery {battery}; "
@@ -70,6 +73,7 @@ def record_from_status(name: str, status: Status | None) -> RobotRecord:
         battery=float(status.voltage),
         alarms=list(status.alarms),
         loop_hz=round(1000.0 / loop_ms, 1) if loop_ms > 0 else None,
+        loop_overloaded=bool(status.loop.get("overloaded", False)),
     )
 
 

@@ -98,7 +98,7 @@ class Daemon:
         )
         self.scheduling = "other"
         self.state = DaemonState.STARTING
-        self.stats = LoopStats(self.tick_s)
+        self.stats = LoopStats(self.tick_s, emit=self._emit)
         self.manager = build_manager(robot, settings)
         self.bus = RobotBus(options.port, robot, settings, self._emit)
         fall = self.manager.get("fall")
@@ -130,7 +130,7 @@ class Daemon:
             self._early_events.append((kind, message, data))
         else:
             self.pub.event(kind, message, **data)
-        if kind.startswith("servo_"):
+        if kind.startswith(("servo_", "loop_")):
             self._status_dirty = True
 
     def _lease_changed(self, old: Holder | None, new: Holder | None, reason: str) -> None:
