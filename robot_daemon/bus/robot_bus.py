@@ -19,6 +19,7 @@ from config.loader import RobotConfig
 from robot_daemon.bus.calibration import Calibration
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
+from robot_daemon.bus.read_plan import servos_to_read
 from robot_daemon.bus.scan import identify
 from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, word
 from robot_daemon.bus.tables import (
@@ -76,6 +77,7 @@ class RobotBus:
         self.baud = int(daemon.get("baud", 1_000_000))
         self.offline_after = int(daemon.get("offline_after_misses", 5))
         self.slow_per_tick = int(daemon.get("slow_reads_per_tick", 1))
+        self.servo_share = int(daemon.get("servo_reads_per_tick", 0))  # 0: every servo
         # An offline servo is probed once every this many ticks (a silent probe costs a wait).
         self.probe_every = max(1, int(bus_cfg.get("probe_offline_every", 25)))
         self.reply_margin_ms = float(bus_cfg.get("reply_margin_ms", 1.5))
@@ -273,7 +275,7 @@ class RobotBus:
         self._rr += 1
         blocks = [
             (j, SLOW_START, SLOW_LENGTH) if j in slow else (j, SERVO_BULK_START, SERVO_BULK_LENGTH)
-            for j in online
+            for j in servos_to_read(online, slow, self._rr, self.servo_share)
         ]
         blocks.append((self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH))
         offline = [j for j in self.ids if not st.online[j]]
