@@ -257,11 +257,12 @@ class JointConfig:
     i: int = 0
     d: int = 0
 
-    @property
+    # Cached (a joint's limits never change): checked for every goal of every tick.
+    @functools.cached_property
     def min_rad(self) -> float:
         return math.radians(self.min_deg)
 
-    @property
+    @functools.cached_property
     def max_rad(self) -> float:
         return math.radians(self.max_deg)
 

@@ -246,19 +246,23 @@ class RobotBus:
 
     def write_targets(self, targets: Targets) -> None:
         """Sync-write gains and goals of the joints the motion layer drives this tick."""
-        rows: dict[int, bytes] = {}
+        if not targets.goal:
+            return
         st = self.state
-        for jid, rad in targets.goal.items():
-            if not (st.online[jid] and st.torque[jid]):
-                self.counters.skipped_goals += 1
-                continue
-            if not self.calibration.in_limits(jid, rad):
-                # The arbiter rejects out-of-range commands; this guards module bugs.
-                self.counters.limit_clamps += 1
-                rad = self.calibration.clamp(jid, rad)
-            raw = self.calibration.to_raw(jid, rad)
-            rows[jid] = self._sync_row(jid, raw, targets.gains.get(jid))
-            st.goal[jid] = raw
+        ids = np.fromiter(targets.goal, int, len(targets.goal))
+        rad = np.fromiter(targets.goal.values(), float, len(ids))
+        live = st.online[ids] & st.torque[ids]
+        self.counters.skipped_goals += int(len(ids) - live.sum())
+        ids, rad = ids[live], rad[live]
+        # The arbiter rejects out-of-range commands; the clamp guards module bugs.
+        raw, clamped = self.calibration.goals_to_raw(ids, rad)
+        self.counters.limit_clamps += int(clamped.sum())
+        st.goal[ids] = raw
+        gains = targets.gains
+        rows = {
+            jid: self._sync_row(jid, goal, gains.get(jid))
+            for jid, goal in zip(ids.tolist(), raw.tolist(), strict=True)
+        }
         if rows:
             self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
             self.counters.sync_writes += 1
@@ -367,14 +371,19 @@ class RobotBus:
     # -- frame ---------------------------------------------------------------------------------
     def frame(self, tick: int, now: float, dt: float) -> JointFrame:
         st = self.state
-        f = JointFrame(tick=tick, time=now, dt=dt)
-        # Whole arrays at once (slot 0 is unused and stays meaningless): this runs every tick.
+        # Whole arrays at once, handed to the frame as made (slot 0 is unused and stays
+        # meaningless): this runs every tick.
         cal = self.calibration
-        f.position[:] = cal.positions(st.position)
-        f.velocity[:] = cal.sign * units.speed_raw_to_rad_s(st.speed)
-        f.load[:] = cal.sign * units.load_raw_to_fraction(st.load)
-        f.online[:] = st.online
-        f.torque_enabled[:] = st.torque
+        f = JointFrame(
+            tick=tick,
+            time=now,
+            dt=dt,
+            position=cal.positions(st.position),
+            velocity=cal.sign * units.speed_raw_to_rad_s(st.speed),
+            load=cal.sign * units.load_raw_to_fraction(st.load),
+            online=st.online.copy(),
+            torque_enabled=st.torque.copy(),
+        )
         gyro_raw, accel_raw = self.imu_raw()
         f.gyro_raw = np.array(gyro_raw)
         f.accel_raw = np.array(accel_raw)
