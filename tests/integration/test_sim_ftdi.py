@@ -4,6 +4,7 @@ read takes them whole."""
 
 from __future__ import annotations
 
+import subprocess
 import time
 from collections.abc import Callable
 
@@ -17,6 +18,7 @@ from robot_daemon.sim import Emulator
 from robot_daemon.sim.ftdi import USB_PACKET_BYTES, FtdiChip
 from robot_daemon.sim.settings import EmulatorSettings
 from schemas.errors import ConfigError
+from tests.fixtures.emulator import darwin_command
 
 BYTE_S = 10e-6
 
@@ -94,3 +96,25 @@ def test_on_the_pty_bytes_come_in_usb_packets_and_the_tail_after_the_timer(
         assert sum(writes) == total and len(writes) == -(-total // USB_PACKET_BYTES)
     finally:
         port.close()
+
+
+def test_the_documented_command_serves_the_bus_ftdi_style() -> None:
+    """docs/loop-cpu.md: ``darwin sim --ftdi-latency-ms 1``."""
+    proc = subprocess.Popen(
+        darwin_command("sim", "--ftdi-latency-ms", "1"), stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert proc.stdout is not None
+        port_name = next(line for line in proc.stdout if line.startswith("port:")).split()[1]
+        port = BlockingPortHandler(port_name)
+        port.open(1_000_000)
+        try:
+            bus = DxlBus(port, ReplyBudget(margin_ms=200.0))
+            assert bus.ping(CM730_ID)
+        finally:
+            port.close()
+    finally:
+        proc.terminate()
+        proc.wait(timeout=15)
+        if proc.stdout:
+            proc.stdout.close()
