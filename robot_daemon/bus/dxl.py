@@ -299,7 +299,7 @@ class DxlBus:
                     if frame.code:
                         errors[dxl_id] = frame.code
                     pending.discard(dxl_id)
-                else:
+                elif dxl_id not in data:  # (a second copy is a late echo, not a fault)
                     out.corrupt += 1
                 if k is not None:
                     heard.add(dxl_id)
