@@ -210,7 +210,7 @@ def cpu_table(seconds: float, commit: str, ftdi_ms: float) -> None:
                 print(
                     f"  {label:8} {mode:12} {r.cpu_ms_per_tick:6.3f} ms/tick  "
                     f"{r.ticks_per_s:6.1f} ticks/s  p99 {r.p99_ms:5.2f} ms  "
-                    f"overruns {r.overrun_pct:4.1f} %",
+                    f"overruns {r.overrun_pct:4.1f} %  missing replies {r.missing}",
                     flush=True,
                 )
     for mode, _ in modes:
