@@ -199,6 +199,13 @@ def main() -> int:
     parser.add_argument("--baseline", default="b600bda", help="commit to compare against")
     parser.add_argument("--ftdi-latency-ms", type=float, default=1.0)
     parser.add_argument("--no-atom", action="store_true", help="skip the Atom proxy")
+    parser.add_argument(
+        "--servo-reads",
+        type=int,
+        default=4,
+        help="the read plan measured beside (servos a tick; 0: none); the Atom proxy runs "
+        "with every servo and then with this plan",
+    )
     parser.add_argument("--atom-only", action="store_true", help="only the Atom proxy")
     parser.add_argument(
         "--bare-sdk", action="store_true", help="instead: the daemon against a bare SDK loop"
@@ -220,9 +227,13 @@ def main() -> int:
         return faults(args.seconds, args.sim_priority)
     if not args.bare_sdk:
         if not args.atom_only:
-            loop_cpu.cpu_table(args.seconds, args.baseline, args.ftdi_latency_ms)
+            loop_cpu.cpu_table(
+                args.seconds, args.baseline, args.ftdi_latency_ms, args.servo_reads
+            )
         if not args.no_atom:
             loop_cpu.atom_table(args.seconds, args.ftdi_latency_ms)
+            if args.servo_reads:
+                loop_cpu.atom_table(args.seconds, args.ftdi_latency_ms, args.servo_reads)
         return 0
     print(f"running each loop for {args.seconds:.0f} s on the wire-timed emulator …", flush=True)
     base = baseline(args.seconds)

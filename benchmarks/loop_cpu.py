@@ -128,14 +128,20 @@ class CpuGroup:
 
 
 def daemon_run(
-    tree: Path, port: str, seconds: float, group: CpuGroup | None = None, walk: bool = True
+    tree: Path,
+    port: str,
+    seconds: float,
+    group: CpuGroup | None = None,
+    walk: bool = True,
+    servo_reads: int = 0,
 ) -> Run:
     """The daemon of source ``tree`` on ``port``, walking for ``seconds``, measured. Its loop
     runs SCHED_FIFO as shipped (``daemon.realtime_priority``), so other programs on a shared
     machine do not pass for its own cost; in a quota ``group`` it cannot, and runs at 0."""
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as cfg:
-        cfg.write("[daemon]\nrealtime_priority = 0\n" if group else "")
+        cfg.write("[daemon]\n" + ("realtime_priority = 0\n" if group else ""))
+        cfg.write(f"servo_reads_per_tick = {servo_reads}\n" if servo_reads else "")
     env = {**os.environ, "PYTHONPATH": str(tree)}
     args = [sys.executable, "-m", "robot_daemon.cli", "daemon", "--port", port]
     args += ["--camera", "none", "--listen", endpoint, "--robot", "bench"]
@@ -173,11 +179,7 @@ def daemon_run(
     overruns = last.loop["overruns"] - first.loop["overruns"]
     # The period from the joints messages' stamps over the whole window (status gives p99 of
     # its own recent window).
-    periods = [
-        (b[1] - a[1]) * 1000
-        for a, b in itertools.pairwise(got)
-        if b[0] == a[0] + 1
-    ]
+    periods = [(b[1] - a[1]) * 1000 for a, b in itertools.pairwise(got) if b[0] == a[0] + 1]
     arr = np.array(periods or [0.0])
     rate = ticks / max(1e-9, last.stamp - first.stamp)
     return Run(
@@ -196,8 +198,9 @@ def machine_load() -> str:
     return f"load average {one:.1f} (1 min), {five:.1f} (5 min) on {os.cpu_count()} CPUs"
 
 
-def cpu_table(seconds: float, commit: str, ftdi_ms: float) -> None:
-    """CPU per tick, baseline ``commit`` and today's tree, per-reply and FTDI delivery."""
+def cpu_table(seconds: float, commit: str, ftdi_ms: float, servo_reads: int = 4) -> None:
+    """CPU per tick, baseline ``commit`` and today's tree, per-reply and FTDI delivery; and
+    today's tree with the read plan of ``servo_reads`` servos a tick (FTDI delivery)."""
     modes = (("per reply", 0.0), (f"FTDI {ftdi_ms:g} ms", ftdi_ms))
     print(f"CPU per tick, walking, {seconds:.0f} s each; {machine_load()}", flush=True)
     rows: dict[tuple[str, str], Run] = {}
@@ -213,6 +216,15 @@ def cpu_table(seconds: float, commit: str, ftdi_ms: float) -> None:
                     f"overruns {r.overrun_pct:4.1f} %  missing replies {r.missing}",
                     flush=True,
                 )
+    if servo_reads:
+        with emulator(ftdi_ms) as port:
+            r = daemon_run(ROOT, port, seconds, servo_reads=servo_reads)
+        print(
+            f"  today, CM-730 + {servo_reads} servos a tick, {modes[1][0]}: "
+            f"{r.cpu_ms_per_tick:6.3f} ms/tick  {r.ticks_per_s:6.1f} ticks/s  p99 "
+            f"{r.p99_ms:5.2f} ms  overruns {r.overrun_pct:4.1f} %  missing replies {r.missing}",
+            flush=True,
+        )
     for mode, _ in modes:
         old, new = rows[commit[:7], mode], rows["today", mode]
         print(
@@ -223,9 +235,11 @@ def cpu_table(seconds: float, commit: str, ftdi_ms: float) -> None:
     print(f"after: {machine_load()}")
 
 
-def atom_table(seconds: float, ftdi_ms: float) -> None:
-    """Today's daemon free and in a 1/8-core quota group, the emulator outside it."""
-    print(f"Atom proxy: {QUOTA_US} µs per {PERIOD_US} µs; {machine_load()}", flush=True)
+def atom_table(seconds: float, ftdi_ms: float, servo_reads: int = 0) -> None:
+    """Today's daemon free and in a 1/8-core quota group, the emulator outside it (with
+    ``servo_reads``: the read plan of that many servos a tick)."""
+    plan = f"CM-730 + {servo_reads} servos a tick" if servo_reads else "every servo every tick"
+    print(f"Atom proxy: {QUOTA_US} µs per {PERIOD_US} µs, {plan}; {machine_load()}", flush=True)
     try:
         group = CpuGroup()
     except OSError as exc:
@@ -235,14 +249,18 @@ def atom_table(seconds: float, ftdi_ms: float) -> None:
         runs = {}
         for label, g in (("free", None), ("1/8 core", group)):
             with emulator(ftdi_ms) as port:
-                runs[label] = daemon_run(ROOT, port, seconds, g)
+                runs[label] = daemon_run(ROOT, port, seconds, g, servo_reads=servo_reads)
     finally:
         group.remove()
-    print(f"{'':10}{'ticks/s':>9}{'p50 ms':>8}{'p99 ms':>8}{'max ms':>8}{'overrun %':>10}"
-          f"{'CPU ms/tick':>12}")
+    print(
+        f"{'':10}{'ticks/s':>9}{'p50 ms':>8}{'p99 ms':>8}{'max ms':>8}{'overrun %':>10}"
+        f"{'CPU ms/tick':>12}"
+    )
     for label, r in runs.items():
-        print(f"{label:10}{r.ticks_per_s:9.1f}{r.p50_ms:8.2f}{r.p99_ms:8.2f}{r.max_ms:8.2f}"
-              f"{r.overrun_pct:10.2f}{r.cpu_ms_per_tick:12.3f}")
+        print(
+            f"{label:10}{r.ticks_per_s:9.1f}{r.p50_ms:8.2f}{r.p99_ms:8.2f}{r.max_ms:8.2f}"
+            f"{r.overrun_pct:10.2f}{r.cpu_ms_per_tick:12.3f}"
+        )
     r = runs["1/8 core"]
     ok = r.ticks_per_s >= 124 and r.p99_ms <= 10 and r.overrun_pct < 1
     print("target (125 Hz held, p99 ≤ 10 ms, overruns < 1 %):", "met" if ok else "NOT met")
