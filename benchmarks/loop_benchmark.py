@@ -1,6 +1,16 @@
-"""The daemon's motion loop against a bare dynamixel-sdk loop, both on the wire-timed emulator.
+"""The daemon's motion loop: CPU per tick against a baseline commit, the Atom proxy, and (with
+``--bare-sdk``) against a bare dynamixel-sdk loop, all on the wire-timed emulator.
 
-    .venv/bin/python benchmarks/loop_benchmark.py --seconds 20
+    .venv/bin/python benchmarks/loop_benchmark.py --seconds 30      # CPU table + Atom proxy
+    .venv/bin/python benchmarks/loop_benchmark.py --bare-sdk --seconds 20
+
+Default: :mod:`benchmarks.loop_cpu` — the daemon walking, CPU per tick of the baseline commit
+(``--baseline``, default b600bda, checked out into a temporary git worktree) and of today's
+code, with the emulator delivering each reply as it completes and FTDI-style (62-byte USB
+packets, ``--ftdi-latency-ms``); then the Atom proxy: today's daemon free and in a CPU cgroup
+held to 1/8 of a core, the emulator outside it (ticks/s, p99 period, overruns).
+
+``--bare-sdk``:
 
 1. Baseline: stock ``PortHandler`` + ``GroupSyncWrite`` (20 × D,I,P,0,goal) + ``BulkRead``
    (20 servos × 6 bytes + the CM-730's 30) every 8 ms with absolute ``time.sleep`` deadlines,
@@ -25,6 +35,7 @@ from dynamixel_sdk import COMM_SUCCESS, GroupSyncWrite, PacketHandler, PortHandl
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks import loop_cpu
 from benchmarks.common import cpu_seconds
 from clients.robot import Robot
 from robot_daemon.bus.bulk_read import BulkRead
@@ -184,7 +195,21 @@ def faults(seconds: float, sim_priority: int) -> int:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--seconds", type=float, default=30.0)
+    parser.add_argument("--baseline", default="b600bda", help="commit to compare against")
+    parser.add_argument("--ftdi-latency-ms", type=float, default=1.0)
+    parser.add_argument("--no-atom", action="store_true", help="skip the Atom proxy")
+    parser.add_argument(
+        "--servo-reads",
+        type=int,
+        default=4,
+        help="the read plan measured beside (servos a tick; 0: none); the Atom proxy runs "
+        "with every servo and then with this plan",
+    )
+    parser.add_argument("--atom-only", action="store_true", help="only the Atom proxy")
+    parser.add_argument(
+        "--bare-sdk", action="store_true", help="instead: the daemon against a bare SDK loop"
+    )
     parser.add_argument(
         "--faults",
         action="store_true",
@@ -200,6 +225,16 @@ def main() -> int:
     args = parser.parse_args()
     if args.faults:
         return faults(args.seconds, args.sim_priority)
+    if not args.bare_sdk:
+        if not args.atom_only:
+            loop_cpu.cpu_table(
+                args.seconds, args.baseline, args.ftdi_latency_ms, args.servo_reads
+            )
+        if not args.no_atom:
+            loop_cpu.atom_table(args.seconds, args.ftdi_latency_ms)
+            if args.servo_reads:
+                loop_cpu.atom_table(args.seconds, args.ftdi_latency_ms, args.servo_reads)
+        return 0
     print(f"running each loop for {args.seconds:.0f} s on the wire-timed emulator …", flush=True)
     base = baseline(args.seconds)
     mine = daemon(args.seconds)

@@ -44,6 +44,7 @@ class RobotRecord:
     incompatible: str | None = None  # why this client cannot drive it (another protocol major)
     power: str = ""  # the battery policy's level (ok, warn, sit, off)
     hottest: list[dict[str, Any]] = field(default_factory=list)  # [{"id", "name", "celsius"}]
+    loop_overloaded: bool = False  # sustained overruns: the computer cannot keep the loop
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -54,6 +55,8 @@ class RobotRecord:
         battery = "?" if self.battery is None else f"{self.battery:.1f} V"
         alarms = ", ".join(f"id {a['id']} bits {a['bits']}" for a in self.alarms) or "none"
         rate = "?" if self.loop_hz is None else f"{self.loop_hz:.0f} Hz"
+        if self.loop_overloaded:
+            rate += " OVERLOADED"
         where = self.endpoint or "?"
         if self.incompatible:
             return f"{self.name}: {where}  (incompatible: {self.incompatible})"
@@ -96,6 +99,7 @@ def record_from_status(
         protocol=fmt(protocol),
         power=str(status.power.get("level", "")),
         hottest=list(status.heat.get("hottest", [])),
+        loop_overloaded=bool(status.loop.get("overloaded", False)),
     )
 
 

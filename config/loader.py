@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import difflib
+import functools
 import math
 import os
 import tomllib
@@ -261,11 +262,12 @@ class JointConfig:
     i: int = 0
     d: int = 0
 
-    @property
+    # Cached (a joint's limits never change): checked for every goal of every tick.
+    @functools.cached_property
     def min_rad(self) -> float:
         return math.radians(self.min_deg)
 
-    @property
+    @functools.cached_property
     def max_rad(self) -> float:
         return math.radians(self.max_deg)
 
@@ -291,11 +293,12 @@ class RobotConfig:
             )
         return found
 
-    @property
+    # Cached (the joints never change): the motion loop asks for them several times a tick.
+    @functools.cached_property
     def ids(self) -> tuple[int, ...]:
         return tuple(j.id for j in self.joints)
 
-    @property
+    @functools.cached_property
     def names(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.joints)
 

@@ -16,13 +16,13 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
-import math
 import threading
 import time
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import zenoh
 
 from config.loader import RobotConfig
@@ -100,7 +100,7 @@ class Daemon:
         )
         self.scheduling = "other"
         self.state = DaemonState.STARTING
-        self.stats = LoopStats(self.tick_s)
+        self.stats = LoopStats(self.tick_s, emit=self._emit)
         self.manager = build_manager(robot, settings)
         self.bus = RobotBus(options.port, robot, settings, self._emit)
         fall = self.manager.get("fall")
@@ -134,7 +134,7 @@ class Daemon:
             self._early_events.append((kind, message, data))
         else:
             self.pub.event(kind, message, **data)
-        if kind.startswith("servo_"):
+        if kind.startswith(("servo_", "loop_")):
             self._status_dirty = True
 
     def _lease_changed(self, old: Holder | None, new: Holder | None, reason: str) -> None:
@@ -398,8 +398,11 @@ class Daemon:
         assert self.pub is not None
         for kind, message, data in self.manager.drain_events():
             self.pub.event(kind, message, **data)
-        self.pub.post("joints", self._joints_message(frame))
-        self.pub.post("imu", self._imu_message(frame))
+        # Built only for someone: a message nobody subscribes to costs the tick for nothing.
+        if self.pub.wanted("joints"):
+            self.pub.post("joints", self._joints_message(frame))
+        if self.pub.wanted("imu"):
+            self.pub.post("imu", self._imu_message(frame))
         self._update_state()
         # Every tick (a lock and a clock read): a silent holder's lease ends within one tick of
         # heartbeat_timeout after its last renewal, so a cut link stops the robot within it.
@@ -412,22 +415,24 @@ class Daemon:
             self._publish_status(now)
 
     def _joints_message(self, frame: JointFrame) -> Joints:
+        # Whole arrays, indexed once by the joint IDs: this runs every tick.
         st = self.bus.state
-        ids = list(self.robot.ids)
-        pos = [float(frame.position[j]) for j in ids]
+        ids = self.robot.ids
+        idx = list(ids)
+        pos = frame.position[idx]
         return Joints(
-            id=ids,
+            id=idx,
             name=list(self.robot.names),
-            position=pos,
-            position_deg=[math.degrees(p) for p in pos],
-            goal=[self.bus.raw_to_joint(j, int(st.goal[j])) for j in ids],
-            velocity=[float(frame.velocity[j]) for j in ids],
-            load=[float(frame.load[j]) for j in ids],
-            temperature=[float(st.temperature[j]) for j in ids],
-            voltage=[float(st.voltage[j]) for j in ids],
-            torque_enabled=[bool(st.torque[j]) for j in ids],
-            online=[bool(st.online[j]) for j in ids],
-            alarm=[int(st.alarm[j]) for j in ids],
+            position=pos.tolist(),
+            position_deg=np.degrees(pos).tolist(),
+            goal=self.bus.calibration.positions(st.goal)[idx].tolist(),
+            velocity=frame.velocity[idx].tolist(),
+            load=frame.load[idx].tolist(),
+            temperature=st.temperature[idx].astype(float).tolist(),
+            voltage=st.voltage[idx].astype(float).tolist(),
+            torque_enabled=st.torque[idx].astype(bool).tolist(),
+            online=st.online[idx].astype(bool).tolist(),
+            alarm=st.alarm[idx].astype(int).tolist(),
             stamp=self._sampled_at,
             tick=self.tick,
         )

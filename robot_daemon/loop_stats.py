@@ -1,17 +1,30 @@
-"""Per-tick timing statistics of the motion loop: period, bus time, overruns."""
+"""Per-tick timing statistics of the motion loop: period, bus time, overruns, and the alarm
+when the computer cannot keep up (``status.loop.overloaded``)."""
 
 from __future__ import annotations
 
 import time
 from collections import deque
+from collections.abc import Callable
 from typing import Any
+
+# Sustained overruns: judged over windows this long; the alarm rises when at least
+# OVERLOAD_PCT of a window's ticks overran and falls after a window under CLEAR_PCT.
+OVERLOAD_WINDOW_S = 2.0
+OVERLOAD_PCT = 5.0
+CLEAR_PCT = 1.0
+
+Emit = Callable[..., None]  # emit(kind, message, **data): the daemon's event stream
 
 
 class LoopStats:
     """A rolling window of tick periods and bus times (seconds), plus running counters."""
 
-    def __init__(self, tick_s: float, window: int = 1000) -> None:
+    def __init__(self, tick_s: float, window: int = 1000, emit: Emit | None = None) -> None:
         self.tick_s = tick_s
+        self.emit = emit
+        self.overloaded = False
+        self.overrun_pct = 0.0  # of the last full window
         self.periods: deque[float] = deque(maxlen=window)
         self.bus_times: deque[float] = deque(maxlen=window)
         self.work_times: deque[float] = deque(maxlen=window)
@@ -21,6 +34,8 @@ class LoopStats:
         self._last_start: float | None = None
         self._cached: dict[str, Any] | None = None
         self._cached_at = 0.0
+        self._win_t0: float | None = None  # when the window began (the loop's clock)
+        self._win_ticks = self._win_overruns = 0
 
     def tick(self, start: float, bus_s: float, work_s: float) -> None:
         if self._last_start is not None:
@@ -29,10 +44,47 @@ class LoopStats:
         self.bus_times.append(bus_s)
         self.work_times.append(work_s)
         self.ticks += 1
+        # Windows of the loop's own clock, not of ticks: an overloaded loop ticks less often.
+        self._win_ticks += 1
+        if self._win_t0 is None:
+            self._win_t0 = start
+        elif start - self._win_t0 >= OVERLOAD_WINDOW_S:
+            self._win_t0 = start
+            self._judge()
 
     def overrun(self, skipped: int) -> None:
         self.overruns += 1
         self.skipped += skipped
+        self._win_overruns += 1
+
+    def _judge(self) -> None:
+        pct = 100.0 * self._win_overruns / self._win_ticks
+        self.overrun_pct = pct
+        self._win_ticks = self._win_overruns = 0
+        was = self.overloaded
+        if not was and pct >= OVERLOAD_PCT:
+            self.overloaded = True
+        elif was and pct < CLEAR_PCT:
+            self.overloaded = False
+        if self.overloaded == was or self.emit is None:
+            return
+        tick_ms = self.tick_s * 1000.0
+        if self.overloaded:
+            self.emit(
+                "loop_overloaded",
+                f"the computer cannot keep the {tick_ms:g} ms motion loop: {pct:.0f} % of the "
+                f"ticks in the last {OVERLOAD_WINDOW_S:g} s overran; lighten its load, or set "
+                "[daemon] tick_ms = 10 or 16 (the gait keeps its step timing and speed)",
+                overrun_pct=round(pct, 1),
+                tick_ms=tick_ms,
+            )
+        else:
+            self.emit(
+                "loop_recovered",
+                f"the motion loop keeps its {tick_ms:g} ms tick again ({pct:.1f} % overruns)",
+                overrun_pct=round(pct, 1),
+                tick_ms=tick_ms,
+            )
 
     def reset_period(self) -> None:
         """Forget the last start (after a pause such as a port reopen)."""
@@ -44,7 +96,13 @@ class LoopStats:
         now = time.monotonic()
         if self._cached is None or now - self._cached_at >= max_age:
             self._cached, self._cached_at = self._compute(), now
-        return {**self._cached, "ticks": self.ticks, "overruns": self.overruns}
+        return {
+            **self._cached,
+            "ticks": self.ticks,
+            "overruns": self.overruns,
+            "overloaded": self.overloaded,
+            "overrun_pct": round(self.overrun_pct, 1),
+        }
 
     def _compute(self) -> dict[str, Any]:
         periods = sorted(self.periods)

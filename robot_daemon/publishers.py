@@ -58,6 +58,14 @@ class Publishers:
             self._slots[topic] = msg
             self._cond.notify()
 
+    def wanted(self, topic: str) -> bool:
+        """Whether any subscriber matches ``topic`` now (Zenoh's matching status: a fraction of
+        a µs), so the loop builds no message for nobody."""
+        try:
+            return bool(self._pubs[topic].matching_status.matching)
+        except Exception:  # a session closing under us: publish as before
+            return True
+
     def event(self, kind: str, message: str, **data: Any) -> None:
         with self._cond:
             self._event_seq += 1

@@ -7,6 +7,7 @@ Use ``encode(msg)`` / ``decode(payload)``; ``decode`` checks the version and the
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, TypedDict, TypeVar
@@ -21,6 +22,12 @@ M = TypeVar("M", bound="Message")
 _REGISTRY: dict[str, type[Message]] = {}
 
 
+@functools.cache
+def _field_names(cls: type) -> tuple[str, ...]:
+    # dataclasses.fields() rebuilds its tuple on every call; messages go out every tick.
+    return tuple(f.name for f in dataclasses.fields(cls))
+
+
 @dataclass
 class Message:
     TYPE: ClassVar[str] = ""
@@ -31,7 +38,7 @@ class Message:
             _REGISTRY[cls.TYPE] = cls
 
     def to_dict(self) -> dict[str, Any]:
-        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        d = {name: getattr(self, name) for name in _field_names(type(self))}
         d["v"] = SCHEMA_VERSION
         d["type"] = self.TYPE
         return d
@@ -182,6 +189,10 @@ class LoopInfo(TypedDict, total=False):
     work_p99_ms: float
     overruns: int  # ticks whose work ran past the next deadline
     skipped: int  # deadlines given up after overruns
+    # The alarm: sustained overruns (robot_daemon/loop_stats.py says how they are judged);
+    # every UI shows it. overrun_pct: share of the ticks that overran in the last window.
+    overloaded: bool
+    overrun_pct: float
     scheduling: str
     events_dropped: int  # events the publisher's queue had no room for
 

@@ -74,6 +74,7 @@ class Bridge:
         self.ch_imu = Channel("/imu", schema=_schema("darwin.Imu"), context=c)
         self.ch_status = Channel("/status", schema=_schema("darwin.Status"), context=c)
         self.ch_loop = Channel("/loop", schema=_schema("darwin.Loop"), context=c)
+        self._loop_overloaded = False  # the last status.loop.overloaded seen (warned on rising)
         self.ch_world = Channel("/world", schema=_schema("darwin.World"), context=c)
         self.ch_events = LogChannel("/events", context=c)
         self.ch_camera = CompressedImageChannel("/camera/image", context=c)
@@ -207,6 +208,12 @@ class Bridge:
             self.ch_status.log(convert.plain(msg), log_time=t)
         if self.ch_loop.has_sinks():
             self.ch_loop.log(convert.loop_json(msg), log_time=t)
+        overloaded = bool((msg.loop or {}).get("overloaded", False))
+        if overloaded != self._loop_overloaded:
+            self._loop_overloaded = overloaded
+            if overloaded:
+                pct = (msg.loop or {}).get("overrun_pct", 0.0)
+                self.warn(f"robot loop OVERLOADED: {pct:.0f} % of ticks overran")
 
     def _on_event(self, msg: Event) -> None:
         self.ch_events.log(convert.log_entry(msg), log_time=convert.nanos(msg.stamp))

@@ -119,6 +119,14 @@ class Model:
         hz = 1000.0 / period if period > 0 else 0.0
         return hz, int(loop.get("overruns", 0))
 
+    def loop_overloaded(self) -> float | None:
+        """The share of ticks that overran (%) while the daemon says its computer cannot keep
+        the loop (``status.loop.overloaded``), else None."""
+        loop = self.status.loop if self.status else None
+        if not loop or not loop.get("overloaded"):
+            return None
+        return float(loop.get("overrun_pct", 0.0))
+
     def joint_index(self, joint_id: int) -> int | None:
         if self.joints is None or joint_id not in self.joints.id:
             return None

@@ -68,6 +68,17 @@ class Calibration:
         """Joint angles of every slot at once (slot 0 is unused and stays meaningless)."""
         return servo_to_joint(raw, self.sign, self.offset)
 
+    def goals_to_raw(self, ids: np.ndarray, rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Many goals at once: (raw positions, which were outside their limits and clamped).
+        The same conversion as :meth:`to_raw` after :meth:`clamp` (``round`` is half-even in
+        both), without a Python call per joint."""
+        lo, hi = self.min[ids], self.max[ids]
+        outside = (rad < lo - 1e-9) | (rad > hi + 1e-9)
+        rad = np.where(outside, np.clip(rad, lo, hi), rad)
+        raw = np.round((self.sign[ids] * rad + self.offset[ids]) / units.RAD_PER_UNIT)
+        raw = np.clip(raw.astype(int) + units.POSITION_CENTER, 0, units.POSITION_MAX)
+        return raw, outside
+
     def in_limits(self, jid: int, rad: float) -> bool:
         return bool(self.min[jid] - 1e-9 <= rad <= self.max[jid] + 1e-9)
 

@@ -1,9 +1,11 @@
 """Dynamixel Protocol 1.0 transactions over dynamixel-sdk: read, write, sync write, bulk read.
 
-The bulk read sends its packet through the SDK's ``bulkReadTx`` (``GroupBulkRead`` in 3.8.4 …
-4.1.0 cannot on Protocol 1.0: it passes an argument ``bulkReadTx`` does not take) and receives
-with the SDK's ``rxPacket`` one status packet at a time, so one silent or corrupt device costs
-only its own data: every packet that does arrive is kept, matched by ID.
+Instruction packets are built here (:mod:`robot_daemon.bus.packet`) and written to the
+transport. The bulk read receives without the SDK: it reads whatever has arrived in one call
+(:meth:`Transport.read_chunk`) and frames every status packet in it in one pass
+(:class:`PacketParser`), so one silent or corrupt device costs only its own data: every packet
+that does arrive is kept, matched by ID, in whatever order the devices answer. Single-device
+reads and writes still receive with the SDK's ``rxPacket``.
 
 Every wait for a reply is bounded by what that reply needs (:class:`ReplyBudget`): the wire
 time of the bytes still to cross (10 µs a byte at 1 Mbps), the device's return delay and a
@@ -19,7 +21,7 @@ from typing import TypeVar
 
 from dynamixel_sdk import COMM_RX_CORRUPT, COMM_SUCCESS, Protocol1PacketHandler
 
-from robot_daemon.bus.packet import PACKET_OVERHEAD
+from robot_daemon.bus.packet import PACKET_OVERHEAD, Packet, PacketParser, instruction_packet
 from robot_daemon.bus.tables import BROADCAST_ID, MX28, ErrorBit, Instruction
 from robot_daemon.bus.transport import Transport
 from schemas import units
@@ -40,9 +42,11 @@ class ReplyBudget:
 
     margin_ms: float = 1.0
     delays_ms: dict[int, float] = field(default_factory=dict)  # by ID, learnt from the scan
+    version: int = 0  # bumped by every change of a delay (plans made from them are stale)
 
     def set_return_delay(self, dxl_id: int, raw: int) -> None:
         self.delays_ms[dxl_id] = units.return_delay_s(raw) * 1000.0
+        self.version += 1
 
     def reply_ms(self, byte_ms: float, dxl_id: int, reply_bytes: int) -> float:
         """The wait for one reply of ``reply_bytes`` from ``dxl_id``, counted from the moment
@@ -71,6 +75,33 @@ class BulkResult:
     stalled: bool = False  # nothing answered at all
 
 
+@dataclass(frozen=True)
+class _BulkPlan:
+    param: list[int]  # the BULK_READ parameters
+    want: dict[int, int]  # id → data length
+    order: list[int]  # ids in the order asked
+    rank: dict[int, int]  # id → its place in ``order``
+    waits: list[float]  # ms, each reply's own wait (wire time, return delay, margin)
+    all_waits: float  # ms, their sum: the longest the transaction may take after the request
+    wire: float  # ms, when every reply is in if all goes well (no margins)
+
+    @classmethod
+    def make(
+        cls, blocks: list[tuple[int, int, int]], budget: ReplyBudget, byte_ms: float
+    ) -> _BulkPlan:
+        param: list[int] = [0x00]  # the protocol's leading 0
+        for dxl_id, start, length in blocks:
+            param += [length, dxl_id, start]
+        want = {dxl_id: length for dxl_id, _, length in blocks}
+        order = [dxl_id for dxl_id, _, _ in blocks]
+        waits = [budget.reply_ms(byte_ms, i, want[i] + PACKET_OVERHEAD) for i in order]
+        wire = sum(
+            byte_ms * (want[i] + PACKET_OVERHEAD) + budget.delays_ms.get(i, 0.0) for i in order
+        )
+        rank = {dxl_id: k for k, dxl_id in enumerate(order)}
+        return cls(param, want, order, rank, waits, sum(waits), wire)
+
+
 class DxlBus:
     """Transactions on one open transport. Not thread-safe: one thread (the motion loop) owns
     it."""
@@ -82,6 +113,7 @@ class DxlBus:
         # When the last byte the host has handed over is out on the wire (the transport's clock,
         # ms): a write returns before its bytes have crossed, and a reply cannot start before.
         self._wire_free = 0.0
+        self._plans: dict[tuple[object, ...], _BulkPlan] = {}
 
     @property
     def name(self) -> str:
@@ -99,16 +131,21 @@ class DxlBus:
         )
 
     def _send(self, dxl_id: int, instruction: int, params: Iterable[int]) -> float:
-        """Send one instruction packet (the SDK adds header and checksum); returns when its
-        last byte will be on the wire, behind whatever was sent before it."""
-        params = list(params)
-        packet = [0, 0, dxl_id, len(params) + 2, instruction, *params, 0]
-        start = max(self.port.getCurrentTime(), self._wire_free)
-        result = self.ph.txPacket(self.port, packet)
-        if result != COMM_SUCCESS:
+        """Send one instruction packet; returns when its last byte will be on the wire, behind
+        whatever was sent before it. Built here (one ``bytes``, one checksum ``sum``) rather
+        than by the SDK's ``txPacket``, whose per-byte Python loop ran twice a tick."""
+        try:
+            packet = instruction_packet(dxl_id, instruction, params)
+        except ValueError as exc:
             name = Instruction(instruction).name
-            raise BusError(f"{name} to {dxl_id} on {self.name}: {self.ph.getTxRxResult(result)}")
-        self._wire_free = start + self.port.tx_time_per_byte * len(packet)
+            raise BusError(f"{name} to {dxl_id} on {self.name}: {exc}") from exc
+        port = self.port
+        start = max(port.getCurrentTime(), self._wire_free)
+        port.clearPort()  # a late reply to an earlier transaction must not pass for this one's
+        if port.writePort(packet) != len(packet):
+            name = Instruction(instruction).name
+            raise BusError(f"{name} to {dxl_id} on {self.name}: the port took only part of it")
+        self._wire_free = start + port.tx_time_per_byte * len(packet)
         return self._wire_free
 
     def _transact(
@@ -210,59 +247,77 @@ class DxlBus:
             out.blamed = scattered + tail
         return out
 
+    def _plan(self, blocks: list[tuple[int, int, int]]) -> _BulkPlan:
+        """What a bulk read of ``blocks`` needs beside its replies, made once per block list
+        (the loop cycles through a few dozen) rather than every tick."""
+        budget = self.budget
+        key = (tuple(blocks), budget.margin_ms, budget.version, self.port.tx_time_per_byte)
+        plan = self._plans.get(key)
+        if plan is None:
+            if len(self._plans) > 256:
+                self._plans.clear()
+            plan = self._plans[key] = _BulkPlan.make(blocks, budget, self.port.tx_time_per_byte)
+        return plan
+
     def _bulk_once(
         self, blocks: list[tuple[int, int, int]], out: BulkResult
     ) -> tuple[list[int], set[int]]:
         """One BULK_READ; returns the IDs whose data did not come, and the IDs heard at all
         (a garbled reply was still on the wire)."""
-        param: list[int] = [0x00]  # the protocol's leading 0
-        for dxl_id, start, length in blocks:
-            param += [length, dxl_id, start]
-        sent = self._send(BROADCAST_ID, Instruction.BULK_READ, param)
-        port, budget = self.port, self.budget
-        byte_ms = port.tx_time_per_byte
-        want = {dxl_id: length for dxl_id, _, length in blocks}
-        order = [dxl_id for dxl_id, _, _ in blocks]
-        waits = {i: budget.reply_ms(byte_ms, i, want[i] + PACKET_OVERHEAD) for i in order}
+        plan = self._plan(blocks)
+        sent = self._send(BROADCAST_ID, Instruction.BULK_READ, plan.param)
+        port = self.port
+        want, order, rank, waits = plan.want, plan.order, plan.rank, plan.waits
         # Replies come in bus order, so each wait is for the next device due after the last one
         # heard: the first one after the instruction has crossed the wire, each later one after
         # the reply before it. Once a device is heard, the ones before it that were not never
         # will be: nobody waits for them. The whole transaction never takes longer than every
         # reply's own wait, however the replies trickle in.
-        final = sent + sum(waits.values())
-        due: int | None = order[0]
-        deadline = sent + waits[order[0]]
+        final = sent + plan.all_waits
+        # When every reply should be in if all goes well (no margins): reads wait for that,
+        # never past a deadline, so the loop wakes a few times per bulk read, not per reply.
+        whole = sent + plan.wire
+        due = 0  # index in ``order`` of the next device waited for; len(order): none
+        deadline = sent + waits[0]
         pending = set(order)
         heard: set[int] = set()
-        while due is not None:
-            remaining = min(deadline, final) - port.getCurrentTime()
-            if remaining <= 0:
-                break
-            port.setPacketTimeoutMillis(remaining)
-            port.is_using = True
-            rx, result = self.ph.rxPacket(port)
-            if result == COMM_SUCCESS:
-                dxl_id = rx[2]
-                length = want.get(dxl_id)
-                if dxl_id in pending and length is not None and rx[3] == length + 2:
-                    out.data[dxl_id] = bytes(rx[5 : 5 + length])
-                    if rx[4]:
-                        out.errors[dxl_id] = rx[4]
+        data, errors = out.data, out.errors
+        # Whatever has arrived is read in one call and every complete packet in it framed in
+        # one pass: on an FTDI that is one wake-up per 62-byte USB packet, not one SDK round
+        # trip (header, then body, each a read) per device.
+        parser = PacketParser()
+        while due < len(order):
+            limit = min(deadline, final)
+            port.idle_until(min(whole, limit))
+            chunk = port.read_chunk(limit)
+            if not chunk:
+                break  # the reply due is not coming
+            for frame in parser.feed(chunk):
+                dxl_id = frame.id
+                k = rank.get(dxl_id)
+                if (
+                    k is not None
+                    and dxl_id in pending
+                    and type(frame) is Packet
+                    and len(frame.params) == want[dxl_id]
+                ):
+                    data[dxl_id] = frame.params
+                    if frame.code:
+                        errors[dxl_id] = frame.code
                     pending.discard(dxl_id)
-                else:
+                elif dxl_id not in data:  # (a second copy is a late echo, not a fault)
                     out.corrupt += 1
-            elif result == COMM_RX_CORRUPT:
-                out.corrupt += 1
-            else:
-                break  # timeout: the reply due is not coming
-            if len(rx) > 2 and rx[2] in want:
-                heard.add(rx[2])
-                after = order.index(rx[2]) + 1
-                due = next((i for i in order[after:] if i in pending), None)
-            if due is not None:
+                if k is not None:
+                    heard.add(dxl_id)
+                    due = max(due, k + 1)  # one answering out of turn does not rewind the wait
+                    while due < len(order) and order[due] not in pending:
+                        due += 1
+            if due < len(order):
                 deadline = port.getCurrentTime() + waits[due]
-        port.is_using = False
-        return [b[0] for b in blocks if b[0] in pending], heard
+        late = parser.pending_id
+        if late is not None and late in want:
+            heard.add(late)  # cut short on the wire: the device was still talking
+        return [i for i in order if i in pending], heard
 
 
 def _split_tail(

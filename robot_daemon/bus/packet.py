@@ -88,6 +88,12 @@ class PacketParser:
         """Bytes held while waiting for the rest of a packet."""
         return len(self._buf)
 
+    @property
+    def pending_id(self) -> int | None:
+        """The ID of the packet held half-received, if its header has arrived."""
+        buf = self._buf
+        return buf[2] if len(buf) >= 3 and buf[0] == 0xFF and buf[1] == 0xFF else None
+
     def feed(self, data: bytes) -> list[Frame]:
         self._buf += data
         return self._scan()

@@ -157,6 +157,34 @@ class BlockingPortHandler(Transport):
         self.bytes_read += len(data)
         return data
 
+    def read_chunk(self, deadline_ms: float) -> bytes:
+        # os.read on pyserial's non-blocking descriptor: pyserial's read() costs a select and
+        # its bookkeeping on every call, and this runs once per arriving chunk.
+        try:
+            fd = self.ser.fd
+            try:
+                data = os.read(fd, 4096)
+            except BlockingIOError:
+                data = b""
+            if data:
+                self.bytes_read += len(data)
+                return data
+            remaining = (deadline_ms - self.getCurrentTime()) / 1000.0
+            if remaining <= 0:
+                return b""
+            ready, _, _ = select.select([fd], [], [], remaining)
+            if not ready:
+                return b""
+            data = os.read(fd, 4096)
+        except BlockingIOError:
+            return b""
+        except _PORT_FAILURES as exc:
+            raise PortError(f"serial port {self.port_name} failed while reading: {exc}") from exc
+        if not data:
+            raise PortError(f"serial port {self.port_name} vanished (read returned EOF)")
+        self.bytes_read += len(data)
+        return data
+
     def writePort(self, packet: list[int] | bytes) -> int:
         try:
             n = self.ser.write(bytes(packet))
@@ -170,7 +198,6 @@ class BlockingPortHandler(Transport):
             self.ser.reset_input_buffer()
         except _PORT_FAILURES as exc:
             raise PortError(f"serial port {self.port_name} failed: {exc}") from exc
-
 
     def latency_timer_ms(self) -> int | None:
         return latency_timer_ms(self.port_name)

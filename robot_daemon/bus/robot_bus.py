@@ -19,6 +19,7 @@ from config.loader import RobotConfig
 from robot_daemon.bus.calibration import Calibration
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
+from robot_daemon.bus.read_plan import servos_to_read
 from robot_daemon.bus.scan import identify
 from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, word
 from robot_daemon.bus.tables import (
@@ -76,6 +77,7 @@ class RobotBus:
         self.baud = int(daemon.get("baud", 1_000_000))
         self.offline_after = int(daemon.get("offline_after_misses", 5))
         self.slow_per_tick = int(daemon.get("slow_reads_per_tick", 1))
+        self.servo_share = int(daemon.get("servo_reads_per_tick", 0))  # 0: every servo
         # An offline servo is probed once every this many ticks (a silent probe costs a wait).
         self.probe_every = max(1, int(bus_cfg.get("probe_offline_every", 25)))
         self.reply_margin_ms = float(bus_cfg.get("reply_margin_ms", 1.5))
@@ -244,19 +246,23 @@ class RobotBus:
 
     def write_targets(self, targets: Targets) -> None:
         """Sync-write gains and goals of the joints the motion layer drives this tick."""
-        rows: dict[int, bytes] = {}
+        if not targets.goal:
+            return
         st = self.state
-        for jid, rad in targets.goal.items():
-            if not (st.online[jid] and st.torque[jid]):
-                self.counters.skipped_goals += 1
-                continue
-            if not self.calibration.in_limits(jid, rad):
-                # The arbiter rejects out-of-range commands; this guards module bugs.
-                self.counters.limit_clamps += 1
-                rad = self.calibration.clamp(jid, rad)
-            raw = self.calibration.to_raw(jid, rad)
-            rows[jid] = self._sync_row(jid, raw, targets.gains.get(jid))
-            st.goal[jid] = raw
+        ids = np.fromiter(targets.goal, int, len(targets.goal))
+        rad = np.fromiter(targets.goal.values(), float, len(ids))
+        live = st.online[ids] & st.torque[ids]
+        self.counters.skipped_goals += int(len(ids) - live.sum())
+        ids, rad = ids[live], rad[live]
+        # The arbiter rejects out-of-range commands; the clamp guards module bugs.
+        raw, clamped = self.calibration.goals_to_raw(ids, rad)
+        self.counters.limit_clamps += int(clamped.sum())
+        st.goal[ids] = raw
+        gains = targets.gains
+        rows = {
+            jid: self._sync_row(jid, goal, gains.get(jid))
+            for jid, goal in zip(ids.tolist(), raw.tolist(), strict=True)
+        }
         if rows:
             self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
             self.counters.sync_writes += 1
@@ -273,7 +279,7 @@ class RobotBus:
         self._rr += 1
         blocks = [
             (j, SLOW_START, SLOW_LENGTH) if j in slow else (j, SERVO_BULK_START, SERVO_BULK_LENGTH)
-            for j in online
+            for j in servos_to_read(online, slow, self._rr, self.servo_share)
         ]
         blocks.append((self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH))
         offline = [j for j in self.ids if not st.online[j]]
@@ -365,14 +371,19 @@ class RobotBus:
     # -- frame ---------------------------------------------------------------------------------
     def frame(self, tick: int, now: float, dt: float) -> JointFrame:
         st = self.state
-        f = JointFrame(tick=tick, time=now, dt=dt)
-        # Whole arrays at once (slot 0 is unused and stays meaningless): this runs every tick.
+        # Whole arrays at once, handed to the frame as made (slot 0 is unused and stays
+        # meaningless): this runs every tick.
         cal = self.calibration
-        f.position[:] = cal.positions(st.position)
-        f.velocity[:] = cal.sign * units.speed_raw_to_rad_s(st.speed)
-        f.load[:] = cal.sign * units.load_raw_to_fraction(st.load)
-        f.online[:] = st.online
-        f.torque_enabled[:] = st.torque
+        f = JointFrame(
+            tick=tick,
+            time=now,
+            dt=dt,
+            position=cal.positions(st.position),
+            velocity=cal.sign * units.speed_raw_to_rad_s(st.speed),
+            load=cal.sign * units.load_raw_to_fraction(st.load),
+            online=st.online.copy(),
+            torque_enabled=st.torque.copy(),
+        )
         gyro_raw, accel_raw = self.imu_raw()
         f.gyro_raw = np.array(gyro_raw)
         f.accel_raw = np.array(accel_raw)

@@ -47,3 +47,16 @@ class Transport(PortHandler, ABC):
     def latency_timer_ms(self) -> int | None:
         """The USB adapter's latency timer, if the transport has one."""
         return None
+
+    def idle_until(self, clock_ms: float) -> None:
+        """Do nothing on the bus until ``clock_ms`` (this transport's clock)."""
+        wait = clock_ms - self.getCurrentTime()
+        if wait > 0:
+            time.sleep(wait / 1000.0)
+
+    def read_chunk(self, deadline_ms: float) -> bytes:
+        """Whatever has arrived, waiting for it until ``deadline_ms`` (this transport's clock):
+        b"" when nothing came by then. The bulk read's receive path: one call per arriving
+        chunk (a USB packet on an FTDI, a write on the emulator's pty), not one per packet."""
+        self.setPacketTimeoutMillis(deadline_ms - self.getCurrentTime())
+        return self.readPort(4096)

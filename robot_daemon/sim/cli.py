@@ -66,6 +66,14 @@ _OVERRIDES: tuple[tuple[str, str, str, Any, str], ...] = (
     ("--corrupt", "corrupt", "P", _probability, "probability of a corrupted reply"),
     ("--delay", "delay", "P", _probability, "probability of a delayed reply"),
     ("--delay-ms", "delay_ms", "MS", float, "how late a delayed reply is (ms)"),
+    (
+        "--ftdi-latency-ms",
+        "ftdi_latency_ms",
+        "MS",
+        float,
+        "deliver replies as an FTDI chip: 62-byte USB packets, the rest after this latency "
+        "timer (0: each reply as it completes)",
+    ),
     ("--silent-ids", "silent_ids", "IDS", _ids, "IDs that never answer, e.g. 7,8"),
     ("--overheat", "overheat_ids", "IDS", _ids, "servo IDs stuck above their limit"),
     (

@@ -36,6 +36,7 @@ from robot_daemon.realtime import check_priority, enter_realtime
 from robot_daemon.sim.bus import Bus
 from robot_daemon.sim.devices import Environment
 from robot_daemon.sim.faults import Faults
+from robot_daemon.sim.ftdi import FtdiChip
 from robot_daemon.sim.pty_link import PtyLink
 from robot_daemon.sim.settings import EmulatorSettings
 from robot_daemon.sim.state import EmulatorApi
@@ -83,6 +84,9 @@ class Emulator(EmulatorApi):
         self.wire_timing = s.wire_timing
         self.byte_time_s = 10.0 / s.baud
         self.link = PtyLink(s.link, s.baud)
+        # ftdi_latency_ms > 0: replies reach the pty as an FTDI chip delivers them.
+        latency = s.ftdi_latency_ms / 1000
+        self.ftdi = FtdiChip(self.byte_time_s, latency) if latency else None
         self.parser = PacketParser()
         self.received: deque[Frame] = deque(maxlen=1000)
         self.stats: dict[str, int] = dict.fromkeys(
@@ -332,6 +336,9 @@ class Emulator(EmulatorApi):
         replies, self._bus_free = self._answer(
             frames, max(t_rx, self._bus_free), self.wire_timing
         )
+        if self.ftdi is not None and replies:
+            self.stats["replies"] += len(replies)
+            replies = self.ftdi.deliver(replies)
         self._out.extend(replies)
 
     def _answer(
@@ -380,7 +387,11 @@ class Emulator(EmulatorApi):
         now = time.perf_counter()
         chunk = bytearray()
         while self._out and self._out[0][0] <= now + _EARLY:
-            chunk += self._out.popleft()[1]
+            data = self._out.popleft()[1]
+            if self.ftdi is not None:  # USB packets go one write each (replies were counted)
+                self.stats["overflow_bytes"] += len(data) - self.link.write(data)
+                continue
+            chunk += data
             self.stats["replies"] += 1
         if chunk:
             written = self.link.write(bytes(chunk))

@@ -6,7 +6,7 @@ import argparse
 from dataclasses import dataclass, field
 from typing import Any
 
-from config.loader import load_all, section_to
+from config.loader import load_all, ranged, section_to
 from schemas.errors import ConfigError
 
 # The plants that can stand behind the servos ([emulator] physics, --physics).
@@ -53,6 +53,9 @@ class EmulatorSettings:
     max_step_s: float = 0.01
     idle_step_s: float = 0.02
     packet_timeout_s: float = 0.01
+    # > 0: deliver replies as an FTDI USB chip does (62-byte USB packets, the rest when this
+    # latency timer fires; robot_daemon/sim/ftdi.py); 0: each reply when its last byte is in.
+    ftdi_latency_ms: float = ranged(0.0, 0.0, 255.0)
     drop: float = 0.0
     corrupt: float = 0.0
     delay: float = 0.0

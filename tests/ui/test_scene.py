@@ -33,6 +33,12 @@ async def test_header_shows_lease_loop_battery_and_alarms(scene_app) -> None:
         app.model.add_status(scene.status(lease_client="someone-else"))
         await pilot.pause(0.2)
         assert "held by tui" in header_text(app)
+        assert "OVERLOADED" not in header_text(app)
+        overloaded = scene.status()
+        overloaded.loop = {**overloaded.loop, "overloaded": True, "overrun_pct": 37.0}
+        app.model.add_status(overloaded)
+        await pilot.pause(0.2)
+        assert "OVERLOADED 37 %" in header_text(app)
 
 
 async def test_unreachable_robot_is_explained(scene_app) -> None:

@@ -117,6 +117,10 @@ class RobotHeader(Static):
             hz, overruns = loop
             bottom.append(_field((_("loop") + ": ", "dim"), (f"{hz:.0f} Hz", "")))
             bottom.append(_field((_("overruns") + f" {overruns}", "red" if overruns else "dim")))
+            overloaded = model.loop_overloaded()
+            if overloaded is not None:
+                text = _("OVERLOADED {pct:.0f} %").format(pct=overloaded)
+                bottom.append(_field((text, "bold reverse red")))
         if st is not None:
             volts = (f"{st.voltage:.1f} V", "red" if st.voltage < LOW_BATTERY_V else "")
             bottom.append(_field((_("battery") + ": ", "dim"), volts))

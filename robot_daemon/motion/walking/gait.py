@@ -64,6 +64,7 @@ class WalkingModule(MotionModule):
         self._ready_t: float | None = None  # s left in the blend into the stance
         self._ready_from: dict[int, float] = {}
         self._next_phase = 1  # the phase point (1, 2, 3) this period has not reached yet
+        self._wrapped = False  # the period just ended: the next tick starts the new one
         self._last: dict[int, float] = {}
         self._gyro_f = [0.0, 0.0]  # low-passed gyro counts (right/left, front/back)
         self._update_time()
@@ -177,7 +178,13 @@ class WalkingModule(MotionModule):
         if self.running:
             self.time_ms += tick_ms
             if self.time_ms >= self.period - 1e-9:
-                self.time_ms = 0.0
+                # Carry what the last tick ran past the period's end: ROBOTIS's Walking.cpp
+                # resets to 0, exact only when the tick divides the period (8 ms into 600);
+                # with a 16 ms tick every period would last 608 ms, a slower walk.
+                self.time_ms = max(0.0, self.time_ms - self.period)
+                if self.time_ms < 1e-9:
+                    self.time_ms = 0.0
+                self._wrapped = True
         if goals is None:
             self.skipped += 1
             return {}
@@ -189,7 +196,8 @@ class WalkingModule(MotionModule):
         (± half a tick): with a steady period that is the tick nearest to it, as the framework
         does; after a late tick (time follows the clock) it is the next one, never skipped."""
         t, half = self.time_ms, tick_ms / 2
-        if t == 0.0:
+        if t == 0.0 or self._wrapped:
+            self._wrapped = False
             self._next_phase = 1
             self._boundary()
         elif self._next_phase == 1 and t >= self.phase1 - half:
@@ -197,8 +205,9 @@ class WalkingModule(MotionModule):
             self._update_move()
         elif self._next_phase == 2 and t >= self.phase2 - half:
             self._next_phase = 3
-            if t < self.phase2 + half:
-                self.time_ms = self.phase2
+            # Walking.cpp snaps the clock to the phase point here; with a tick that divides the
+            # half period (8 ms into 300) that is a no-op, with any other (16 ms) it would move
+            # the clock by up to half a tick every step and change the period: time runs on.
             self._boundary()
         elif self._next_phase == 3 and t >= self.phase3 - half:
             self._next_phase = 4

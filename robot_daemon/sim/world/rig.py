@@ -50,6 +50,8 @@ class SimRig:
         # The simulated servos answer as soon as they are powered: nothing to wait for.
         settings.setdefault("bus", {})["power_on_delay_ms"] = 0.0
         self.settings = settings
+        # The motion tick, as the daemon's [daemon] tick_ms sets it.
+        self.tick_s = float(settings.get("daemon", {}).get("tick_ms", TICK_S * 1000)) / 1000
         self.robot: RobotConfig = robot_from_dict(self.settings["robot"])
         raw = {j: joint_raw(self.robot.joint(j), a) for j, a in (initial_positions or {}).items()}
         self.emulator = Emulator(
@@ -102,16 +104,16 @@ class SimRig:
     def frame(self) -> JointFrame:
         """One bulk read of the sensors and the frame the daemon makes of it, as a tick starts."""
         self.bus.read_sensors()
-        return self.bus.frame(self.tick, self.time, TICK_S)
+        return self.bus.frame(self.tick, self.time, self.tick_s)
 
     def step(self) -> None:
         """One motion tick, then the physics up to the next one, then vision if it is due."""
         start = self.link.clock_ms
         targets = self.manager.step(self.frame())
         self.bus.write_targets(targets)
-        self.emulator.advance(TICK_S)
-        self.link.idle_until(start + TICK_S * 1000.0)
-        self.time += TICK_S
+        self.emulator.advance(self.tick_s)
+        self.link.idle_until(start + self.tick_s * 1000.0)
+        self.time += self.tick_s
         self.tick += 1
         if self.time + 1e-9 >= self._next_vision:
             self._next_vision += self.vision_period

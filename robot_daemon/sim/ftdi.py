@@ -1,0 +1,62 @@
+"""Replies as an FTDI USB-serial chip hands them to the host: 62-byte USB packets, and what is
+left when the latency timer fires.
+
+The CM-730 reaches the robot's PC through an FTDI FT232R. Its receive buffer goes to the host
+in 64-byte USB bulk packets, two bytes of which are modem status, so at most 62 data bytes per
+packet; a packet leaves as soon as it is full, and a partly filled buffer leaves when the
+latency timer (``/sys/bus/usb-serial/devices/ttyUSB0/latency_timer``, 16 ms by default, 1 ms
+as the README sets it) runs out (FTDI application note AN232B-04, "Data Throughput, Latency
+and Handshaking"). So a 21-reply bulk read of ~280 bytes reaches the host as four or five
+full packets while the replies cross the wire and a last partial one a latency timer after
+its first byte: a handful of wake-ups, where the emulator's default (each reply written to
+the pty when its last byte is on the wire) gives 21.
+
+The model: byte ``k`` of a reply whose last byte is on the wire at ``t`` arrives in the chip
+at ``t - (n-1-k) × byte time``; a partial buffer is flushed ``latency`` after its first byte
+came in. The flush of a partial buffer left at the end of one host transaction is scheduled
+then (a host does not talk again while it waits for replies).
+"""
+
+from __future__ import annotations
+
+# An FT232R bulk-in packet: 64 bytes, the first two the modem status.
+USB_PACKET_BYTES = 62
+
+
+class FtdiChip:
+    """Turns replies ``(t_last_byte_on_wire, bytes)`` into USB deliveries ``(t, bytes)``."""
+
+    def __init__(self, byte_s: float, latency_s: float, packet_bytes: int = USB_PACKET_BYTES):
+        if latency_s <= 0:
+            raise ValueError(f"FTDI latency timer must be above 0 ms, not {latency_s * 1000:g}")
+        self.byte_s = byte_s
+        self.latency_s = latency_s
+        self.packet_bytes = packet_bytes
+
+    def deliver(self, replies: list[tuple[float, bytes]]) -> list[tuple[float, bytes]]:
+        out: list[tuple[float, bytes]] = []
+        buf = bytearray()
+        first = 0.0  # when the first byte in ``buf`` came in
+        size, byte_s = self.packet_bytes, self.byte_s
+        for t_end, packet in replies:
+            n = len(packet)
+            t0 = t_end - (n - 1) * byte_s  # byte 0 of this reply in the chip
+            i = 0
+            while i < n:
+                t_i = t0 + i * byte_s
+                if buf and t_i > first + self.latency_s:
+                    out.append((first + self.latency_s, bytes(buf)))
+                    buf.clear()
+                if not buf:
+                    first = t_i
+                # Bytes from i on that come in before the timer fires, up to a full packet.
+                by_timer = int((first + self.latency_s - t_i) / byte_s) + 1 if byte_s else n
+                take = max(1, min(size - len(buf), n - i, by_timer))
+                buf += packet[i : i + take]
+                i += take
+                if len(buf) >= size:
+                    out.append((t0 + (i - 1) * byte_s, bytes(buf)))
+                    buf.clear()
+        if buf:
+            out.append((first + self.latency_s, bytes(buf)))
+        return out
