@@ -92,6 +92,8 @@ class RobotBus:
         self.state = ServoState()
         self.cm730: bytes = bytes(CM730_BULK_LENGTH)
         self.cm730_online = False
+        self._cm730_misses = 0
+        self.cm730_valid = False  # this tick's CM-730 block came, error-free (frame.imu_valid)
         self.counters = BusCounters()
         self.warnings: list[str] = []
         self.make_transport = transport or (lambda: BlockingPortHandler(self.port_name))
@@ -263,8 +265,8 @@ class RobotBus:
             self.counters.goal_writes += len(rows)
 
     def read_sensors(self) -> None:
-        """One bulk read: position/speed/load of the online servos, the slow block (torque …
-        temperature) of one servo in turn, the CM-730's sensors, and now and then a probe of
+        """One bulk read: the CM-730's sensors, position/speed/load of the online servos, the
+        slow block (torque … temperature) of one servo in turn, and now and then a probe of
         an offline servo (last, so a silent one delays nobody)."""
         st = self.state
         online = [j for j in self.ids if st.online[j]]
@@ -275,13 +277,21 @@ class RobotBus:
             (j, SLOW_START, SLOW_LENGTH) if j in slow else (j, SERVO_BULK_START, SERVO_BULK_LENGTH)
             for j in online
         ]
-        blocks.append((self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH))
+        # The CM-730 first, as ROBOTIS's CM730::MakeBulkReadPacket (framework r47), Bold Hearts
+        # and NimbRo-OP; last while it has not answered, so a silent CM-730 (the chain waits
+        # for its status packet) silences nobody.
+        cm = (self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH)
+        blocks.insert(len(blocks) if not self.cm730_online else 0, cm)
         offline = [j for j in self.ids if not st.online[j]]
         probe = None
         if offline and self._rr % self.probe_every == 0:
             probe = offline[(self._rr // self.probe_every) % len(offline)]
             blocks.append((probe, SLOW_START, SLOW_LENGTH))
         res = self._bus().bulk_read(blocks)
+        self.cm730_valid = self.cm730_id in res.data and not res.errors.get(self.cm730_id)
+        self._cm730_misses = 0 if self.cm730_id in res.data else self._cm730_misses + 1
+        if self._cm730_misses >= self.offline_after:
+            self.cm730_online = False  # back to the end of the chain until it answers again
         c = self.counters
         c.bulk_reads += 1
         c.missing_replies += len([j for j in res.missing if j != probe])
@@ -373,6 +383,7 @@ class RobotBus:
         f.load[:] = cal.sign * units.load_raw_to_fraction(st.load)
         f.online[:] = st.online
         f.torque_enabled[:] = st.torque
+        f.imu_valid = self.cm730_valid
         gyro_raw, accel_raw = self.imu_raw()
         f.gyro_raw = np.array(gyro_raw)
         f.accel_raw = np.array(accel_raw)

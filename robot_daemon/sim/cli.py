@@ -68,6 +68,13 @@ _OVERRIDES: tuple[tuple[str, str, str, Any, str], ...] = (
     ("--delay-ms", "delay_ms", "MS", float, "how late a delayed reply is (ms)"),
     ("--silent-ids", "silent_ids", "IDS", _ids, "IDs that never answer, e.g. 7,8"),
     ("--overheat", "overheat_ids", "IDS", _ids, "servo IDs stuck above their limit"),
+    (
+        "--cm730-late-reads",
+        "cm730_late_reads",
+        "N",
+        int,
+        "the CM-730 ignores the first N reads and bulk reads",
+    ),
     ("--voltage", "voltage", "V", float, "supply voltage (V)"),
     ("--imu-noise", "imu_noise", "COUNTS", float, "IMU noise, standard deviation in counts"),
     (

@@ -58,6 +58,8 @@ class EmulatorSettings:
     delay: float = 0.0
     delay_ms: float = 50.0
     silent_ids: list[int] = field(default_factory=list)
+    # The CM-730 ignores this many READ/BULK_READ instructions first (a late CM-730).
+    cm730_late_reads: int = 0
     overheat_ids: list[int] = field(default_factory=list)
     ambient_c: float = 35.0
     heat_gain_c: float = 70.0

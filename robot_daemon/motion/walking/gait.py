@@ -23,7 +23,7 @@ import numpy as np
 from robot_daemon.motion.interface import JointFrame, MotionModule
 from robot_daemon.motion.walking.ik import leg_servo_angles
 from robot_daemon.motion.walking.params import WalkParams
-from schemas.units import IMU_CENTER, RAD_PER_UNIT
+from schemas.units import RAD_PER_UNIT
 
 LEG_IDS = tuple(range(7, 19))
 ARM_IDS = (1, 2)
@@ -317,9 +317,13 @@ class WalkingModule(MotionModule):
         ``balance_filter`` s and limited to ``balance_limit`` degrees per joint: on a body
         without compliance (the simulator) the raw law feeds its own correction back."""
         p = self.params
+        # Relative to the centres measured at start (motion/gyro_centre.py), as the framework's
+        # MotionStatus::RL_GYRO / FB_GYRO; a stale CM-730 reading adds no correction.
+        centre = frame.gyro_centre
         raw = (
-            float(frame.gyro_raw[0]) - IMU_CENTER,  # right/left rate (gyro X)
-            float(frame.gyro_raw[1]) - IMU_CENTER,  # front/back rate (gyro Y)
+            (float(frame.gyro_raw[0] - centre[0]), float(frame.gyro_raw[1] - centre[1]))
+            if frame.imu_valid
+            else (0.0, 0.0)
         )
         a = 1.0 if p.balance_filter <= 0 else min(1.0, frame.dt / (p.balance_filter + frame.dt))
         self._gyro_f = [f + (r - f) * a for f, r in zip(self._gyro_f, raw, strict=True)]
