@@ -6,7 +6,8 @@ DarwinError
 ├── CameraError             a camera source gives no frames or cannot encode them
 ├── BusError                serial port and Dynamixel bus
 │   ├── PortError           cannot open / lost the serial port
-│   │   └── PortInUseError  another process holds it
+│   │   ├── PortInUseError  another process holds it
+│   │   └── SlowPortError   the USB latency timer is above 1 ms
 │   ├── NoReplyError        a device did not answer
 │   └── PacketError         a reply was corrupt or malformed
 ├── ProtocolError           malformed input on a wire (legacy framing, JSON, msgpack)
@@ -100,6 +101,11 @@ class PortError(BusError):
 class PortInUseError(PortError):
     """Another process holds the serial port (its lock file or the serial driver's lock); the
     message names the holder's PID where the lock file has it."""
+
+
+class SlowPortError(PortError):
+    """The serial adapter would make every reply late (an FTDI latency timer above 1 ms): the
+    daemon refuses to drive the robot until it is set to 1."""
 
 
 class NoReplyError(BusError):

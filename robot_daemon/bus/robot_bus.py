@@ -19,7 +19,9 @@ from config.loader import RobotConfig
 from robot_daemon.bus.calibration import Calibration
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
+from robot_daemon.bus.preflight import firmware_refusal
 from robot_daemon.bus.scan import identify
+from robot_daemon.bus.servo_ram import reset_servo_ram
 from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, word
 from robot_daemon.bus.tables import (
     CM730,
@@ -96,6 +98,7 @@ class RobotBus:
         self.cm730_valid = False  # this tick's CM-730 block came, error-free (frame.imu_valid)
         self.counters = BusCounters()
         self.warnings: list[str] = []
+        self.refused: dict[int, str] = {}  # id → why it is kept offline (old firmware)
         self.make_transport = transport or (lambda: BlockingPortHandler(self.port_name))
         self.handler: Transport | None = None
         self.dxl: DxlBus | None = None
@@ -159,8 +162,8 @@ class RobotBus:
         self.handler.pause(self.power_on_delay * 1.2)
 
     def scan(self) -> dict[int, int]:
-        """Ping the CM-730 and every joint; check firmware, return delay and the USB latency
-        timer. Returns id → model number of what answered."""
+        """Ping the CM-730 and every joint; check model, firmware and return delay (a servo with
+        firmware < 27 is kept offline). Returns id → model number of what answered."""
         bus = self._bus()
         found: dict[int, int] = {}
         self.warnings = []
@@ -186,17 +189,17 @@ class RobotBus:
         missing = [i for i in self.ids if i not in found]
         if missing:
             self._warn(f"servos {missing} do not answer on {self.port_name}; they stay offline")
-        assert self.handler is not None
-        timer = self.handler.latency_timer_ms()
-        if timer is not None and timer > 1:
-            self._warn(
-                f"the USB latency timer of {self.port_name} is {timer} ms: every reply waits that "
-                "long. Set it to 1: echo 1 | sudo tee /sys/bus/usb-serial/devices/"
-                f"{self.port_name.rsplit('/', 1)[-1]}/latency_timer (README, udev rule)"
-            )
+        # The latency timer and other holders of the port were refused at open (preflight).
+        self.refused = {}
+        for jid in found.keys() & set(self.ids):
+            name = self.robot.by_id[jid].name
+            line = firmware_refusal(jid, name, self.state.firmware[jid])
+            if line is not None:
+                self.refused[jid] = line
+                self._warn(line)
         self.cm730_online = self.cm730_id in found
         for jid in self.ids:
-            self.state.online[jid] = jid in found
+            self.state.online[jid] = jid in found and jid not in self.refused
             self.state.misses[jid] = 0
         return found
 
@@ -226,11 +229,16 @@ class RobotBus:
                     self._warn(f"servo {jid} stopped answering after the scan; offline")
                 else:
                     self._apply_slow(jid, data, 0)
-        self.state.goal[:] = self.state.position
-        rows = {}
+        st = self.state
+        online = [j for j in self.ids if st.online[j]]
+        reset_servo_ram(self._bus(), online, lambda *a: self._read_retry(self._bus(), *a))
+        # A servo whose torque is on keeps the goal it holds (its present position under load
+        # is below it: re-commanding that would make the joint sink); the others hold where
+        # they are, so enabling torque moves nothing.
         for jid in self.ids:
-            if self.state.online[jid]:
-                rows[jid] = self._sync_row(jid, int(self.state.position[jid]), None)
+            if not (st.online[jid] and st.torque[jid]):
+                st.goal[jid] = st.position[jid]
+        rows = {j: self._sync_row(j, int(st.goal[j]), None) for j in online}
         if rows:
             self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
         if self.torque_on_start:
@@ -282,7 +290,7 @@ class RobotBus:
         # for its status packet) silences nobody.
         cm = (self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH)
         blocks.insert(len(blocks) if not self.cm730_online else 0, cm)
-        offline = [j for j in self.ids if not st.online[j]]
+        offline = [j for j in self.ids if not st.online[j] and j not in self.refused]
         probe = None
         if offline and self._rr % self.probe_every == 0:
             probe = offline[(self._rr // self.probe_every) % len(offline)]
@@ -422,11 +430,13 @@ class RobotBus:
         if not ids:
             return
         bus = self._bus()
-        if enable:
-            # Hold where the servo is now, so enabling torque never makes it jump.
-            rows = {j: self._sync_row(j, int(self.state.position[j]), None) for j in ids}
+        off = [j for j in ids if not self.state.torque[j]]
+        if enable and off:
+            # Hold where the servo is now, so enabling torque never makes it jump (one already
+            # on keeps its goal).
+            rows = {j: self._sync_row(j, int(self.state.position[j]), None) for j in off}
             bus.sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
-            for j in ids:
+            for j in off:
                 self.state.goal[j] = self.state.position[j]
         flag = bytes((1 if enable else 0,))
         bus.sync_write(MX28.TORQUE_ENABLE.reg.address, 1, dict.fromkeys(ids, flag))

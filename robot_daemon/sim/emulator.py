@@ -34,6 +34,7 @@ import numpy as np
 from robot_daemon.bus.packet import PACKET_OVERHEAD, BadChecksum, Frame, PacketParser
 from robot_daemon.bus.tables import Instruction
 from robot_daemon.realtime import check_priority, enter_realtime
+from robot_daemon.sim import bringup
 from robot_daemon.sim.bus import Bus
 from robot_daemon.sim.devices import Environment
 from robot_daemon.sim.faults import Faults
@@ -75,6 +76,7 @@ class Emulator(EmulatorApi):
         for dxl_id in s.silent_ids:
             self.silence(dxl_id)
         self.bus.cm730_late_reads = s.cm730_late_reads
+        bringup.apply(self.bus, s)
         for dxl_id in s.overheat_ids:
             self.overheat(dxl_id)
         self.faults = Faults(s.drop, s.corrupt, s.delay, s.delay_ms)

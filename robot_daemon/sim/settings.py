@@ -60,6 +60,10 @@ class EmulatorSettings:
     silent_ids: list[int] = field(default_factory=list)
     # The CM-730 ignores this many READ/BULK_READ instructions first (a late CM-730).
     cm730_late_reads: int = 0
+    # First-session behaviours of real servos (robot_daemon/sim/bringup.py).
+    old_firmware_ids: list[int] = field(default_factory=list)
+    leftover_ram_ids: list[int] = field(default_factory=list)
+    sag_units: float = 0.0
     overheat_ids: list[int] = field(default_factory=list)
     ambient_c: float = 35.0
     heat_gain_c: float = 70.0

@@ -10,15 +10,20 @@ from robot_daemon.sim import Emulator
 from tests.unit.test_bus_robot import make_bus
 
 
-def _last_bulk_read_ids(emulator: Emulator) -> list[int]:
-    frame = next(
-        f
-        for f in reversed(emulator.received)
+def _bulk_reads(emulator: Emulator) -> list[list[int]]:
+    """The device IDs of every bulk read the emulator took, in order."""
+    emulator.wait_quiet()
+    return [
+        list(f.params[2::3])  # (0, then length, id, address per device)
+        for f in list(emulator.received)
         if not isinstance(f, BadChecksum)
         and f.id == BROADCAST_ID
         and f.code == Instruction.BULK_READ
-    )
-    return list(frame.params[2::3])  # (0, then length, id, address per device)
+    ]
+
+
+def _last_bulk_read_ids(emulator: Emulator) -> list[int]:
+    return _bulk_reads(emulator)[-1]
 
 
 def test_the_cm730_is_read_first_once_it_answers_and_last_while_it_is_silent(
@@ -46,15 +51,20 @@ def test_the_cm730_is_read_first_once_it_answers_and_last_while_it_is_silent(
 def test_a_silent_servo_mid_chain_keeps_the_imu_valid_and_goes_offline(
     emulator: Emulator,
 ) -> None:
-    rb, events = make_bus(emulator.port)
+    rb, events = make_bus(emulator.port, reply_margin_ms=100.0)
     try:
         rb.power_on()
         rb.scan()
         rb.initial_read()
         emulator.silence(7)
+        valid = 0
         for _ in range(rb.offline_after):
+            emulator.received.clear()
             rb.read_sensors()
-            assert rb.cm730_valid  # first in the chain: the servo after it cannot cost it
+            first = _bulk_reads(emulator)[0]
+            assert first[0] == CM730_ID and first.index(7) < len(first) - 1  # 7 mid-chain
+            valid += rb.cm730_valid  # first in the chain: the servo after it cannot cost it
+        assert valid == rb.offline_after
         assert not rb.state.online[7]
         assert [e[2]["id"] for e in events if e[0] == "servo_offline"] == [7]
     finally:

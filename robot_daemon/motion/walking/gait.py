@@ -28,7 +28,8 @@ from schemas.units import RAD_PER_UNIT
 LEG_IDS = tuple(range(7, 19))
 ARM_IDS = (1, 2)
 WALK_IDS = (*ARM_IDS, *LEG_IDS)
-ARM_INIT_DEG = {1: -48.345, 2: 41.313}  # the framework's shoulder pitch while walking
+ARM_INIT_DEG = {1: -48.345, 2: 41.313}
+ARM_P_GAIN = 8  # the framework's shoulder pitch while walking
 # Framework servo directions used by the gyro feedback (Walking.cpp ``dir``).
 _DIR = {9: -1, 10: -1, 13: 1, 14: -1, 15: -1, 16: 1, 17: 1, 18: 1}
 
@@ -351,7 +352,11 @@ class WalkingModule(MotionModule):
 
     def gains(self) -> dict[int, tuple[int, int, int]]:
         p = self.params
-        return {j: (p.p_gain, p.i_gain, p.d_gain) for j in LEG_IDS}
+        legs = {j: (p.p_gain, p.i_gain, p.d_gain) for j in LEG_IDS}
+        # Soft arms "to protect the joints when it fell down" (ROBOTIS Walking.cpp, the
+        # constructor: SetPGain(ID_R/L_SHOULDER_PITCH, 8)); the manager writes the configured
+        # gains again when walking releases them.
+        return {**legs, **dict.fromkeys(ARM_IDS, (ARM_P_GAIN, 0, 0))}
 
     def status(self) -> dict[str, Any]:
         x, y, a = si_from_amplitudes(*self.latched, self.params.period_time)
