@@ -67,3 +67,13 @@ def test_invalid_cm730_samples_do_not_enter_the_fall_window() -> None:
         f.imu_valid = False
         rig.step(f)
     assert rig.manager.module("fall").falls == 0
+
+
+def test_walking_waits_for_the_gyro_calibration() -> None:
+    rig, _ = _rig()
+    rig.manager.module("walking").start(0.03, 0, 0)
+    for _ in range(99):  # the robot is still: calibrated at the 100th sample
+        out = rig.step(_frame(rig, 512, (512, 512, 512)))
+        assert not out.goal, "walking moved before the gyro centre was measured"
+    moved = [rig.step(_frame(rig, 512, (512, 512, 512))).goal for _ in range(3)]
+    assert rig.manager.module("imu").calibrated and all(moved)

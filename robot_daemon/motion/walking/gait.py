@@ -170,6 +170,10 @@ class WalkingModule(MotionModule):
                 self._last = {}
                 self.release()
             return {}
+        if not frame.imu_calibrated:
+            # The framework runs no motion module before the gyro centre is measured
+            # (MotionManager.cpp, m_CalibrationStatus): the joints hold their goals until then.
+            return {}
         tick_ms = frame.dt * 1000.0
         if self._ready_t is not None:
             return self._blend(frame)
