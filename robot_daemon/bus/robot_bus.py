@@ -20,16 +20,14 @@ from robot_daemon.bus.calibration import Calibration
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.preflight import firmware_refusal
-from robot_daemon.bus.scan import identify
+from robot_daemon.bus.scan import identify, identity_warnings
 from robot_daemon.bus.servo_ram import reset_servo_ram
-from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, word
+from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, imu_si, word
 from robot_daemon.bus.tables import (
     CM730,
     CM730_BULK_LENGTH,
     CM730_BULK_START,
     CM730_MODEL,
-    IMU_ACCEL_AXES,
-    IMU_GYRO_AXES,
     MX28,
     MX28_MODEL,
     SERVO_BULK_LENGTH,
@@ -167,6 +165,7 @@ class RobotBus:
         bus = self._bus()
         found: dict[int, int] = {}
         self.warnings = []
+        self.refused = {}
         for dxl_id in (self.cm730_id, *self.ids):
             ident = identify(bus, dxl_id, SCAN_TRIES)
             if ident is None:
@@ -175,28 +174,16 @@ class RobotBus:
             self.state.firmware[dxl_id] = ident.firmware
             bus.budget.set_return_delay(dxl_id, ident.return_delay)
             expected = CM730_MODEL if dxl_id == self.cm730_id else MX28_MODEL
-            if ident.model != expected:
-                self._warn(
-                    f"device {dxl_id} reports model {ident.model:#x}, expected {expected:#x}"
-                )
-            if ident.return_delay != 0:
-                delay_us = units.return_delay_s(ident.return_delay) * 1e6
-                self._warn(
-                    f"device {dxl_id} has return delay {ident.return_delay} ({delay_us:.0f} µs "
-                    f"per reply); set it to 0 (`darwin scan --port {self.port_name} "
-                    "--fix-return-delay`)"
-                )
+            for line in identity_warnings(ident, dxl_id, expected, self.port_name):
+                self._warn(line)
+            joint = self.robot.by_id.get(dxl_id)
+            refusal = firmware_refusal(dxl_id, joint.name, ident.firmware) if joint else None
+            if refusal is not None:  # kept offline, probes included
+                self.refused[dxl_id] = refusal
+                self._warn(refusal)
         missing = [i for i in self.ids if i not in found]
         if missing:
             self._warn(f"servos {missing} do not answer on {self.port_name}; they stay offline")
-        # The latency timer and other holders of the port were refused at open (preflight).
-        self.refused = {}
-        for jid in found.keys() & set(self.ids):
-            name = self.robot.by_id[jid].name
-            line = firmware_refusal(jid, name, self.state.firmware[jid])
-            if line is not None:
-                self.refused[jid] = line
-                self._warn(line)
         self.cm730_online = self.cm730_id in found
         for jid in self.ids:
             self.state.online[jid] = jid in found and jid not in self.refused
@@ -220,7 +207,9 @@ class RobotBus:
         self.warnings.append(text)
 
     def initial_read(self) -> None:
-        """Read every online servo's slow block once, then hold its present pose."""
+        """Read every online servo's slow block once, reset the RAM a previous program may have
+        left (bus/servo_ram.py), then hold: a servo with torque on keeps its goal, the others
+        hold their present pose."""
         for jid in self.ids:
             if self.state.online[jid]:
                 data = self._read_retry(self._bus(), jid, SLOW_START, SLOW_LENGTH)
@@ -395,18 +384,7 @@ class RobotBus:
         gyro_raw, accel_raw = self.imu_raw()
         f.gyro_raw = np.array(gyro_raw)
         f.accel_raw = np.array(accel_raw)
-        f.gyro = np.array(
-            [
-                s * units.gyro_raw_to_rad_s(r, self.gyro_dps)
-                for r, (_, s) in zip(gyro_raw, IMU_GYRO_AXES, strict=True)
-            ]
-        )
-        f.accel = np.array(
-            [
-                s * units.accel_raw_to_ms2(r)
-                for r, (_, s) in zip(accel_raw, IMU_ACCEL_AXES, strict=True)
-            ]
-        )
+        f.gyro, f.accel = imu_si(gyro_raw, accel_raw, self.gyro_dps)
         return f
 
     def imu_raw(self) -> tuple[list[int], list[int]]:
