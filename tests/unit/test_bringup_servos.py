@@ -93,7 +93,10 @@ def test_walking_softens_the_arms_and_the_configured_gains_come_back_after() -> 
     rig = PerfectServos(build_manager(robot, load_all()))
     walking = rig.manager.module("walking")
     walking.start(0.03, 0, 0)
-    out = rig.step()
+    for _ in range(400):  # the walk-ready page plays first
+        out = rig.step()
+        if rig.manager.owned_by("walking"):
+            break
     assert out.gains[1] == (8, 0, 0) and out.gains[2] == (8, 0, 0)
     walking.stop()
     for _ in range(1000):
@@ -103,3 +106,24 @@ def test_walking_softens_the_arms_and_the_configured_gains_come_back_after() -> 
     # The tick walking lets go: the arm's last goal again, with no module's gains (the
     # configured P is written).
     assert 1 in out.goal and 1 not in out.gains
+
+
+def test_walking_starts_from_the_walk_ready_page() -> None:
+    rig = PerfectServos(build_manager(load_robot(), load_all()))
+    manager = rig.manager
+    for _ in range(100):  # the gyro centre is measured first
+        rig.step()
+    manager.module("head").track(0.1, 0.0)
+    rig.step()
+    manager.module("walking").start(0.03, 0, 0)
+    rig.step()
+    action = manager.module("action").status()
+    assert action["playing"] and action["page"] == 9
+    assert not manager.owned_by("walking")
+    assert manager.owner(19) == "head"  # the head keeps tracking
+    for _ in range(400):
+        rig.step()
+        if manager.owned_by("walking"):
+            break
+    assert not manager.module("action").status()["playing"]
+    assert manager.owned_by("walking") == {1, 2, *range(7, 19)}

@@ -29,7 +29,12 @@ LEG_IDS = tuple(range(7, 19))
 ARM_IDS = (1, 2)
 WALK_IDS = (*ARM_IDS, *LEG_IDS)
 ARM_INIT_DEG = {1: -48.345, 2: 41.313}
-ARM_P_GAIN = 8  # the framework's shoulder pitch while walking
+ARM_P_GAIN = 8
+# Walking starts from the stock "walk ready" page, as ROBOTIS's demo does before it starts the
+# gait (Linux/project/demo/main.cpp: Action::Start(9), wait while it plays); the head keeps its
+# owner (tracking goes on).
+READY_PAGE = 9
+HEAD_IDS = (19, 20)  # the framework's shoulder pitch while walking
 # Framework servo directions used by the gyro feedback (Walking.cpp ``dir``).
 _DIR = {9: -1, 10: -1, 13: 1, 14: -1, 15: -1, 16: 1, 17: 1, 18: 1}
 
@@ -63,6 +68,8 @@ class WalkingModule(MotionModule):
         self.steps = 0
         self.skipped = 0
         self._ready_t: float | None = None  # s left in the blend into the stance
+        # "calibrating" → "page" (the walk-ready page plays) → "" (the gait runs)
+        self._readying = ""
         self._ready_from: dict[int, float] = {}
         self._next_phase = 1  # the phase point (1, 2, 3) this period has not reached yet
         self._last: dict[int, float] = {}
@@ -79,7 +86,11 @@ class WalkingModule(MotionModule):
         if x is not None or y is not None or turn is not None:
             self.set_speed(x or 0.0, y or 0.0, turn or 0.0)
         if not self.running:
-            self.claim(WALK_IDS)
+            # With an action player the walk-ready page plays first (once the gyro centre is
+            # measured: no motion before it); without one the gait blends in at once.
+            self._readying = "calibrating" if self._action() is not None else ""
+            if not self._readying:
+                self.claim(WALK_IDS)
             self.running = True
             self.time_ms = 0.0
             self.latched = [0.0, 0.0, 0.0]
@@ -110,7 +121,40 @@ class WalkingModule(MotionModule):
         """Finish the current step and stand."""
         self.ctrl_running = False
 
+    def _action(self) -> MotionModule | None:
+        return self.manager.get("action") if self.manager is not None else None
+
+    def _play_ready_page(self) -> bool:
+        action = self._action()
+        assert action is not None and self.manager is not None
+        body = {j for j in self.manager.robot.ids if j not in HEAD_IDS}
+        try:
+            action.play(READY_PAGE, joints=body)  # type: ignore[attr-defined]
+        except (KeyError, ValueError):
+            return False  # no such page in this library: blend from the present pose
+        return True
+
+    def observe(self, frame: JointFrame) -> None:
+        if not self._readying:
+            return
+        if self._readying == "calibrating":
+            if frame.imu_calibrated and self.ctrl_running:
+                self._readying = "page" if self._play_ready_page() else "done"
+            elif not self.ctrl_running:
+                self._readying = "done"
+            if self._readying != "done":
+                return  # still calibrating, or the page starts
+        elif getattr(self._action(), "playing", False):
+            return
+        self._readying = ""  # the page ended: the gait blends on from its pose
+        if self.ctrl_running and self.running:
+            self.claim(WALK_IDS)
+        elif self.running:
+            self.running = False
+            self.emit("walk", "walking stopped", state="stopped", steps=self.steps)
+
     def halt(self) -> None:
+        self._readying = ""
         self.ctrl_running = self.running = False
         self.cmd = [0.0, 0.0, 0.0]
         self.latched = [0.0, 0.0, 0.0]
