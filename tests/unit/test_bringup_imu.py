@@ -77,3 +77,15 @@ def test_walking_waits_for_the_gyro_calibration() -> None:
         assert not out.goal, "walking moved before the gyro centre was measured"
     moved = [rig.step(_frame(rig, 512, (512, 512, 512))).goal for _ in range(3)]
     assert rig.manager.module("imu").calibrated and all(moved)
+
+
+def test_a_walk_stopped_while_it_waits_for_the_gyro_never_starts() -> None:
+    rig, _ = _rig()
+    walking = rig.manager.module("walking")
+    walking.start(0.03, 0, 0)
+    assert walking.active
+    rig.manager.stop_all()  # the lease ended
+    for _ in range(300):
+        out = rig.step(_frame(rig, 512, (512, 512, 512)))
+        assert not out.goal
+    assert not walking.running and not rig.manager.module("action").status()["playing"]

@@ -169,6 +169,12 @@ class WalkingModule(MotionModule):
     def walking(self) -> bool:
         return self.running
 
+    @property
+    def active(self) -> bool:
+        # Waiting for the gyro or the walk-ready page it owns nothing yet, but it is running:
+        # a lease that ends (stop_all) or a fall must stop it before it takes the legs.
+        return self.running or bool(self.owned())
+
     # -- the framework's parameter updates -------------------------------------------------------
     def _update_time(self) -> None:
         p = self.params
