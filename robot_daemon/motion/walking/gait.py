@@ -23,18 +23,14 @@ import numpy as np
 from robot_daemon.motion.interface import JointFrame, MotionModule
 from robot_daemon.motion.walking.ik import leg_servo_angles
 from robot_daemon.motion.walking.params import WalkParams
+from robot_daemon.motion.walking.ready import WalkReady
 from schemas.units import RAD_PER_UNIT
 
 LEG_IDS = tuple(range(7, 19))
 ARM_IDS = (1, 2)
 WALK_IDS = (*ARM_IDS, *LEG_IDS)
 ARM_INIT_DEG = {1: -48.345, 2: 41.313}
-ARM_P_GAIN = 8
-# Walking starts from the stock "walk ready" page, as ROBOTIS's demo does before it starts the
-# gait (Linux/project/demo/main.cpp: Action::Start(9), wait while it plays); the head keeps its
-# owner (tracking goes on).
-READY_PAGE = 9
-HEAD_IDS = (19, 20)  # the framework's shoulder pitch while walking
+ARM_P_GAIN = 8  # the framework's shoulder pitch while walking
 # Framework servo directions used by the gyro feedback (Walking.cpp ``dir``).
 _DIR = {9: -1, 10: -1, 13: 1, 14: -1, 15: -1, 16: 1, 17: 1, 18: 1}
 
@@ -54,8 +50,9 @@ def si_from_amplitudes(x_mm: float, y_mm: float, a_deg: float, period_ms: float)
     return (x_mm * 4 / 1000 / t, y_mm * 2 / 1000 / t, math.radians(a_deg) * 2 / t)
 
 
-class WalkingModule(MotionModule):
+class WalkingModule(WalkReady, MotionModule):
     name = "walking"
+    claim_ids = WALK_IDS
 
     def __init__(self, params: WalkParams | None = None) -> None:
         super().__init__()
@@ -86,8 +83,7 @@ class WalkingModule(MotionModule):
         if x is not None or y is not None or turn is not None:
             self.set_speed(x or 0.0, y or 0.0, turn or 0.0)
         if not self.running:
-            # With an action player the walk-ready page plays first (once the gyro centre is
-            # measured: no motion before it); without one the gait blends in at once.
+            # Gyro centre, then the walk-ready page first (walking/ready.py), if there is a player.
             self._readying = "calibrating" if self._action() is not None else ""
             if not self._readying:
                 self.claim(WALK_IDS)
@@ -121,38 +117,6 @@ class WalkingModule(MotionModule):
         """Finish the current step and stand."""
         self.ctrl_running = False
 
-    def _action(self) -> MotionModule | None:
-        return self.manager.get("action") if self.manager is not None else None
-
-    def _play_ready_page(self) -> bool:
-        action = self._action()
-        assert action is not None and self.manager is not None
-        body = {j for j in self.manager.robot.ids if j not in HEAD_IDS}
-        try:
-            action.play(READY_PAGE, joints=body)  # type: ignore[attr-defined]
-        except (KeyError, ValueError):
-            return False  # no such page in this library: blend from the present pose
-        return True
-
-    def observe(self, frame: JointFrame) -> None:
-        if not self._readying:
-            return
-        if self._readying == "calibrating":
-            if frame.imu_calibrated and self.ctrl_running:
-                self._readying = "page" if self._play_ready_page() else "done"
-            elif not self.ctrl_running:
-                self._readying = "done"
-            if self._readying != "done":
-                return  # still calibrating, or the page starts
-        elif getattr(self._action(), "playing", False):
-            return
-        self._readying = ""  # the page ended: the gait blends on from its pose
-        if self.ctrl_running and self.running:
-            self.claim(WALK_IDS)
-        elif self.running:
-            self.running = False
-            self.emit("walk", "walking stopped", state="stopped", steps=self.steps)
-
     def halt(self) -> None:
         self._readying = ""
         self.ctrl_running = self.running = False
@@ -168,12 +132,6 @@ class WalkingModule(MotionModule):
     @property
     def walking(self) -> bool:
         return self.running
-
-    @property
-    def active(self) -> bool:
-        # Waiting for the gyro or the walk-ready page it owns nothing yet, but it is running:
-        # a lease that ends (stop_all) or a fall must stop it before it takes the legs.
-        return self.running or bool(self.owned())
 
     # -- the framework's parameter updates -------------------------------------------------------
     def _update_time(self) -> None:
@@ -221,9 +179,7 @@ class WalkingModule(MotionModule):
                 self.release()
             return {}
         if not frame.imu_calibrated:
-            # The framework runs no motion module before the gyro centre is measured
-            # (MotionManager.cpp, m_CalibrationStatus): the joints hold their goals until then.
-            return {}
+            return {}  # no motion before the gyro centre is measured (walking/ready.py)
         tick_ms = frame.dt * 1000.0
         if self._ready_t is not None:
             return self._blend(frame)
@@ -372,8 +328,7 @@ class WalkingModule(MotionModule):
         ``balance_filter`` s and limited to ``balance_limit`` degrees per joint: on a body
         without compliance (the simulator) the raw law feeds its own correction back."""
         p = self.params
-        # Relative to the centres measured at start (motion/gyro_centre.py), as the framework's
-        # MotionStatus::RL_GYRO / FB_GYRO; a stale CM-730 reading adds no correction.
+        # Relative to the centres measured at start (motion/gyro_centre.py); stale adds nothing.
         centre = frame.gyro_centre
         raw = (
             (float(frame.gyro_raw[0] - centre[0]), float(frame.gyro_raw[1] - centre[1]))
@@ -407,9 +362,7 @@ class WalkingModule(MotionModule):
     def gains(self) -> dict[int, tuple[int, int, int]]:
         p = self.params
         legs = {j: (p.p_gain, p.i_gain, p.d_gain) for j in LEG_IDS}
-        # Soft arms "to protect the joints when it fell down" (ROBOTIS Walking.cpp, the
-        # constructor: SetPGain(ID_R/L_SHOULDER_PITCH, 8)); the manager writes the configured
-        # gains again when walking releases them.
+        # Soft arms "to protect the joints when it fell down" (ROBOTIS Walking.cpp: P = 8).
         return {**legs, **dict.fromkeys(ARM_IDS, (ARM_P_GAIN, 0, 0))}
 
     def status(self) -> dict[str, Any]:
