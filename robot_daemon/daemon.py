@@ -30,6 +30,7 @@ from robot_daemon.arbiter.core import Arbiter
 from robot_daemon.arbiter.lease import Holder, Lease
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, needs_lease
 from robot_daemon.arbiter.throttle import ArbiterLimits
+from robot_daemon.bus.power_watch import check_dxl_power
 from robot_daemon.bus.robot_bus import RobotBus
 from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.fall import FallMonitor
@@ -40,7 +41,7 @@ from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
 from robot_daemon.security.acl import Security, serve_roles
 from robot_daemon.services import DaemonInfo
-from schemas.errors import BusError, DarwinError, ErrorCode, PortError
+from schemas.errors import BusError, DarwinError, DxlPowerLostError, ErrorCode, PortError
 from schemas.keys import Keys
 from schemas.messages import Imu, Joints, NetworkInfo, Status
 from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config
@@ -345,6 +346,7 @@ class Daemon:
         """One tick; returns the time spent on the bus."""
         bus_t0 = time.monotonic()
         self.bus.read_sensors()
+        check_dxl_power(self.bus)  # raises DxlPowerLostError: halt, power on, scan, hold
         bus_read = time.monotonic() - bus_t0
         # Stamp the data when it was sampled, not when the tick got round to publishing it, so
         # stamp differences are the sampling interval whatever the tick's work took.
@@ -502,11 +504,10 @@ class Daemon:
 
     # -- port loss ---------------------------------------------------------------------------
     def _port_lost(self, exc: Exception) -> None:
-        log.warning("serial port lost: %s", exc)
+        what = "" if isinstance(exc, DxlPowerLostError) else "serial port lost: "
+        log.warning("%s%s", what, exc)
         self._emit(
-            "fault",
-            f"serial port lost: {exc}; motion halted, reopening with back-off",
-            port=self.bus.port_name,
+            "fault", f"{what}{exc}; motion halted, reopening with back-off", port=self.bus.port_name
         )
         # Nothing that ran before the outage resumes after it: every module stops now, and
         # the first tick with the port back holds the pose the robot is in.

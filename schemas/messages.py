@@ -286,6 +286,13 @@ class FallInfo(TypedDict):
     recover: bool
 
 
+class ImuCalibrationInfo(TypedDict):
+    active: bool
+    calibrated: bool  # the gyro centre is measured; falls and walking balance wait for it
+    gyro_centre: list[float]  # counts at rest, x y z (robot axes); 512 until calibrated
+    attempts: int
+
+
 class BallSeen(TypedDict):
     found: bool
     pan: float  # rad
@@ -320,6 +327,7 @@ class ChoreographyInfo(TypedDict, total=False):
 
 class MotionInfo(TypedDict, total=False):
     owners: dict[str, str]  # joint id → the module that drives it
+    imu: ImuCalibrationInfo
     fall: FallInfo
     action: ActionInfo
     head: HeadInfo

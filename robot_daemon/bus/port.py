@@ -20,6 +20,7 @@ from pathlib import Path
 
 import serial
 
+from robot_daemon.bus.preflight import check_holders, check_latency, latency_timer_ms
 from robot_daemon.bus.transport import Transport
 from schemas.errors import PortError, PortInUseError
 
@@ -94,9 +95,11 @@ class BlockingPortHandler(Transport):
             )
         self._lock.acquire()
         try:
+            check_holders(self.port_name)  # a plain open() (ROBOTIS's demo) takes no lock
             self.baudrate = baudrate
             if not self.setBaudRate(baudrate):
                 raise PortError(f"baud rate {baudrate} is not supported on {self.port_name}")
+            check_latency(self.port_name)  # after asking for low latency in setupPort
         except serial.SerialException as exc:
             self._lock.release()
             if "lock" in str(exc).lower():
@@ -105,7 +108,7 @@ class BlockingPortHandler(Transport):
                 ) from exc
             raise PortError(f"cannot open serial port {self.port_name}: {exc}") from exc
         except BaseException:
-            self._lock.release()
+            self.close()
             raise
 
     def setupPort(self, cflag_baud: int) -> bool:
@@ -121,6 +124,9 @@ class BlockingPortHandler(Transport):
         with contextlib.suppress(OSError):
             # Refuse any further open() of the tty (root still may: the lock file covers that).
             fcntl.ioctl(self.ser.fileno(), termios.TIOCEXCL)
+        with contextlib.suppress(Exception):
+            # ftdi_sio sets its latency timer to 1 ms for ASYNC_LOW_LATENCY (a pty refuses).
+            self.ser.set_low_latency_mode(True)
         self.is_open = True
         self.ser.reset_input_buffer()
         self.set_baud(self.baudrate)
@@ -201,13 +207,3 @@ class BlockingPortHandler(Transport):
 
     def latency_timer_ms(self) -> int | None:
         return latency_timer_ms(self.port_name)
-
-
-def latency_timer_ms(port_name: str) -> int | None:
-    """The FTDI USB latency timer of a ttyUSB port (ms), or None if it has none."""
-    dev = os.path.basename(os.path.realpath(port_name))
-    path = Path(f"/sys/bus/usb-serial/devices/{dev}/latency_timer")
-    try:
-        return int(path.read_text().strip())
-    except (OSError, ValueError):
-        return None

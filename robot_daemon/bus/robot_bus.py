@@ -19,16 +19,16 @@ from config.loader import RobotConfig
 from robot_daemon.bus.calibration import Calibration
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
+from robot_daemon.bus.preflight import firmware_refusal
 from robot_daemon.bus.read_plan import servos_to_read
-from robot_daemon.bus.scan import identify
-from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, word
+from robot_daemon.bus.scan import identify, identity_warnings
+from robot_daemon.bus.servo_ram import reset_servo_ram
+from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, imu_si, word
 from robot_daemon.bus.tables import (
     CM730,
     CM730_BULK_LENGTH,
     CM730_BULK_START,
     CM730_MODEL,
-    IMU_ACCEL_AXES,
-    IMU_GYRO_AXES,
     MX28,
     MX28_MODEL,
     SERVO_BULK_LENGTH,
@@ -94,8 +94,11 @@ class RobotBus:
         self.state = ServoState()
         self.cm730: bytes = bytes(CM730_BULK_LENGTH)
         self.cm730_online = False
+        self._cm730_misses = 0
+        self.cm730_valid = False  # this tick's CM-730 block came, error-free (frame.imu_valid)
         self.counters = BusCounters()
         self.warnings: list[str] = []
+        self.refused: dict[int, str] = {}  # id → why it is kept offline (old firmware)
         self.make_transport = transport or (lambda: BlockingPortHandler(self.port_name))
         self.handler: Transport | None = None
         self.dxl: DxlBus | None = None
@@ -159,11 +162,12 @@ class RobotBus:
         self.handler.pause(self.power_on_delay * 1.2)
 
     def scan(self) -> dict[int, int]:
-        """Ping the CM-730 and every joint; check firmware, return delay and the USB latency
-        timer. Returns id → model number of what answered."""
+        """Ping the CM-730 and every joint; check model, firmware and return delay (a servo with
+        firmware < 27 is kept offline). Returns id → model number of what answered."""
         bus = self._bus()
         found: dict[int, int] = {}
         self.warnings = []
+        self.refused = {}
         for dxl_id in (self.cm730_id, *self.ids):
             ident = identify(bus, dxl_id, SCAN_TRIES)
             if ident is None:
@@ -172,31 +176,19 @@ class RobotBus:
             self.state.firmware[dxl_id] = ident.firmware
             bus.budget.set_return_delay(dxl_id, ident.return_delay)
             expected = CM730_MODEL if dxl_id == self.cm730_id else MX28_MODEL
-            if ident.model != expected:
-                self._warn(
-                    f"device {dxl_id} reports model {ident.model:#x}, expected {expected:#x}"
-                )
-            if ident.return_delay != 0:
-                delay_us = units.return_delay_s(ident.return_delay) * 1e6
-                self._warn(
-                    f"device {dxl_id} has return delay {ident.return_delay} ({delay_us:.0f} µs "
-                    f"per reply); set it to 0 (`darwin scan --port {self.port_name} "
-                    "--fix-return-delay`)"
-                )
+            for line in identity_warnings(ident, dxl_id, expected, self.port_name):
+                self._warn(line)
+            joint = self.robot.by_id.get(dxl_id)
+            refusal = firmware_refusal(dxl_id, joint.name, ident.firmware) if joint else None
+            if refusal is not None:  # kept offline, probes included
+                self.refused[dxl_id] = refusal
+                self._warn(refusal)
         missing = [i for i in self.ids if i not in found]
         if missing:
             self._warn(f"servos {missing} do not answer on {self.port_name}; they stay offline")
-        assert self.handler is not None
-        timer = self.handler.latency_timer_ms()
-        if timer is not None and timer > 1:
-            self._warn(
-                f"the USB latency timer of {self.port_name} is {timer} ms: every reply waits that "
-                "long. Set it to 1: echo 1 | sudo tee /sys/bus/usb-serial/devices/"
-                f"{self.port_name.rsplit('/', 1)[-1]}/latency_timer (README, udev rule)"
-            )
         self.cm730_online = self.cm730_id in found
         for jid in self.ids:
-            self.state.online[jid] = jid in found
+            self.state.online[jid] = jid in found and jid not in self.refused
             self.state.misses[jid] = 0
         return found
 
@@ -217,7 +209,9 @@ class RobotBus:
         self.warnings.append(text)
 
     def initial_read(self) -> None:
-        """Read every online servo's slow block once, then hold its present pose."""
+        """Read every online servo's slow block once, reset the RAM a previous program may have
+        left (bus/servo_ram.py), then hold: a servo with torque on keeps its goal, the others
+        hold their present pose."""
         for jid in self.ids:
             if self.state.online[jid]:
                 data = self._read_retry(self._bus(), jid, SLOW_START, SLOW_LENGTH)
@@ -226,11 +220,16 @@ class RobotBus:
                     self._warn(f"servo {jid} stopped answering after the scan; offline")
                 else:
                     self._apply_slow(jid, data, 0)
-        self.state.goal[:] = self.state.position
-        rows = {}
+        st = self.state
+        online = [j for j in self.ids if st.online[j]]
+        reset_servo_ram(self._bus(), online, lambda *a: self._read_retry(self._bus(), *a))
+        # A servo whose torque is on keeps the goal it holds (its present position under load
+        # is below it: re-commanding that would make the joint sink); the others hold where
+        # they are, so enabling torque moves nothing.
         for jid in self.ids:
-            if self.state.online[jid]:
-                rows[jid] = self._sync_row(jid, int(self.state.position[jid]), None)
+            if not (st.online[jid] and st.torque[jid]):
+                st.goal[jid] = st.position[jid]
+        rows = {j: self._sync_row(j, int(st.goal[j]), None) for j in online}
         if rows:
             self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
         if self.torque_on_start:
@@ -269,8 +268,8 @@ class RobotBus:
             self.counters.goal_writes += len(rows)
 
     def read_sensors(self) -> None:
-        """One bulk read: position/speed/load of the online servos, the slow block (torque …
-        temperature) of one servo in turn, the CM-730's sensors, and now and then a probe of
+        """One bulk read: the CM-730's sensors, position/speed/load of the online servos, the
+        slow block (torque … temperature) of one servo in turn, and now and then a probe of
         an offline servo (last, so a silent one delays nobody)."""
         st = self.state
         online = [j for j in self.ids if st.online[j]]
@@ -281,13 +280,21 @@ class RobotBus:
             (j, SLOW_START, SLOW_LENGTH) if j in slow else (j, SERVO_BULK_START, SERVO_BULK_LENGTH)
             for j in servos_to_read(online, slow, self._rr, self.servo_share)
         ]
-        blocks.append((self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH))
-        offline = [j for j in self.ids if not st.online[j]]
+        # The CM-730 first, as ROBOTIS's CM730::MakeBulkReadPacket (framework r47), Bold Hearts
+        # and NimbRo-OP; last while it has not answered, so a silent CM-730 (the chain waits
+        # for its status packet) silences nobody.
+        cm = (self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH)
+        blocks.insert(len(blocks) if not self.cm730_online else 0, cm)
+        offline = [j for j in self.ids if not st.online[j] and j not in self.refused]
         probe = None
         if offline and self._rr % self.probe_every == 0:
             probe = offline[(self._rr // self.probe_every) % len(offline)]
             blocks.append((probe, SLOW_START, SLOW_LENGTH))
         res = self._bus().bulk_read(blocks)
+        self.cm730_valid = self.cm730_id in res.data and not res.errors.get(self.cm730_id)
+        self._cm730_misses = 0 if self.cm730_id in res.data else self._cm730_misses + 1
+        if self._cm730_misses >= self.offline_after:
+            self.cm730_online = False  # back to the end of the chain until it answers again
         c = self.counters
         c.bulk_reads += 1
         c.missing_replies += len([j for j in res.missing if j != probe])
@@ -384,21 +391,11 @@ class RobotBus:
             online=st.online.copy(),
             torque_enabled=st.torque.copy(),
         )
+        f.imu_valid = self.cm730_valid
         gyro_raw, accel_raw = self.imu_raw()
         f.gyro_raw = np.array(gyro_raw)
         f.accel_raw = np.array(accel_raw)
-        f.gyro = np.array(
-            [
-                s * units.gyro_raw_to_rad_s(r, self.gyro_dps)
-                for r, (_, s) in zip(gyro_raw, IMU_GYRO_AXES, strict=True)
-            ]
-        )
-        f.accel = np.array(
-            [
-                s * units.accel_raw_to_ms2(r)
-                for r, (_, s) in zip(accel_raw, IMU_ACCEL_AXES, strict=True)
-            ]
-        )
+        f.gyro, f.accel = imu_si(gyro_raw, accel_raw, self.gyro_dps)
         return f
 
     def imu_raw(self) -> tuple[list[int], list[int]]:
@@ -422,11 +419,13 @@ class RobotBus:
         if not ids:
             return
         bus = self._bus()
-        if enable:
-            # Hold where the servo is now, so enabling torque never makes it jump.
-            rows = {j: self._sync_row(j, int(self.state.position[j]), None) for j in ids}
+        off = [j for j in ids if not self.state.torque[j]]
+        if enable and off:
+            # Hold where the servo is now, so enabling torque never makes it jump (one already
+            # on keeps its goal).
+            rows = {j: self._sync_row(j, int(self.state.position[j]), None) for j in off}
             bus.sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
-            for j in ids:
+            for j in off:
                 self.state.goal[j] = self.state.position[j]
         flag = bytes((1 if enable else 0,))
         bus.sync_write(MX28.TORQUE_ENABLE.reg.address, 1, dict.fromkeys(ids, flag))

@@ -74,6 +74,21 @@ _IDENTITY_START = MX28.MODEL_NUMBER.reg.address
 _IDENTITY_LENGTH = MX28.RETURN_DELAY_TIME.reg.end - _IDENTITY_START
 
 
+def identity_warnings(ident: Identity, dxl_id: int, expected: int, port: str) -> list[str]:
+    """What the daemon warns about a device found at start: a model other than expected, a
+    return delay other than 0 (every reply waits that long), each naming the fix."""
+    out = []
+    if ident.model != expected:
+        out.append(f"device {dxl_id} reports model {ident.model:#x}, expected {expected:#x}")
+    if ident.return_delay != 0:
+        delay_us = units.return_delay_s(ident.return_delay) * 1e6
+        out.append(
+            f"device {dxl_id} has return delay {ident.return_delay} ({delay_us:.0f} µs per "
+            f"reply); set it to 0 (`darwin scan --port {port} --fix-return-delay`)"
+        )
+    return out
+
+
 def identify(bus: DxlBus, dxl_id: int, tries: int = 3) -> Identity | None:
     """The identity of ``dxl_id``, or None if it never answers: one lost or garbled reply must
     not make a device look absent, so the read is tried ``tries`` times. A lost port raises."""

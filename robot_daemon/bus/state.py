@@ -83,6 +83,20 @@ def imu_raw(block: bytes) -> tuple[list[int], list[int]]:
     )
 
 
+def imu_si(
+    gyro_raw: list[int], accel_raw: list[int], gyro_dps: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Gyro (rad/s) and accelerometer (m/s²) in robot axes from :func:`imu_raw`'s counts."""
+    gyro = [
+        s * units.gyro_raw_to_rad_s(r, gyro_dps)
+        for r, (_, s) in zip(gyro_raw, IMU_GYRO_AXES, strict=True)
+    ]
+    accel = [
+        s * units.accel_raw_to_ms2(r) for r, (_, s) in zip(accel_raw, IMU_ACCEL_AXES, strict=True)
+    ]
+    return np.array(gyro), np.array(accel)
+
+
 def cm730_status(block: bytes) -> dict[str, Any]:
     """LEDs, buttons, voltage and power from the block; empty before the CM-730 answered."""
     if not block or not any(block):

@@ -8,7 +8,12 @@ not the framework's: only samples whose accel Z (the up axis) is below ``fall_ly
 A shove accelerates an upright body along its fore/aft axis for longer than the window (the
 MuJoCo plant: 40 N for 0.2 s reads accel Y ~250 while the body is still upright), and on the
 framework's rule alone the detector latched the wrong direction before the robot landed on the
-other side. A fall
+other side.
+As the framework (``MotionManager::Process``), falls are computed only once the gyro is
+calibrated (``frame.imu_calibrated``, motion/gyro_centre.py), only error-free CM-730 readings
+enter the window (``frame.imu_valid``: before the CM-730 first answered the block is zeros, which
+read as lying face down), and the window starts full of the neutral 512, so one bad sample
+cannot make a fall. A fall
 stops every module (walking, behaviours), publishes an event, and when ``[fall] recover`` is on,
 plays the matching get-up page (10 front, 11 back). While that page plays the robot is not
 "upright again", whatever the accelerometer reads: sitting up on the way reads upright for longer
@@ -35,6 +40,7 @@ from typing import Any
 
 from config.loader import section_to
 from robot_daemon.motion.interface import JointFrame, MotionModule
+from schemas.units import IMU_CENTER
 
 UPRIGHT, FORWARD, BACKWARD = "upright", "fallen_forward", "fallen_backward"
 # The state's word in ``imu.fall`` and the event's ``direction``.
@@ -61,6 +67,8 @@ class FallMonitor(MotionModule):
         self.backward_above = float(imu.get("fall_backward_above", 580))
         self.lying_z_below = float(imu.get("fall_lying_z_below", 590))
         self.window: deque[float] = deque(maxlen=int(imu.get("fall_window", 30)))
+        self._at_neutral = False
+        self._neutral()
         settings = section_to(FallRecovery, fall or {}, "fall")
         self.recover = settings.recover
         self.front_page = settings.get_up_front_page
@@ -77,9 +85,14 @@ class FallMonitor(MotionModule):
         """The present window's classification as ``imu.fall`` says it."""
         return DIRECTION[self.now]
 
+    def _neutral(self) -> None:
+        if self._at_neutral:
+            return  # already refilled: an upright robot costs nothing per tick
+        self.window.clear()
+        self.window.extend([float(IMU_CENTER)] * (self.window.maxlen or 1))
+        self._at_neutral = True
+
     def classify(self) -> str:
-        if len(self.window) < (self.window.maxlen or 1):
-            return UPRIGHT
         mean = sum(self.window) / len(self.window)
         if mean < self.forward_below:
             return FORWARD
@@ -90,10 +103,15 @@ class FallMonitor(MotionModule):
     def observe(self, frame: JointFrame) -> None:
         # The framework's "accel Y" register is the robot's fore/aft axis, which JointFrame
         # holds first (robot axes x y z; see IMU_ACCEL_AXES in bus/tables.py).
-        if float(frame.accel_raw[2]) >= self.lying_z_below:
-            self.window.clear()  # gravity along the up axis: upright, whatever shoves it
+        if not frame.imu_calibrated:
+            return  # the framework computes no fall before the gyro centre is measured
+        if not frame.imu_valid:
+            pass  # a stale or absent CM-730 reading: the window keeps what it had
+        elif float(frame.accel_raw[2]) >= self.lying_z_below:
+            self._neutral()  # gravity along the up axis: upright, whatever shoves it
         else:
             self.window.append(float(frame.accel_raw[0]))
+            self._at_neutral = False
         now = self.now = self.classify()
         if self._getting_up():
             self._upright_ticks = 0

@@ -39,6 +39,13 @@ class JointFrame:
     accel: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, GRAVITY]))  # m/s²
     gyro_raw: np.ndarray = field(default_factory=lambda: np.full(3, IMU_CENTER))  # counts x y z
     accel_raw: np.ndarray = field(default_factory=lambda: np.full(3, IMU_CENTER))  # counts x y z
+    # The CM-730 answered this tick's bulk read without error bits: the IMU fields are its
+    # reading (False before it first answered, and on a tick it missed: the fields are stale).
+    imu_valid: bool = True
+    # Gyro counts at rest, measured at start (motion/gyro_centre.py); the balance and the
+    # published rates are relative to it.
+    gyro_centre: np.ndarray = field(default_factory=lambda: np.full(3, float(IMU_CENTER)))
+    imu_calibrated: bool = True  # set each tick by the gyro calibration module
 
 
 @dataclass

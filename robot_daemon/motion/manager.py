@@ -1,8 +1,10 @@
 """The motion manager: runs modules in order each tick; every joint has exactly one owner.
 
 Ownership moves only through ``claim`` (explicit hand-over: the previous owner is told) and
-``release``. Joints nobody owns keep the goal they last had; after ``halt`` that goal is the
-present position, so the robot holds its pose.
+``release``. Joints nobody owns keep the goal they last had: ``halt``, a release and the port's
+return write that last goal again (with the configured gains, so a module's own gains end with
+it), never the present position. A servo with P = 32 and I = 0 stands below its goal under load
+by its steady-state error; re-commanding where it stands made a loaded joint sink each time.
 """
 
 from __future__ import annotations
@@ -69,6 +71,8 @@ class MotionManager:
         for j, o in self._owner.items():
             if o == name and (ids is None or j in ids):
                 self._owner[j] = None
+                if j in self._last_goal:  # written again with the configured gains
+                    self._hold[j] = self._last_goal[j]
 
     # -- events ----------------------------------------------------------------------------
     def emit(self, kind: str, message: str, **data: Any) -> None:
@@ -93,8 +97,11 @@ class MotionManager:
             for j, g in goals.items():
                 if j in owned:  # a module never writes a joint it does not own
                     targets.goal[j] = g
-            for j, pid in m.gains().items():
-                if j in owned:
+            gains = m.gains()
+            # A joint released in this step gets the configured gains (no module's).
+            kept = self.owned_by(m.name) if gains else owned
+            for j, pid in gains.items():
+                if j in kept:
                     targets.gains[j] = pid
         for j, g in self._hold.items():
             targets.goal.setdefault(j, g)
@@ -110,14 +117,18 @@ class MotionManager:
             self._owner[j] = None
         frame = self.last_frame
         if frame is not None:
-            self._hold = {j: float(frame.position[j]) for j in self._owner if frame.online[j]}
+            self.hold_present(frame)
         self.emit("halt", "all motion stopped; holding the present pose")
 
     def hold_present(self, frame: JointFrame) -> None:
-        """Hold the pose in ``frame`` on every joint nobody owns (the port came back: whatever
-        goal the servos had, the robot stays as it is until someone commands it)."""
-        free = [j for j, o in self._owner.items() if o is None and frame.online[j]]
-        self._hold = {j: float(frame.position[j]) for j in free}
+        """Hold the pose on every joint nobody owns (halt, shutdown, the port came back): the
+        last goal of a joint whose torque is on; a joint without torque has no goal to keep
+        (enabling it holds where it is, bus/robot_bus.py)."""
+        self._hold = {
+            j: self._last_goal[j]
+            for j, o in self._owner.items()
+            if o is None and frame.online[j] and frame.torque_enabled[j] and j in self._last_goal
+        }
 
     def stop_all(self) -> None:
         """Ask every module to stop gracefully (lease loss, fall)."""

@@ -12,6 +12,7 @@ from robot_daemon.motion.behaviours import BehaviourLibrary
 from robot_daemon.motion.choreography import ChoreographyModule
 from robot_daemon.motion.direct import DirectModule
 from robot_daemon.motion.fall import FallMonitor
+from robot_daemon.motion.gyro_centre import GyroCalibration
 from robot_daemon.motion.head import HeadLimits, HeadModule
 from robot_daemon.motion.manager import MotionManager
 from robot_daemon.motion.sound import SoundPlayer
@@ -24,9 +25,12 @@ def build_manager(robot: RobotConfig, settings: dict[str, Any]) -> MotionManager
 
     Order matters: modules later in the list see the same frame but run after earlier ones
     (action, head, walking, as the framework does; direct joint control last). Every module's
-    ``observe`` runs before any ``step``: the fall monitor first, so a fall stops the others in
-    the tick it is detected."""
+    ``observe`` runs before any ``step``: the gyro calibration first (it marks the frame
+    calibrated or not), then the fall monitor, so a fall stops the others in the tick it is
+    detected."""
     manager = MotionManager(robot)
+    imu = settings.get("imu") or {}
+    manager.add(GyroCalibration(imu.get("calibration")))
     manager.add(FallMonitor(settings.get("imu"), settings.get("fall")))
     motion = settings.get("motion") or {}
     names = {j.id: j.name for j in robot.joints}

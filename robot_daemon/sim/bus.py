@@ -8,7 +8,13 @@ Which instructions answer (as the firmware does):
 
 * status return level 0: PING only; 1: PING, READ and BULK_READ; 2: everything;
 * broadcast (ID 254): SYNC_WRITE, WRITE, REG_WRITE, ACTION and RESET act silently; BULK_READ is
-  answered by each listed device in the listed order; PING and READ to 254 get no answer;
+  answered by each listed device in the listed order, as a daisy chain: each device sends its
+  status packet after it has heard the one listed before it, so a device that does not answer
+  (absent, silent, status return level 0, its reply dropped) silences every one after it for
+  that bulk read (the MX-28 e-manual, "Bulk Read": "the Dynamixel with ID … waits for the
+  previous Dynamixel's status packet"); PING and READ to 254 get no answer;
+* ``cm730_late_reads``: the CM-730 ignores that many READ and BULK_READ instructions first (a
+  CM-730 still booting, or a host whose reads it misses), then answers;
 * a frame with a bad checksum is not executed; the addressed device answers with CHECKSUM
   (0x10) if its return level would answer that instruction;
 * an unknown instruction, wrong parameter count, ACTION with nothing registered or SYNC_WRITE
@@ -43,6 +49,7 @@ from schemas import units
 
 _MAX_READ = 250 - 6  # a status packet must fit the SDK's 250-byte receive buffer
 _READ_ONLY = frozenset((Instruction.PING, Instruction.READ, Instruction.BULK_READ))
+_READS = frozenset((Instruction.READ, Instruction.BULK_READ))
 
 
 @dataclass(frozen=True)
@@ -83,6 +90,7 @@ class Bus:
         self.broken_after: list[int] = []  # cable breaks, each right after this servo
         self.cut_off: set[int] = set()  # the servos (configured IDs) those breaks hide
         self.fresh: set[int] = set()  # servos (configured IDs) swapped for factory-fresh ones
+        self.cm730_late_reads = 0  # READ/BULK_READ instructions the CM-730 ignores first
         self.time = 0.0
         self._power_ready_at: float | None = None
         self._registered: dict[int, tuple[int, bytes]] = {}
@@ -186,6 +194,9 @@ class Bus:
     ) -> list[Reply]:
         level = dev.status_return_level if level is None else level
         if dev.id in self.silent or not _answers(level, instruction):
+            return []
+        if dev is self.cm730 and self.cm730_late_reads > 0 and instruction in _READS:
+            self.cm730_late_reads -= 1
             return []
         return [Reply(dev.id, status_packet(dev.id, error, data), dev.return_delay_s)]
 
@@ -300,10 +311,13 @@ class Bus:
             length, dxl_id, address = body[i], body[i + 1], body[i + 2]
             dev = self.device(dxl_id)
             if dev is None:
-                continue
+                break  # nobody sends this status packet: the next device waits for ever
             if length > _MAX_READ:
-                replies += self._reply(dev, Instruction.BULK_READ, ErrorBit.RANGE)
-                continue
-            data, error = dev.read(address, length)
-            replies += self._reply(dev, Instruction.BULK_READ, error, data)
+                reply = self._reply(dev, Instruction.BULK_READ, ErrorBit.RANGE)
+            else:
+                data, error = dev.read(address, length)
+                reply = self._reply(dev, Instruction.BULK_READ, error, data)
+            if not reply:
+                break  # silent: the chain stops here
+            replies += reply
         return replies

@@ -90,6 +90,16 @@ _OVERRIDES: tuple[tuple[str, str, str, Any, str], ...] = (
         int,
         "swap this servo for a factory-fresh MX-28 (ID 1, 57,600 bps)",
     ),
+    (
+        "--cm730-late-reads",
+        "cm730_late_reads",
+        "N",
+        int,
+        "the CM-730 ignores the first N reads and bulk reads",
+    ),
+    ("--old-firmware-ids", "old_firmware_ids", "IDS", _ids, "servos with MX-28 firmware 26"),
+    ("--leftover-ram-ids", "leftover_ram_ids", "IDS", _ids, "servos with slow leftover RAM"),
+    ("--sag-units", "sag_units", "UNITS", float, "loaded servos stand this far off (P=32)"),
     ("--voltage", "voltage", "V", float, "supply voltage (V)"),
     ("--imu-noise", "imu_noise", "COUNTS", float, "IMU noise, standard deviation in counts"),
     (

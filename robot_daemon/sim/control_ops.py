@@ -18,12 +18,15 @@
 | `vanish` / `reappear` | | the serial port goes away / comes back (reply: `port`) |
 | `chain` | `broken_after` [IDs] | cable breaks right after these servos ([] mends them) |
 | `fresh_servo` | `id` | swaps that servo for a factory-fresh MX-28 (ID 1, 57,600 bps) |
+| `dxl_power_loss` | | DXL power goes (CM-730 reset button): servos silent until powered again |
+| `cm730_late` | `reads` | the CM-730 ignores the next `reads` reads and bulk reads |
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from robot_daemon.sim import bringup
 from robot_daemon.sim.control import control_op, control_ops, field
 from schemas.units import GRAVITY
 
@@ -158,3 +161,20 @@ def _fresh_servo(emu, req: Request) -> dict[str, Any]:
     with emu.lock:
         emu.bus.factory_fresh(field(req, "id", int))
     return emu.fault_state()
+
+
+@control_op("dxl_power_loss")
+def _dxl_power_loss(emu, req: Request) -> dict[str, Any]:
+    with emu.lock:
+        bringup.dxl_power_loss(emu.bus)
+    return {"power": False}
+
+
+@control_op("cm730_late")
+def _cm730_late(emu, req: Request) -> dict[str, Any]:
+    reads = field(req, "reads", int)
+    if reads < 0:
+        raise ValueError(f"field 'reads' must be at least 0, not {reads}")
+    with emu.lock:
+        emu.bus.cm730_late_reads = reads
+    return {"reads": reads}

@@ -136,7 +136,18 @@ class Servo(Device):
         # Set by a physics plant (plant_update): the motor's torque (N·m); None = kinematic plant.
         self.plant_torque: float | None = None
         self.saturated_s = 0.0  # how long the physics motor has been held at its limit
+        # Options of robot_daemon/sim/bringup.py: firmware version, RAM left by a previous
+        # program (set again at every power-on), steady-state error under load.
+        self.firmware: int | None = None
+        self.leftover: dict = {}
+        self.sag_units = 0.0
         self._sync_registers()
+
+    def apply_overrides(self) -> None:
+        if self.firmware is not None:
+            self.table[MX28.FIRMWARE_VERSION] = self.firmware
+        for reg, value in self.leftover.items():
+            self.table[reg] = value
 
     # ---- alarms -----------------------------------------------------------------------------
 
@@ -183,6 +194,8 @@ class Servo(Device):
         if on and not self.powered:
             self.table.reset(eeprom=False)
             self.table[MX28.GOAL_POSITION] = round(self.position)
+            for reg, value in self.leftover.items():
+                self.table[reg] = value
         self.powered = on
         if not on:
             self.velocity = 0.0
@@ -212,6 +225,9 @@ class Servo(Device):
             pass  # the physics plant moved the horn (plant_update)
         elif self.powered and t[MX28.TORQUE_ENABLE]:
             goal = float(t[MX28.GOAL_POSITION])
+            if self.sag_units:
+                # A P-only loop stands off its goal in proportion to the load over the gain.
+                goal -= self.sag_units * self.external_load * 32.0 / max(1, t[MX28.P_GAIN])
             limit = self.max_speed() * dt
             move = max(-limit, min(limit, goal - self.position))
             self.position = min(float(units.POSITION_MAX), max(0.0, self.position + move))

@@ -32,7 +32,9 @@ from typing import Any
 import numpy as np
 
 from robot_daemon.bus.packet import PACKET_OVERHEAD, BadChecksum, Frame, PacketParser
+from robot_daemon.bus.tables import Instruction
 from robot_daemon.realtime import check_priority, enter_realtime
+from robot_daemon.sim import bringup
 from robot_daemon.sim.bus import Bus
 from robot_daemon.sim.devices import Environment
 from robot_daemon.sim.faults import Faults
@@ -74,6 +76,8 @@ class Emulator(EmulatorApi):
         self.set_voltage(s.voltage)  # checks the range
         for dxl_id in s.silent_ids:
             self.silence(dxl_id)
+        self.bus.cm730_late_reads = s.cm730_late_reads
+        bringup.apply(self.bus, s)
         for dxl_id in s.overheat_ids:
             self.overheat(dxl_id)
         self.bus.line_bps = s.baud
@@ -358,11 +362,14 @@ class Emulator(EmulatorApi):
                 size = len(frame.params) + PACKET_OVERHEAD
             if wire_timing:
                 t += size * self.byte_time_s
+            chain = frame.code == Instruction.BULK_READ and not isinstance(frame, BadChecksum)
             for reply in self.bus.handle(frame):
                 packet, extra, fault = self.faults.apply(self.rng, reply.packet)
                 if fault:
                     self.stats[fault] += 1
                 if packet is None:
+                    if chain:
+                        break  # a bulk read's later devices wait for the lost status packet
                     continue
                 if wire_timing:
                     t += reply.return_delay_s + len(packet) * self.byte_time_s

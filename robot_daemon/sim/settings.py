@@ -61,6 +61,12 @@ class EmulatorSettings:
     delay: float = 0.0
     delay_ms: float = 50.0
     silent_ids: list[int] = field(default_factory=list)
+    # The CM-730 ignores this many READ/BULK_READ instructions first (a late CM-730).
+    cm730_late_reads: int = 0
+    # First-session behaviours of real servos (robot_daemon/sim/bringup.py).
+    old_firmware_ids: list[int] = field(default_factory=list)
+    leftover_ram_ids: list[int] = field(default_factory=list)
+    sag_units: float = 0.0
     overheat_ids: list[int] = field(default_factory=list)
     # A cable break right after each of these servos hides the ones behind it on its branch.
     broken_after: list[int] = field(default_factory=list)

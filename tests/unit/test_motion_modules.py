@@ -20,6 +20,8 @@ class Rig(PerfectServos):
         self.settings = load_all()
         super().__init__(build_manager(load_robot(), self.settings))
         self.accel_y = 512
+        self.run(100)  # still, upright: the gyro centre is measured (motion/gyro_centre.py)
+        assert self.m("imu").calibrated
 
     def run(self, ticks: int) -> None:
         for _ in range(ticks):

@@ -25,13 +25,33 @@ def ask(bus: Bus, dxl_id: int, inst: int, params: bytes | list[int] = b"") -> li
     return [f for r in replies for f in parser.feed(r.packet)]
 
 
-def test_bulk_read_answers_in_the_listed_order_and_skips_absent_ids() -> None:
+def test_bulk_read_answers_in_the_listed_order() -> None:
     bus = make_bus()
-    params = [0, 2, 20, 36, 2, 99, 36, 1, CM730_ID, 24, 2, 1, 36]
+    params = [0, 2, 20, 36, 1, CM730_ID, 24, 2, 1, 36]
     replies = ask(bus, 254, Instruction.BULK_READ, params)
     assert [r.id for r in replies] == [20, CM730_ID, 1]
     assert replies[0].params == (2048).to_bytes(2, "little")
     assert replies[1].params == b"\x01"
+
+
+@pytest.mark.parametrize("quiet", ["absent", "silent", "late CM-730"])
+def test_a_device_that_does_not_answer_mid_chain_silences_the_rest_of_the_bulk_read(
+    quiet: str,
+) -> None:
+    """Each device answers after the status packet of the one listed before it (a daisy
+    chain): when that packet never comes, nobody after it answers this bulk read."""
+    bus = make_bus()
+    middle = {"absent": 99, "silent": 7, "late CM-730": CM730_ID}[quiet]
+    if quiet == "silent":
+        bus.silent.add(7)
+    if quiet == "late CM-730":
+        bus.cm730_late_reads = 1
+    params = [0, 2, 20, 36, 1, middle, 24, 2, 1, 36]
+    assert [r.id for r in ask(bus, 254, Instruction.BULK_READ, params)] == [20]
+    if quiet != "absent":
+        bus.silent.clear()  # silent again, or (late) answering from the next read on
+        expected = [20, middle, 1]
+        assert [r.id for r in ask(bus, 254, Instruction.BULK_READ, params)] == expected
 
 
 def test_sync_write_applies_complete_blocks_only() -> None:

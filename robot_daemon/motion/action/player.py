@@ -140,12 +140,14 @@ class ActionModule(MotionModule):
         self._entry = 0  # the step the page was entered at
         self._stopping = False
         self._braking = False
+        self._only: set[int] | None = None  # play() asked for these joints only
 
     # -- commands (motion thread, between ticks) ------------------------------------------------
-    def play(self, ref: int | str, step: int = 1) -> Page:
+    def play(self, ref: int | str, step: int = 1, joints: set[int] | None = None) -> Page:
         """Queue a page to start on the next tick at ``step`` (1-based; later repeats start at
         1); ``KeyError`` for an unknown page or step, ``ValueError`` for a page (or a page it
-        chains to) that leaves the joint limits or breaks the format's rules."""
+        chains to) that leaves the joint limits or breaks the format's rules. ``joints``: play
+        only those of the page's joints (the others keep their owner)."""
         page = self.library.page(ref)
         if not 1 <= step <= len(page.steps):
             raise KeyError(f"page {page.number} ({page.name}) has steps 1..{len(page.steps)}")
@@ -163,8 +165,12 @@ class ActionModule(MotionModule):
                 )
         self._pending, self._pending_step = page, step - 1
         self._stopping = self._braking = False
-        self.claim(page_joints(page))
+        self._only = joints
+        self.claim(self._playable(page_joints(page)))
         return page
+
+    def _playable(self, ids: list[int]) -> set[int]:
+        return {j for j in ids if self._only is None or j in self._only}
 
     def in_use(self) -> set[int]:
         """Pages playing, queued, or reachable from the one playing (through next/exit)."""
@@ -245,7 +251,7 @@ class ActionModule(MotionModule):
         self._pos, self._vel = start, np.array([pvel.get(j, 0.0) for j in ids])
         self._frames = page_targets(page, ids, start)
         self._step, self._repeat, self._entry = first, 0, first
-        self.claim(ids)
+        self.claim(self._playable(ids))
         self._emit_page(page, "started")
         self._start_step()
 

@@ -23,12 +23,14 @@ import numpy as np
 from robot_daemon.motion.interface import JointFrame, MotionModule
 from robot_daemon.motion.walking.ik import leg_servo_angles
 from robot_daemon.motion.walking.params import WalkParams
-from schemas.units import IMU_CENTER, RAD_PER_UNIT
+from robot_daemon.motion.walking.ready import WalkReady
+from schemas.units import RAD_PER_UNIT
 
 LEG_IDS = tuple(range(7, 19))
 ARM_IDS = (1, 2)
 WALK_IDS = (*ARM_IDS, *LEG_IDS)
-ARM_INIT_DEG = {1: -48.345, 2: 41.313}  # the framework's shoulder pitch while walking
+ARM_INIT_DEG = {1: -48.345, 2: 41.313}
+ARM_P_GAIN = 8  # the framework's shoulder pitch while walking
 # Framework servo directions used by the gyro feedback (Walking.cpp ``dir``).
 _DIR = {9: -1, 10: -1, 13: 1, 14: -1, 15: -1, 16: 1, 17: 1, 18: 1}
 
@@ -48,8 +50,9 @@ def si_from_amplitudes(x_mm: float, y_mm: float, a_deg: float, period_ms: float)
     return (x_mm * 4 / 1000 / t, y_mm * 2 / 1000 / t, math.radians(a_deg) * 2 / t)
 
 
-class WalkingModule(MotionModule):
+class WalkingModule(WalkReady, MotionModule):
     name = "walking"
+    claim_ids = WALK_IDS
 
     def __init__(self, params: WalkParams | None = None) -> None:
         super().__init__()
@@ -62,6 +65,8 @@ class WalkingModule(MotionModule):
         self.steps = 0
         self.skipped = 0
         self._ready_t: float | None = None  # s left in the blend into the stance
+        # "calibrating" → "page" (the walk-ready page plays) → "" (the gait runs)
+        self._readying = ""
         self._ready_from: dict[int, float] = {}
         self._next_phase = 1  # the phase point (1, 2, 3) this period has not reached yet
         self._wrapped = False  # the period just ended: the next tick starts the new one
@@ -79,7 +84,10 @@ class WalkingModule(MotionModule):
         if x is not None or y is not None or turn is not None:
             self.set_speed(x or 0.0, y or 0.0, turn or 0.0)
         if not self.running:
-            self.claim(WALK_IDS)
+            # Gyro centre, then the walk-ready page first (walking/ready.py), if there is a player.
+            self._readying = "calibrating" if self._action() is not None else ""
+            if not self._readying:
+                self.claim(WALK_IDS)
             self.running = True
             self.time_ms = 0.0
             self.latched = [0.0, 0.0, 0.0]
@@ -111,6 +119,7 @@ class WalkingModule(MotionModule):
         self.ctrl_running = False
 
     def halt(self) -> None:
+        self._readying = ""
         self.ctrl_running = self.running = False
         self.cmd = [0.0, 0.0, 0.0]
         self.latched = [0.0, 0.0, 0.0]
@@ -170,6 +179,8 @@ class WalkingModule(MotionModule):
                 self._last = {}
                 self.release()
             return {}
+        if not frame.imu_calibrated:
+            return {}  # no motion before the gyro centre is measured (walking/ready.py)
         tick_ms = frame.dt * 1000.0
         if self._ready_t is not None:
             return self._blend(frame)
@@ -326,9 +337,12 @@ class WalkingModule(MotionModule):
         ``balance_filter`` s and limited to ``balance_limit`` degrees per joint: on a body
         without compliance (the simulator) the raw law feeds its own correction back."""
         p = self.params
+        # Relative to the centres measured at start (motion/gyro_centre.py); stale adds nothing.
+        centre = frame.gyro_centre
         raw = (
-            float(frame.gyro_raw[0]) - IMU_CENTER,  # right/left rate (gyro X)
-            float(frame.gyro_raw[1]) - IMU_CENTER,  # front/back rate (gyro Y)
+            (float(frame.gyro_raw[0] - centre[0]), float(frame.gyro_raw[1] - centre[1]))
+            if frame.imu_valid
+            else (0.0, 0.0)
         )
         a = 1.0 if p.balance_filter <= 0 else min(1.0, frame.dt / (p.balance_filter + frame.dt))
         self._gyro_f = [f + (r - f) * a for f, r in zip(self._gyro_f, raw, strict=True)]
@@ -356,7 +370,9 @@ class WalkingModule(MotionModule):
 
     def gains(self) -> dict[int, tuple[int, int, int]]:
         p = self.params
-        return {j: (p.p_gain, p.i_gain, p.d_gain) for j in LEG_IDS}
+        legs = {j: (p.p_gain, p.i_gain, p.d_gain) for j in LEG_IDS}
+        # Soft arms "to protect the joints when it fell down" (ROBOTIS Walking.cpp: P = 8).
+        return {**legs, **dict.fromkeys(ARM_IDS, (ARM_P_GAIN, 0, 0))}
 
     def status(self) -> dict[str, Any]:
         x, y, a = si_from_amplitudes(*self.latched, self.params.period_time)
