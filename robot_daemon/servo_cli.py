@@ -12,6 +12,7 @@ import sys
 from config.loader import load_all, load_robot, section_to
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget
 from robot_daemon.bus.port import BlockingPortHandler
+from robot_daemon.bus.preflight import MIN_MX28_FIRMWARE
 from robot_daemon.bus.replace import (
     ReplaceRefused,
     ServoSettings,
@@ -81,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
         bus.budget.margin_ms = args.margin_ms
         found = find_candidates(bus, set_rate, baud, robot.ids, parse_ids(args.scan_ids))
         bus.budget.margin_ms = careful
-        c = choose(found, args.id, settings.min_firmware)
+        c = choose(found, args.id, MIN_MX28_FIRMWARE)
         joint = robot.joint(args.id)
         plan = (
             f"candidate: MX-28 firmware {c.firmware}, ID {c.id} at {c.baud} bps\n"

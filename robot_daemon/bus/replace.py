@@ -33,7 +33,6 @@ class ServoSettings:
     return_delay_us: int = 0
     cw_angle_limit: int = 0
     ccw_angle_limit: int = 4095
-    min_firmware: int = 27
 
 
 @dataclass(frozen=True)

@@ -16,20 +16,17 @@ from importlib import metadata
 from pathlib import Path
 
 from config.loader import load_all, section_to
+from robot_daemon.bus.preflight import MIN_MX28_FIRMWARE
 from robot_daemon.bus.tables import SERVO_IDS
 from robot_daemon.doctor import checks as C
 from robot_daemon.doctor.probe import Facts, from_bus, from_daemon
+from robot_daemon.power_policy import load_settings as load_power_settings
 from schemas.errors import DarwinError, PortError
 from schemas.session import add_target_arguments, resolve_args
 
 
 @dataclass
 class DoctorSettings:
-    min_firmware: int = 27
-    voltage_warn_v: float = 11.1
-    voltage_fail_v: float = 10.5
-    temperature_warn_c: float = 60.0
-    temperature_fail_c: float = 70.0
     disk_min_mb: float = 500.0
     recordings_dir: str = ""
     loop_headroom_min: float = 0.25
@@ -80,6 +77,9 @@ def _daemon_facts(args: argparse.Namespace, ids: list[int]) -> tuple[Facts | Non
 def gather(args: argparse.Namespace) -> tuple[list[C.Check], str]:
     data = load_all(args.config)
     s = section_to(DoctorSettings, data.get("doctor", {}), "doctor")
+    # The battery and heat thresholds are the policy's own ([power], [heat]): the doctor warns
+    # where the robot warns and fails where it would sit down.
+    power, heat = load_power_settings(data)
     dcfg, bus_cfg = data.get("daemon", {}), data.get("bus", {})
     port = args.port or dcfg.get("port", "/dev/ttyUSB0")
     baud = int(args.baud or dcfg.get("baud", 1_000_000))
@@ -114,11 +114,9 @@ def gather(args: argparse.Namespace) -> tuple[list[C.Check], str]:
         else:
             out.append(C.Check("bus", C.OK, f"the daemon runs the bus ({facts.devices} devices)"))
         if facts.source == "daemon" or facts.answered_at == baud:
-            out += C.servos(ids, facts.servos, s.min_firmware)
-            out.append(C.voltage(facts.voltage, s.voltage_warn_v, s.voltage_fail_v))
-            out.append(
-                C.temperatures(facts.temperatures, s.temperature_warn_c, s.temperature_fail_c)
-            )
+            out += C.servos(ids, facts.servos, MIN_MX28_FIRMWARE)
+            out.append(C.voltage(facts.voltage, power.warn_v, power.sit_v))
+            out.append(C.temperatures(facts.temperatures, heat.warn_c, heat.sit_c))
     out.append(
         C.clock(
             time.time(), s.clock_min_year, facts.daemon_stamp if facts else None, s.clock_skew_s
