@@ -17,6 +17,8 @@ import importlib
 from types import ModuleType
 from typing import Any
 
+from schemas.errors import DarwinError
+
 # Top-level import name → the extra that installs it.
 EXTRA_OF: dict[str, str] = {
     "cv2": "vision",
@@ -40,7 +42,7 @@ DISTRIBUTION = "darwin-zenoh"
 ON_THE_ROBOT: dict[str, str] = {"vision": "python3-opencv"}
 
 
-class MissingExtraError(ModuleNotFoundError):
+class MissingExtraError(DarwinError, ModuleNotFoundError):
     """An optional package is not installed; the message names the extra that brings it."""
 
     def __init__(self, module: str, extra: str, what: str | None = None) -> None:
