@@ -21,6 +21,7 @@ import numpy as np
 import zenoh
 
 from robot_daemon.vision.sources import CameraSource, SourceContext, open_source
+from schemas import qos
 from schemas.keys import Keys
 from schemas.messages import CameraFrame, encode
 
@@ -82,7 +83,7 @@ class CameraThread:
         self._consumers: list[FrameConsumer] = []
         self._stop = False
         self._pub = session.declare_publisher(
-            keys.camera_jpeg, congestion_control=zenoh.CongestionControl.DROP
+            keys.camera_jpeg, **qos.for_key(keys.camera_jpeg).kwargs()
         )
         self._listener = self._pub.declare_matching_listener(self._on_matching)
         self._subscribed = self._pub.matching_status.matching
