@@ -17,10 +17,10 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 
 from config.loader import section_to
+from robot_daemon.vision.opencv import opencv
 from schemas.errors import ConfigError
 from schemas.messages import BallDetection
 
@@ -118,6 +118,7 @@ class BallFinder:
         """The colour mask after morphology (what blobs are taken from)."""
         if bgr.ndim != 3 or bgr.shape[2] != 3:
             raise ValueError(f"expected a BGR image of shape (h, w, 3), got shape {bgr.shape}")
+        cv2 = opencv()
         hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
         m = self.settings.color.mask(hsv)
         if self._erode is not None:
@@ -127,7 +128,7 @@ class BallFinder:
         return m
 
     def blobs(self, mask: np.ndarray) -> list[Blob]:
-        n, _, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        n, _, stats, centroids = opencv().connectedComponentsWithStats(mask, connectivity=8)
         out = []
         for i in range(1, n):
             w, h, area = (int(v) for v in stats[i, 2:5])
