@@ -54,9 +54,9 @@ class Qos:
         return Qos(BLOCK, self.priority, self.express)
 
 
-SAFETY = Qos(BLOCK, zenoh.Priority.REAL_TIME, express=True)
-COMMAND = Qos(BLOCK, zenoh.Priority.INTERACTIVE_HIGH, express=True)
-READ = Qos(BLOCK, zenoh.Priority.INTERACTIVE_LOW, express=True)
+SAFETY = Qos(BLOCK, zenoh.Priority.REAL_TIME)
+COMMAND = Qos(BLOCK, zenoh.Priority.INTERACTIVE_HIGH)
+READ = Qos(BLOCK, zenoh.Priority.INTERACTIVE_LOW)
 EVENTS = Qos(DROP, zenoh.Priority.DATA_HIGH)
 STATUS = Qos(DROP, zenoh.Priority.DATA_HIGH, express=True)
 TELEMETRY = Qos(DROP, zenoh.Priority.DATA, express=True)

@@ -37,6 +37,21 @@ DEFAULT_PORT = 7447
 # ``schemas.query``. Big enough for a rendered 640×480 camera frame (a reply the daemon
 # receives); small, because Zenoh buffers a fragmented message up to this size before it drops it.
 MAX_MESSAGE_BYTES = 2 * 1024 * 1024
+# The kernel's send buffer of every TCP/TLS link a listening session (daemon, router) opens
+# (bytes; Linux doubles it). Left to autotuning it grows to megabytes, and on a slow link
+# (Wi-Fi at 10 Mbit/s) seconds of camera frames wait in it ahead of a halt's reply, beyond the
+# reach of Zenoh's priorities and drops (schemas/qos.py): the link's keep-alives starve and the
+# lease ends. Kept small, the backlog stays in Zenoh's per-priority queues, where video is
+# dropped and control goes first; 64 KiB (128 KiB in the kernel) still fills a 10 Mbit/s link
+# at 100 ms round trip.
+SEND_BUFFER_BYTES = 16 * 1024
+# Zenoh writes one batch at a time: a reply waits for the batch being written. Camera frames
+# (~50 kB) go out as batches of at most this many bytes, so a halt's reply waits for one of
+# them, not a whole frame (Zenoh's default is 65535; the smaller side of a link wins).
+BATCH_BYTES = 16 * 1024
+# Batches of video (``DATA_LOW``) a link's queue holds: a whole frame's fragments fit (else its
+# last fragments find no room and the frame is dropped even when the link could carry it).
+VIDEO_QUEUE_BATCHES = 8
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 ENV_ENDPOINT = "DARWIN_ENDPOINT"
 ENV_ROBOT = "DARWIN_ROBOT"
@@ -333,6 +348,10 @@ def server_config(
     for ep in listen:
         check_endpoint(ep)
     conf = _config(mode, listen, [], lease_ms, max_message_bytes)
+    for proto in ("tcp", "tls"):
+        conf.insert_json5(f"transport/link/{proto}/so_sndbuf", str(SEND_BUFFER_BYTES))
+    conf.insert_json5("transport/link/tx/batch_size", str(BATCH_BYTES))
+    conf.insert_json5("transport/link/tx/queue/size/data_low", str(VIDEO_QUEUE_BATCHES))
     congestion = "transport/link/tx/queue/congestion_control"
     if mode == "peer":
         # The daemon's session (a router keeps Zenoh's defaults: with these it closed a lossy
