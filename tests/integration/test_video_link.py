@@ -32,11 +32,13 @@ def test_halt_and_lease_get_through_two_viewers_saturating_a_busy_wifi_link() ->
         link.operator.request("wait_status", path="camera.subscribed", equals=True, timeout=30)
         halts = link.operator.request("rtt", verb="halt", n=20, interval=0.25, fields={})
         # Measured once video has flowed for a while (Zenoh's buffers, the shared-memory pool
-        # the emulator's frames come through, are allocated by then), and again 5 s later.
+        # the emulator's frames come through, are allocated by then), and again 10 s later.
         before = link.rss_kib()
         renewals = link.operator.request(
             "rtt", verb="lease", n=20, interval=0.25, fields={"op": "renew"}
         )
+        # Five seconds more of video with only the background renewals keeping the lease.
+        link.operator.request("count", topic="status", seconds=5.0)
         after = link.rss_kib()
         seen = link.operator.request("camera", stop=True)
         second = link.viewer.request("camera", stop=True)
