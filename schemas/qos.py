@@ -3,9 +3,12 @@
 Every publisher and querier of the project takes its congestion control, priority and express
 flag from :func:`for_key`, so video never delays control on a busy link:
 
-- **halt and the lease** (``cmd/halt``, ``cmd/lease``): ``REAL_TIME``, never dropped, express.
+- **halt and the lease** (``cmd/halt``, ``cmd/lease``): ``REAL_TIME``, never dropped.
   A reply travels with its query's QoS (zenoh 1.10: ``Query.reply``'s own QoS arguments are
   ignored, "to avoid priority inversion"), so the querier's QoS here is the reply's too.
+  Not express: an express message takes a batch of its own, and a never-dropped message that
+  finds its priority's few batches full (a link stalled by loss) blocks, then closes the link;
+  batched, replies share a batch and wait at most Zenoh's 1 ms batching time.
 - **other commands** (``cmd/*``, ``admin/*``): ``INTERACTIVE_HIGH``, never dropped.
 - **reads and role probes** (``read/*``, ``role/*``): ``INTERACTIVE_LOW``, never dropped.
 - **events and status** (newest-only status, one-off events): ``DATA_HIGH``, droppable.
@@ -15,7 +18,8 @@ flag from :func:`for_key`, so video never delays control on a busy link:
 
 Zenoh keeps one transmission queue per priority on every link and empties the higher ones first;
 a droppable message meeting a full queue is dropped instead of waiting (``wait_before_drop`` in
-:func:`schemas.session.server_config`), so a halt's reply never queues behind camera frames.
+:func:`schemas.session.server_config`, which also keeps the kernel's send buffer small so that
+the backlog stays in these queues), so a halt's reply does not queue behind camera frames.
 """
 
 from __future__ import annotations
