@@ -37,20 +37,15 @@ DEFAULT_PORT = 7447
 # ``schemas.query``. Big enough for a rendered 640×480 camera frame (a reply the daemon
 # receives); small, because Zenoh buffers a fragmented message up to this size before it drops it.
 MAX_MESSAGE_BYTES = 2 * 1024 * 1024
-# The kernel's send buffer of every TCP/TLS link a listening session (daemon, router) opens
-# (bytes; Linux doubles it). Left to autotuning it grows to megabytes, and on a slow link
-# (Wi-Fi at 10 Mbit/s) seconds of camera frames wait in it ahead of a halt's reply, beyond the
-# reach of Zenoh's priorities and drops (schemas/qos.py): the link's keep-alives starve and the
-# lease ends. Kept small, the backlog stays in Zenoh's per-priority queues, where video is
-# dropped and control goes first; 64 KiB (128 KiB in the kernel) still fills a 10 Mbit/s link
-# at 100 ms round trip.
+# Video never delays control (docs/camera-and-network.md). The kernel's send buffer of each TCP
+# or TLS link a listening session (daemon, router) opens, in bytes (Linux doubles it): left to
+# autotuning it grows to megabytes, and on busy Wi-Fi seconds of camera frames waited there ahead
+# of a halt's reply, past Zenoh's priorities (the lease was lost). Small, the backlog stays in
+# Zenoh's per-priority queues, where video is dropped and control goes first.
 SEND_BUFFER_BYTES = 16 * 1024
-# Zenoh writes one batch at a time: a reply waits for the batch being written. Camera frames
-# (~50 kB) go out as batches of at most this many bytes, so a halt's reply waits for one of
-# them, not a whole frame (Zenoh's default is 65535; the smaller side of a link wins).
+# A reply waits for the batch being written: ~50 kB frames go out in batches this small.
 BATCH_BYTES = 16 * 1024
-# Batches of video (``DATA_LOW``) a link's queue holds: a whole frame's fragments fit (else its
-# last fragments find no room and the frame is dropped even when the link could carry it).
+# Video (DATA_LOW) batches a link queues: a whole frame's fragments fit, or it is dropped.
 VIDEO_QUEUE_BATCHES = 8
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 ENV_ENDPOINT = "DARWIN_ENDPOINT"
