@@ -36,6 +36,7 @@ from clients.recording import Recorder, Replayer, read_recording
 from clients.recording.recover import recover
 from schemas.keys import Keys
 from schemas.messages import CameraFrame, Joints, Status, decode, encode
+from schemas.qos import for_key
 from schemas.session import free_tcp_port, open_client, open_server
 from tests.integration.test_recording_mcap import imu_msg, joints_msg
 
@@ -100,7 +101,9 @@ def record(seconds: float, path: str) -> tuple[list[float], int]:
     keys = Keys("bench")
     rng = np.random.default_rng(1)
     with open_server([endpoint]) as robot, open_client(endpoint) as rec_session:
-        pubs = {t: robot.declare_publisher(k) for t, k in keys.topics().items()}
+        pubs = {
+            t: robot.declare_publisher(k, **for_key(k).kwargs()) for t, k in keys.topics().items()
+        }
         live = Listener(endpoint, "bench")
         rec = Recorder(rec_session, path, robot="bench", flush_interval=0.5).start()
         wait_matching(pubs["joints"])

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable
 
 from schemas.errors import ClientError, CommandError, LeaseBusyError, NoLeaseError
@@ -63,7 +64,14 @@ class LeaseKeeper:
             t.join(timeout=2.0)
 
     def _loop(self, stop: threading.Event) -> None:
-        while not stop.wait(self.period):
+        # A fixed rate, not a pause after each reply: on a slow link (busy Wi-Fi) a reply that
+        # takes most of a second would otherwise stretch the gap between renewals past the
+        # daemon's heartbeat_timeout, and the lease would end while the holder is there.
+        next_t = time.monotonic()
+        while True:
+            next_t = max(next_t + self.period, time.monotonic())
+            if stop.wait(max(0.0, next_t - time.monotonic())):
+                return
             if self._token is None:
                 return
             try:

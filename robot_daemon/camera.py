@@ -3,9 +3,13 @@
 Two kinds of consumer need frames: Zenoh subscribers of the camera key (a matching listener on
 the publisher says when the first arrives and the last leaves) and in-daemon readers such as
 ball vision (:meth:`CameraThread.consumer`). While either is there, the thread reads the source
-at its frame rate (absolute deadlines), JPEG-encodes and publishes when someone subscribes, and
-hands the raw frame to every reader. The source is opened once for all of them, and closed when
-nobody needs frames. Never in the motion loop.
+at its frame rate (absolute deadlines), publishes when someone subscribes, and hands the frame to
+every reader. A source that gives JPEG (a V4L2 camera in MJPEG, the simulated world) is passed
+through byte for byte: no decoding, no re-encoding, no OpenCV. Only a reader decodes, when it
+reads (ball vision, at the vision rate: a frame it skips is never decoded); only a source of raw
+frames (the test pattern, OpenCV's capture) is JPEG-encoded, and only when someone subscribes.
+The source is opened once for all of them, and closed when nobody needs frames. Never in the
+motion loop.
 """
 
 from __future__ import annotations
@@ -19,12 +23,12 @@ from typing import Any
 import numpy as np
 import zenoh
 
+from robot_daemon.vision.frames import Frame, JpegFrame, pixels
+from robot_daemon.vision.opencv import encode_jpeg
 from robot_daemon.vision.sources import CameraSource, SourceContext, open_source
-from schemas.extras import LazyModule
+from schemas import qos
 from schemas.keys import Keys
 from schemas.messages import CameraFrame, encode
-
-cv2 = LazyModule("cv2", "the camera's JPEG encoder")
 
 log = logging.getLogger(__name__)
 
@@ -38,20 +42,25 @@ class FrameConsumer:
     def __init__(self, owner: CameraThread) -> None:
         self._owner = owner
         self._cond = threading.Condition()
-        self._frame: np.ndarray | None = None
+        self._frame: Frame | None = None
         self._closed = False
+        self.decoded = 0  # JPEG frames decoded for this reader (only those it read)
 
-    def offer(self, img: np.ndarray) -> None:
+    def offer(self, frame: Frame) -> None:
         with self._cond:
-            self._frame = img
+            self._frame = frame
             self._cond.notify_all()
 
     def read(self, timeout: float = READ_TIMEOUT) -> np.ndarray | None:
-        """The next frame captured since the last read, or None after ``timeout``."""
+        """The next frame captured since the last read as a BGR image (decoded here, in the
+        reader's thread), or None after ``timeout``."""
         with self._cond:
             self._cond.wait_for(lambda: self._frame is not None or self._closed, timeout)
-            img, self._frame = self._frame, None
-            return img
+            frame, self._frame = self._frame, None
+        if frame is None:
+            return None
+        self.decoded += isinstance(frame, JpegFrame)
+        return pixels(frame)
 
     def close(self) -> None:
         with self._cond:
@@ -76,6 +85,7 @@ class CameraThread:
         self.opened = 0  # times the source was opened (once per stretch of being needed)
         self.captured = 0
         self.published = 0
+        self.passed_through = 0  # published as the source's own JPEG bytes
         self.errors = 0
         self.last_error = ""
         self._source: CameraSource | None = None
@@ -84,7 +94,7 @@ class CameraThread:
         self._consumers: list[FrameConsumer] = []
         self._stop = False
         self._pub = session.declare_publisher(
-            keys.camera_jpeg, congestion_control=zenoh.CongestionControl.DROP
+            keys.camera_jpeg, **qos.for_key(keys.camera_jpeg).kwargs()
         )
         self._listener = self._pub.declare_matching_listener(self._on_matching)
         self._subscribed = self._pub.matching_status.matching
@@ -152,21 +162,22 @@ class CameraThread:
                     self._stop = True
                     return
                 self.opened += 1
-            img = self._source.read()
-            if img is None:
+            frame = self._source.read()
+            if frame is None:
                 return
             self.captured += 1
             with self._cond:
                 readers, subscribed = list(self._consumers), self._subscribed
             for reader in readers:
-                reader.offer(img)
+                reader.offer(frame)
             if not subscribed:
                 return  # only in-daemon readers: no JPEG nobody receives
-            ok, jpeg = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, self.quality])
-            if not ok:
-                raise RuntimeError("JPEG encoding failed")
-            h, w = img.shape[:2]
-            msg = CameraFrame(jpeg=jpeg.tobytes(), width=w, height=h, seq=self.captured)
+            if isinstance(frame, JpegFrame):
+                self.passed_through += 1
+                jpeg, w, h = frame.jpeg, frame.width, frame.height
+            else:
+                jpeg, (h, w) = encode_jpeg(frame, self.quality), frame.shape[:2]
+            msg = CameraFrame(jpeg=jpeg, width=w, height=h, seq=self.captured)
             self._pub.put(encode(msg))
             self.published += 1
         except Exception as exc:  # a camera unplugged mid-run: report, retry after a pause
@@ -191,6 +202,7 @@ class CameraThread:
             "opened": self.opened,
             "captured": self.captured,
             "published": self.published,
+            "passed_through": self.passed_through,
             "errors": self.errors,
             "last_error": self.last_error,
             "fps": self.ctx.fps,

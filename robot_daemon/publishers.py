@@ -14,6 +14,7 @@ from typing import Any
 
 import zenoh
 
+from schemas import qos
 from schemas.keys import Keys
 from schemas.messages import Event, Message, encode
 
@@ -31,17 +32,12 @@ class Publishers:
         self.keys = keys
         self._pubs: dict[str, zenoh.Publisher] = {}
         for topic in SLOT_TOPICS:
-            self._pubs[topic] = session.declare_publisher(
-                getattr(keys, topic),
-                congestion_control=zenoh.CongestionControl.DROP,
-                express=True,
-            )
+            key = getattr(keys, topic)
+            self._pubs[topic] = session.declare_publisher(key, **qos.for_key(key).kwargs())
         # Events have a queue of their own on every link (a higher priority than the per-tick
-        # topics), so a burst of joints frames waiting for a busy sender never crowds one out.
+        # topics, schemas/qos.py), so a burst of joints frames never crowds one out.
         self._pubs["events"] = session.declare_publisher(
-            keys.events,
-            congestion_control=zenoh.CongestionControl.DROP,
-            priority=zenoh.Priority.DATA_HIGH,
+            keys.events, **qos.for_key(keys.events).kwargs()
         )
         self._slots: dict[str, Message] = {}
         self._events: deque[Event] = deque(maxlen=1000)

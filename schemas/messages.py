@@ -209,6 +209,7 @@ class CameraInfo(TypedDict, total=False):
     height: int
     opened: int  # times the source was opened (one owner: once while anyone needs frames)
     readers: int  # in-process frame readers (ball vision)
+    passed_through: int  # published as the source's own JPEG (V4L2 MJPEG, the sim world)
 
 
 class NetworkInfo(TypedDict, total=False):

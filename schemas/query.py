@@ -23,7 +23,7 @@ from typing import Any
 import msgpack
 import zenoh
 
-from schemas import SCHEMA_VERSION
+from schemas import SCHEMA_VERSION, qos
 from schemas.errors import (
     CommandError,
     CommandTimeoutError,
@@ -220,7 +220,10 @@ def ask(
             verb,
         )
     try:
-        replies = list(session.get(key, payload=payload, timeout=timeout))
+        # The reply comes back with the query's QoS: halt's and the lease's go first.
+        replies = list(
+            session.get(key, payload=payload, timeout=timeout, **qos.for_key(key).kwargs())
+        )
     except zenoh.ZError as exc:
         raise RobotUnreachableError(f"{verb}: the Zenoh session failed: {exc}") from exc
     if not replies:

@@ -25,6 +25,7 @@ from __future__ import annotations
 from enum import StrEnum
 from typing import Any
 
+from schemas import qos
 from schemas.commands import SPEC, op_of
 from schemas.errors import ErrorCode, ForbiddenError
 from schemas.keys import VERBS, Keys
@@ -137,6 +138,9 @@ def verbs_allowed(role: Role | str | None) -> frozenset[str]:
 def discover_role(session: Any, keys: Keys, timeout: float) -> Role | None:
     """The highest role whose key (``Keys.role``) answers: access control lets each caller
     reach only its own roles' keys, and drops the others at once (no reply, no wait)."""
-    pending = {r: session.get(keys.role(r), timeout=timeout) for r in LADDER}
+    pending = {
+        r: session.get(keys.role(r), timeout=timeout, **qos.for_key(keys.role(r)).kwargs())
+        for r in LADDER
+    }
     answered = {r for r, replies in pending.items() if any(x.ok is not None for x in replies)}
     return max(answered, key=LADDER.index) if answered else None

@@ -38,6 +38,16 @@ DEFAULT_PORT = 7447
 # ``schemas.query``. Big enough for a rendered 640×480 camera frame (a reply the daemon
 # receives); small, because Zenoh buffers a fragmented message up to this size before it drops it.
 MAX_MESSAGE_BYTES = 2 * 1024 * 1024
+# Video never delays control (docs/camera-and-network.md). The kernel's send buffer of each TCP
+# or TLS link a listening session (daemon, router) opens, in bytes (Linux doubles it): left to
+# autotuning it grows to megabytes, and on busy Wi-Fi seconds of camera frames waited there ahead
+# of a halt's reply, past Zenoh's priorities (the lease was lost). Small, the backlog stays in
+# Zenoh's per-priority queues, where video is dropped and control goes first.
+SEND_BUFFER_BYTES = 16 * 1024
+# A reply waits for the batch being written: ~50 kB frames go out in batches this small.
+BATCH_BYTES = 16 * 1024
+# Video (DATA_LOW) batches a link queues: a whole frame's fragments fit, or it is dropped.
+VIDEO_QUEUE_BATCHES = 8
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 ENV_ENDPOINT = "DARWIN_ENDPOINT"
 ENV_ROBOT = "DARWIN_ROBOT"
@@ -333,6 +343,10 @@ def server_config(
     for ep in listen:
         check_endpoint(ep)
     conf = _config(mode, listen, [], lease_ms, max_message_bytes)
+    for proto in ("tcp", "tls"):
+        conf.insert_json5(f"transport/link/{proto}/so_sndbuf", str(SEND_BUFFER_BYTES))
+    conf.insert_json5("transport/link/tx/batch_size", str(BATCH_BYTES))
+    conf.insert_json5("transport/link/tx/queue/size/data_low", str(VIDEO_QUEUE_BATCHES))
     congestion = "transport/link/tx/queue/congestion_control"
     if mode == "peer":
         # The daemon's session (a router keeps Zenoh's defaults: with these it closed a lossy

@@ -22,6 +22,7 @@ from typing import Any, Self
 import zenoh
 
 from clients.recording.reader import Recording, read_recording
+from schemas import qos
 from schemas.errors import ErrorCode, InvalidCommandError, StateError, brief
 from schemas.keys import Keys
 from schemas.query import serve
@@ -100,7 +101,7 @@ class Replayer:
             # BLOCK: a replay is not a control loop, and dropping recorded samples would make
             # the replay differ from the recording.
             self._pubs[t] = self._session.declare_publisher(
-                topics[t], congestion_control=zenoh.CongestionControl.BLOCK
+                topics[t], **qos.for_key(topics[t]).lossless().kwargs()
             )
         self._queryable = serve(
             self._session,

@@ -22,6 +22,7 @@ from clients.robot import Robot
 from clients.ros2 import convert, graph
 from clients.ros2.node import GraphWatch, RosNode
 from clients.ros2.types import msg_class
+from schemas import qos
 from schemas.body import Body
 from schemas.errors import CommandError, DarwinError, LeaseBusyError, NoLeaseError
 from schemas.messages import CameraFrame, Event, Imu, Joints, World, encode
@@ -379,6 +380,7 @@ class Adapter:
             self.robot.session.put(
                 self.robot.keys.events,
                 encode(Event(kind=kind, message=message, data={"client": self.robot.name})),
+                **qos.for_key(self.robot.keys.events).kwargs(),
             )
 
     @property

@@ -20,11 +20,9 @@ from typing import Any
 import numpy as np
 
 from config.loader import section_to
+from robot_daemon.vision.opencv import opencv
 from schemas.errors import ConfigError
-from schemas.extras import LazyModule
 from schemas.messages import BallDetection
-
-cv2 = LazyModule("cv2", "ball finding")
 
 
 @dataclass(frozen=True)
@@ -111,7 +109,7 @@ class BallFinder:
     """Finds the ball in BGR images (320×240 or any size; angles scale with the size)."""
 
     def __init__(self, settings: FinderSettings) -> None:
-        cv2.load()  # MissingExtraError now, before ball play starts, not in the vision thread
+        opencv("ball finding")  # MissingExtraError now, before ball play starts, not later
         self.settings = settings
         s = settings
         self._erode = np.ones((s.erode, s.erode), np.uint8) if s.erode > 1 else None
@@ -121,6 +119,7 @@ class BallFinder:
         """The colour mask after morphology (what blobs are taken from)."""
         if bgr.ndim != 3 or bgr.shape[2] != 3:
             raise ValueError(f"expected a BGR image of shape (h, w, 3), got shape {bgr.shape}")
+        cv2 = opencv()
         hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
         m = self.settings.color.mask(hsv)
         if self._erode is not None:
@@ -130,7 +129,7 @@ class BallFinder:
         return m
 
     def blobs(self, mask: np.ndarray) -> list[Blob]:
-        n, _, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        n, _, stats, centroids = opencv().connectedComponentsWithStats(mask, connectivity=8)
         out = []
         for i in range(1, n):
             w, h, area = (int(v) for v in stats[i, 2:5])

@@ -1,8 +1,11 @@
 """Camera sources: where frames come from. A source is anything with ``read()`` (a BGR
-``np.ndarray`` or None when no frame is ready) and ``close()``.
+``np.ndarray``, the camera's own JPEG as a :class:`JpegFrame`, or None when no frame is ready)
+and ``close()``.
 
 ``open_source(spec, ctx)`` picks one: ``"none"``, a device index (``"0"``) or path
-(``"/dev/video0"``) for OpenCV/V4L2, ``"pattern"`` for a synthetic test pattern, or any name
+(``"/dev/video0"``) for a V4L2 camera asked for MJPEG (:mod:`robot_daemon.vision.v4l2`, no
+OpenCV; a camera without MJPEG falls back to OpenCV's capture when OpenCV is installed),
+``"pattern"`` for a synthetic test pattern (needs OpenCV), or any name
 registered with :func:`register_source` — e.g. the simulated world registers ``"sim"`` (from the
 module :data:`PLUGIN_MODULES` names). Until a plugin registers ``"sim"``, it is the test pattern.
 """
@@ -19,10 +22,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from robot_daemon.vision.frames import Frame
+from robot_daemon.vision.opencv import opencv
+from robot_daemon.vision.v4l2 import V4L2Error, V4L2Source
 from schemas.errors import DarwinError
-from schemas.extras import LazyModule
-
-cv2 = LazyModule("cv2", "a camera read through OpenCV")
 
 log = logging.getLogger(__name__)
 
@@ -31,7 +34,7 @@ PLUGIN_MODULES = ("robot_daemon.sim.world.camera_source",)
 
 
 class CameraSource(Protocol):
-    def read(self) -> np.ndarray | None: ...
+    def read(self) -> Frame | None: ...
     def close(self) -> None: ...
 
 
@@ -99,13 +102,25 @@ def open_source(spec: str, ctx: SourceContext) -> CameraSource | None:
     if spec in ("pattern", "sim"):
         return TestPatternSource(ctx.width, ctx.height)
     check_spec(spec)
+    path = f"/dev/video{spec}" if spec.isdigit() else spec
+    try:
+        return V4L2Source(path, ctx.width, ctx.height, ctx.fps)
+    except V4L2Error as exc:
+        if "MJPEG" not in str(exc):
+            raise
+        try:
+            opencv()
+        except DarwinError:
+            raise exc from None
+        log.info("%s; using OpenCV's capture (decoded, then re-encoded for viewers)", exc)
     return OpenCVSource(int(spec) if spec.isdigit() else spec, ctx.width, ctx.height, ctx.fps)
 
 
 class OpenCVSource:
-    """A V4L2 camera through OpenCV."""
+    """A V4L2 camera through OpenCV (a camera without MJPEG: raw frames, encoded for viewers)."""
 
     def __init__(self, device: int | str, width: int, height: int, fps: float) -> None:
+        cv2 = opencv("a camera without MJPEG")
         self.device = device
         self.cap = cv2.VideoCapture(device, cv2.CAP_V4L2)
         if not self.cap.isOpened():
@@ -131,6 +146,7 @@ class TestPatternSource:
     __test__ = False  # not a pytest class
 
     def __init__(self, width: int = 320, height: int = 240) -> None:
+        self._cv2 = opencv("the test pattern camera")
         self.width, self.height = width, height
         bars = np.zeros((height, width, 3), dtype=np.uint8)
         colours = [(255, 255, 255), (0, 255, 255), (255, 255, 0), (0, 255, 0), (255, 0, 255)]
@@ -146,6 +162,7 @@ class TestPatternSource:
         img = self._bars.copy()
         cx = int(self.width / 2 + self.width / 4 * math.cos(t))
         cy = int(self.height / 2 + self.height / 4 * math.sin(t))
+        cv2 = self._cv2
         cv2.circle(img, (cx, cy), max(4, self.height // 12), (0, 0, 230), -1)
         self.frames += 1
         cv2.putText(

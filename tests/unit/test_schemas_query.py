@@ -37,6 +37,9 @@ from schemas.session import client_config, free_tcp_port, server_config
 
 REPO = Path(__file__).resolve().parents[2]
 
+# Keys in the robot key space, so that schemas/qos.py gives their queries a QoS.
+KQ, KNONE, KSLOW = "darwin/t/read/q", "darwin/t/read/none", "darwin/t/read/slow"
+
 
 def test_every_error_code_maps_to_its_class_and_back() -> None:
     assert set(ERROR_CLASSES) == {str(c) for c in ErrorCode}
@@ -138,25 +141,25 @@ def test_serve_and_ask_round_trip_with_errors_translated_once(pair) -> None:
             raise ZeroDivisionError("oops")
         return {"echo": req["op"]}
 
-    q = serve(server, "t/q", handle, what="test")
+    q = serve(server, KQ, handle, what="test")
     try:
-        got = ask(client, "t/q", request_payload(op="hi"), 5, verb="hi", unreachable=_unreachable)
+        got = ask(client, KQ, request_payload(op="hi"), 5, verb="hi", unreachable=_unreachable)
         assert got == {"echo": "hi"}
         with pytest.raises(RateLimitedError) as info:
-            ask(client, "t/q", request_payload(op="fail"), 5, verb="fail", unreachable=_unreachable)
+            ask(client, KQ, request_payload(op="fail"), 5, verb="fail", unreachable=_unreachable)
         assert info.value.retry_after == 0.25 and info.value.field == "op"
         with pytest.raises(CommandError) as info:
-            ask(client, "t/q", request_payload(op="bug"), 5, verb="bug", unreachable=_unreachable)
+            ask(client, KQ, request_payload(op="bug"), 5, verb="bug", unreachable=_unreachable)
         assert info.value.code == "internal"
         with pytest.raises(InvalidCommandError) as info:  # no schema version
-            ask(client, "t/q", b"\x81\xa2op\xa2hi", 5, verb="x", unreachable=_unreachable)
+            ask(client, KQ, b"\x81\xa2op\xa2hi", 5, verb="x", unreachable=_unreachable)
         assert info.value.field == "v"
         big = request_payload(op="hi", blob=b"x" * (MAX_PAYLOAD + 1))
         with pytest.raises(OutOfRangeError) as info:
-            ask(client, "t/q", big, 5, verb="big", unreachable=_unreachable)
+            ask(client, KQ, big, 5, verb="big", unreachable=_unreachable)
         assert info.value.field == "payload" and len(info.value.message) < 200
         with pytest.raises(RobotUnreachableError):
-            ask(client, "t/none", request_payload(op="hi"), 0.5, verb="x", unreachable=_unreachable)
+            ask(client, KNONE, request_payload(op="hi"), 0.5, verb="x", unreachable=_unreachable)
     finally:
         q.undeclare()
 
@@ -164,11 +167,11 @@ def test_serve_and_ask_round_trip_with_errors_translated_once(pair) -> None:
 def test_a_queryable_that_never_answers_is_a_timeout(pair) -> None:
     server, client = pair
     held: list[zenoh.Query] = []
-    q = server.declare_queryable("t/slow", held.append)
+    q = server.declare_queryable(KSLOW, held.append)
     try:
         t0 = time.monotonic()
         with pytest.raises(CommandTimeoutError):
-            ask(client, "t/slow", request_payload(op="x"), 0.5, verb="x", unreachable=_unreachable)
+            ask(client, KSLOW, request_payload(op="x"), 0.5, verb="x", unreachable=_unreachable)
         assert time.monotonic() - t0 < 5
     finally:
         for query in held:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import msgpack
 import numpy as np
 import pytest
@@ -225,6 +226,22 @@ def test_render_op_gives_a_frame_with_the_ball() -> None:
     assert ok and img.shape == (240, 320, 3)
     red = (img[..., 2] > 120) & (img[..., 1] < 80) & (img[..., 0] < 80)
     assert red.sum() > 30
+
+
+def test_render_op_gives_the_jpeg_a_camera_would_and_refuses_bad_formats() -> None:
+    emu = _Emu()
+    emu.world.step(DT, stance())
+    emu.world.place_ball(0.4, 0.0)
+    ok, reply = call(emu, op="render", format="jpeg", quality=90)
+    a = reply["applied"]
+    assert ok and "bgr" not in a and a["jpeg"].startswith(b"\xff\xd8")
+    img = cv2.imdecode(np.frombuffer(a["jpeg"], np.uint8), cv2.IMREAD_COLOR)
+    assert img.shape == (a["height"], a["width"], 3) == (240, 320, 3)
+    red = (img[..., 2] > 120) & (img[..., 1] < 80) & (img[..., 0] < 80)
+    assert red.sum() > 30
+    for bad, field in (({"format": "png"}, "format"), ({"quality": 0}, "quality")):
+        ok, reply = call(emu, op="render", **bad)
+        assert not ok and reply["field"] == field
 
 
 def test_push_tips_the_kinematic_body_the_way_it_was_pushed_above_the_threshold() -> None:

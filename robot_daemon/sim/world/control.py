@@ -7,7 +7,10 @@
 | `place_ball` | `x`, `y` (m), `vx`, `vy` (m/s, default 0) | puts the ball there |
 | `remove_ball` | | takes the ball off the field |
 | `push` | `fx`, `fy`, `fz` (N, field; fz default 0), `duration` (s, default 0.1) | a shove |
-| `render` | | one camera frame: `bgr` (raw bytes, row-major), `width`, `height`, `seq` |
+| `render` | `format` (`bgr`, `jpeg`), `quality` (1-100, 80) | one camera frame (below) |
+
+`render` answers ``width``, ``height``, ``seq`` and either ``bgr`` (raw bytes, row-major) or, with
+``format="jpeg"``, ``jpeg`` (the bytes of a JPEG file at ``quality``).
 
 `push`: the MuJoCo plant applies the force at the torso's centre of mass for ``duration`` s of
 simulated time; the kinematic body tips over the way it was pushed when the horizontal impulse
@@ -23,12 +26,14 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from robot_daemon.sim.control import field, register_control_op
+from robot_daemon.vision.opencv import encode_jpeg
 from schemas.errors import FieldError, brief
 
 if TYPE_CHECKING:
     from robot_daemon.sim.emulator import Emulator
     from robot_daemon.sim.world.world import SimWorld
 
+RENDER_FORMATS = ("bgr", "jpeg")
 # Anything placed farther than this from the field centre is a typo, not a test (m).
 MAX_COORD = 50.0
 
@@ -90,20 +95,33 @@ def push(emulator: Emulator, request: dict[str, Any]) -> dict[str, Any]:
         force.append(value)
     duration = field(request, "duration", float, 0.1)
     if not math.isfinite(duration) or not 0.0 < duration <= MAX_PUSH_S:
-        raise FieldError(
-            "duration", f"duration={brief(duration)} must be in (0, {MAX_PUSH_S}] s"
-        )
+        raise FieldError("duration", f"duration={brief(duration)} must be in (0, {MAX_PUSH_S}] s")
     world = world_of(emulator)
     world.push((force[0], force[1], force[2]), duration)
     return {"impulse": [f * duration for f in force], "fallen": world.snapshot().fallen}
 
 
 def render(emulator: Emulator, request: dict[str, Any]) -> dict[str, Any]:
+    """One frame, raw or as the JPEG a UVC camera in MJPEG would send: the simulator (a laptop)
+    encodes, so the daemon's camera passes the bytes through as it does a real camera's."""
+    fmt = field(request, "format", str, "bgr")
+    if fmt not in RENDER_FORMATS:
+        raise FieldError(
+            "format", f"format={brief(fmt)} must be one of {', '.join(RENDER_FORMATS)}"
+        )
+    quality = field(request, "quality", int, 80)
+    if not 1 <= quality <= 100:
+        raise FieldError("quality", f"quality={brief(quality)} must be within 1..100")
     world = world_of(emulator)
     img = world.render()
     world.frames_rendered += 1
     h, w = img.shape[:2]
-    return {"bgr": img.tobytes(), "width": w, "height": h, "seq": world.frames_rendered}
+    reply: dict[str, Any] = {"width": w, "height": h, "seq": world.frames_rendered}
+    if fmt == "jpeg":
+        reply["jpeg"] = encode_jpeg(img, quality)
+    else:
+        reply["bgr"] = img.tobytes()
+    return reply
 
 
 def install() -> None:

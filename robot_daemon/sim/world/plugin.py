@@ -26,6 +26,7 @@ from config.loader import load_all
 from robot_daemon.sim.world import control
 from robot_daemon.sim.world.settings import WorldSettings
 from robot_daemon.sim.world.world import SimWorld, make_world
+from schemas import qos
 from schemas.keys import Keys
 from schemas.messages import encode
 
@@ -140,7 +141,7 @@ class WorldLink:
         if session is None:
             return
         pub = session.declare_publisher(
-            self.keys.sim_world, congestion_control=zenoh.CongestionControl.DROP
+            self.keys.sim_world, **qos.for_key(self.keys.sim_world).kwargs()
         )
         period = 1.0 / max(0.5, self.world.settings.publish_hz)
         try:
