@@ -1,0 +1,64 @@
+"""A router that goes away and comes back (issue 26): a robot that protects its own endpoint
+(``--auth``) and joined an authenticated router says when the router loses sight of it and when
+it sees it again; ``darwin list`` says the router is unreachable while it is away and lists the
+robot again once it is back; the robot's own endpoint keeps serving throughout."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from clients.fleet import discover_at
+from schemas.errors import RobotUnreachableError
+from schemas.session import Credentials, free_tcp_port
+from tests.fixtures.fleet import start_router
+from tests.fixtures.system import start_system
+from tests.integration.test_auth import PASSWORDS, add_user, make_users
+
+DEADLINE_S = 60.0  # a failure bound only
+
+
+def eventually(check: Callable[[], bool]) -> bool:
+    deadline = time.monotonic() + DEADLINE_S
+    while time.monotonic() < deadline:
+        if check():
+            return True
+    return False
+
+
+def listed(endpoint: str, robot: str) -> bool:
+    try:
+        records = discover_at(endpoint, creds=Credentials("op", PASSWORDS["op"]))
+    except RobotUnreachableError:
+        return False
+    return robot in {r.name for r in records}
+
+
+def test_a_protected_robot_rejoins_a_restarted_router_and_says_so(tmp_path: Path) -> None:
+    users = make_users(tmp_path)
+    pw = add_user(users, "rb", "robot", "robot-password-1")
+    port = free_tcp_port()
+    first = start_router("--auth", str(users), port=port)
+    router = first.__enter__()
+    own = f"tcp/127.0.0.1:{free_tcp_port()}"
+    login = ["--user", "rb", "--password-file", str(pw), "--auth", str(users), "--listen", own]
+    system = start_system(router=router.endpoint, gateway=False, extra_args=login)
+    try:
+        robot = system.__enter__()
+        try:
+            assert eventually(lambda: listed(router.endpoint, robot.robot))
+            first.__exit__(None, None, None)
+            robot.wait_line(lambda ln: "does not see this robot" in ln, DEADLINE_S)
+            with pytest.raises(RobotUnreachableError, match="nothing answers"):
+                discover_at(router.endpoint, creds=Credentials("op", PASSWORDS["op"]))
+            assert listed(own, robot.robot)  # its own endpoint serves while the router is away
+            with start_router("--auth", str(users), port=port) as again:
+                robot.wait_line(lambda ln: "sees this robot again" in ln, DEADLINE_S)
+                assert eventually(lambda: listed(again.endpoint, robot.robot))
+        finally:
+            system.__exit__(None, None, None)
+    finally:
+        first.__exit__(None, None, None)
