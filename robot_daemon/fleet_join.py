@@ -175,8 +175,10 @@ def check_login_needs_router(args: object, router: str | None) -> None:
     ``DARWIN_USER``… are a person's client login and stay unread)."""
     given = [f"--{o.replace('_', '-')}" for o in ("user", "password_file", "cert", "key", "ca")
              if getattr(args, o, None)]
-    if given and not router:
+    # Without --router, `darwin up --tui`'s --user… are the login of the person at the UI.
+    if given and not router and not getattr(args, "tui", False):
         raise ValueError(
             f"{'/'.join(given)} log this robot in to a router: add --router ENDPOINT, or drop "
-            "them (to require logins at this robot's own endpoint, use --auth FILE or --secure)"
+            "them (to require logins at this robot's own endpoint, use --auth FILE or --secure; "
+            "with --tui they are the UI's login)"
         )
