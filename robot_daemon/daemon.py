@@ -32,6 +32,7 @@ from robot_daemon.arbiter.registry import MotionContext, Reject, Request, needs_
 from robot_daemon.arbiter.throttle import ArbiterLimits
 from robot_daemon.bus.power_watch import check_dxl_power
 from robot_daemon.bus.robot_bus import RobotBus
+from robot_daemon.fleet_join import ROUTER_CONNECT_TIMEOUT_MS, join_router
 from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.interface import JointFrame, Targets
@@ -544,21 +545,6 @@ class Daemon:
                 self._emit(kind, message, **data)
             self._publish_status(time.monotonic())
             self._wake.wait(min(self.status_period, max(0.0, deadline - time.monotonic())))
-
-
-# How long the daemon waits for its router at start before it says it cannot reach it; later
-# losses are retried for ever (Zenoh re-links by itself).
-ROUTER_CONNECT_TIMEOUT_MS = 5000
-
-
-def join_router(conf: zenoh.Config, router: str, connect: list[str]) -> None:
-    """Make ``conf`` (the daemon's peer session) join ``router``, failing at start when it
-    cannot be reached. Gossip is off: a robot in a fleet talks only through its router, never
-    straight to another robot it might hear about (the router is where access is controlled)."""
-    conf.insert_json5("connect/endpoints", json.dumps([router, *connect]))
-    conf.insert_json5("connect/timeout_ms", str(ROUTER_CONNECT_TIMEOUT_MS))
-    conf.insert_json5("connect/exit_on_failure", "true")
-    conf.insert_json5("scouting/gossip/enabled", "false")
 
 
 def _zenoh_reason(exc: Exception) -> str:

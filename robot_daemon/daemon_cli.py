@@ -20,6 +20,7 @@ from typing import Any
 from config.loader import load_all, robot_from_dict
 from robot_daemon.children import Child, relay_to_stderr
 from robot_daemon.daemon import Daemon, DaemonOptions
+from robot_daemon.fleet_join import RouterWatch, check_login_needs_router
 from robot_daemon.security.options import (
     add_security_arguments,
     listen_warnings,
@@ -159,7 +160,9 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
         default_listen = [] if router else list(settings.get("zenoh", {}).get("listen", []))
         listen = secure_listen(args.listen or default_listen, security, explicit=bool(args.listen))
         listen = _resolve_listen(listen)
-    except ValueError as exc:  # a bad --robot, --listen or --mtls names itself
+        check_login_needs_router(args, router)
+        creds = credentials_from_args(args) if router else None
+    except (ValueError, OSError) as exc:  # a bad --robot, --listen, --mtls or login names itself
         raise ConfigError(str(exc)) from None
     for warning in listen_warnings(listen, security):
         print(f"darwin daemon: {warning}", file=sys.stderr, flush=True)
@@ -177,7 +180,7 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
             else dcfg.get("allow_eeprom_writes", False)
         ),
         security=security,
-        credentials=credentials_from_args(args) if router else None,
+        credentials=creds,
         extras={
             "allow_hardware_writes": bool(
                 args.allow_hardware_writes
@@ -240,6 +243,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         port = args.port or str(load_all(args.config).get("daemon", {}).get("port"))
     daemon: Daemon | None = None
+    watch: RouterWatch | None = None
     try:
         daemon, _ = build(args, port)
         daemon.options.connect = connect
@@ -252,7 +256,15 @@ def run(args: argparse.Namespace) -> int:
         signal.signal(signal.SIGINT, on_signal)
         # Fail fast on a wrong or busy port at start; later losses are reopened with back-off.
         daemon.connect_bus()
+        if daemon.options.router:
+            # Checked before the daemon's own session: unreachable or refused says so now.
+            watch = RouterWatch(daemon.options.router, daemon.options.credentials)
+            if daemon.options.security is not None:
+                daemon.options.security.router_zids = watch.router_zids
         daemon.start_network()
+        if watch is not None:
+            watch.wait_visible(daemon.keys.alive)
+            watch.watch(daemon.keys.alive)
         print(f"port: {port}", flush=True)
         print(f"robot: {daemon.options.robot}", flush=True)
         # Where clients connect: the router first (what `darwin up` passes on), then our own.
@@ -262,6 +274,8 @@ def run(args: argparse.Namespace) -> int:
         daemon.run()
         return 0
     finally:
+        if watch is not None:
+            watch.close()
         if daemon is not None:
             daemon.close()
         if emulator is not None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import signal
 import sys
 import threading
@@ -19,6 +20,7 @@ import zenoh
 
 from config.loader import load_all
 from robot_daemon.daemon_cli import _resolve_listen
+from robot_daemon.fleet_join import stable_router_id
 from robot_daemon.security.acl import Security, check_listen
 from robot_daemon.security.options import (
     add_security_arguments,
@@ -68,7 +70,11 @@ def router_config(listen: list[str], settings: dict[str, Any]) -> zenoh.Config:
     rcfg = settings.get("router", {})
     zcfg = settings.get("zenoh", {})
     lease = int(rcfg.get("link_lease_ms", zcfg.get("link_lease_ms", 3000)))
-    return server_config(listen, lease, mode="router")
+    conf = server_config(listen, lease, mode="router")
+    # The same ID after a restart: robots that protect their own endpoint trust their router
+    # by it (``robot_daemon.fleet_join``), so a restarted router is let in again.
+    conf.insert_json5("id", json.dumps(stable_router_id(listen)))
+    return conf
 
 
 def open_router(listen: list[str], conf: zenoh.Config) -> zenoh.Session:

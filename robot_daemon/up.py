@@ -31,6 +31,7 @@ from config.loader import load_all
 from robot_daemon.adapter_logins import ADAPTERS, UI, adapter_login, roles, ui_login
 from robot_daemon.children import Child, ChildError, relay_to_stderr
 from robot_daemon.daemon_cli import _resolve_listen, router_of
+from robot_daemon.fleet_join import check_login_needs_router
 from robot_daemon.security.acl import check_listen
 from robot_daemon.security.internal import Internal
 from robot_daemon.security.options import (
@@ -183,6 +184,7 @@ def run(args: argparse.Namespace) -> int:
     router = router_of(args, settings)
     listen: str | None = None
     try:
+        check_login_needs_router(args, router)
         security = security_from_args(args)
         if args.listen or not router:
             # Joined to a router, the daemon listens only where told (see `darwin daemon`).

@@ -41,6 +41,7 @@ from foxglove.websocket import (
 from clients.foxglove import convert, frames
 from clients.foxglove.control import SERVICES, BadRequest, Commanders, Teleop, call_service
 from clients.foxglove.params import WalkParameters
+from clients.foxglove.presence import Presence
 from clients.foxglove.urdf import robot_body
 from clients.robot import Robot, Subscription
 from schemas.messages import BallDetection, CameraFrame, Event, Imu, Joints, Status, World
@@ -122,6 +123,7 @@ class Bridge:
             robot.subscribe("world", self._on_world),
             robot.subscribe("vision", self._on_ball),
         ]
+        self.presence = Presence(robot, self.server)
         self._stop = threading.Event()
         self._urdf_now = threading.Event()
         self._urdf_thread = threading.Thread(target=self._urdf_loop, daemon=True)
@@ -134,6 +136,7 @@ class Bridge:
     def close(self) -> None:
         self._stop.set()
         self._urdf_now.set()
+        self.presence.close()
         for sub in self._subs:
             with contextlib.suppress(Exception):
                 sub.close()

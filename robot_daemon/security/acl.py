@@ -84,10 +84,17 @@ def rules_of(role: Role) -> list[str]:
     return ["watch", "present", "deliver", *(f"query-{r}" for r in ladder), *ros]
 
 
-def access_control(users: dict[str, users_mod.User]) -> dict[str, Any]:
+def access_control(
+    users: dict[str, users_mod.User], router_zids: list[str] | None = None
+) -> dict[str, Any]:
     subjects: list[dict[str, Any]] = [{"id": "internal", "link_protocols": INTERNAL_PROTOCOLS}]
     policies: list[dict[str, Any]] = [{"id": "internal", "rules": ["everything"],
                                        "subjects": ["internal"]}]
+    if router_zids:
+        # The router this robot joined (``robot_daemon.fleet_join``): it enforces the roles of
+        # everyone behind it, and Zenoh gives the robot no user name for it to match.
+        subjects.append({"id": "router", "zids": list(router_zids)})
+        policies.append({"id": "router", "rules": ["everything"], "subjects": ["router"]})
     for role in (*LADDER, Role.ROBOT):
         names = sorted(u.name for u in users.values() if u.role == role)
         if not names:  # Zenoh refuses an empty subject list
@@ -113,6 +120,7 @@ class Security:
     mtls: bool = False  # clients prove who they are with certificates instead of passwords
     certs_dir: Path = field(default_factory=default_certs_dir)
     runtime: Path | None = None  # private dir of the generated dictionary
+    router_zids: list[str] = field(default_factory=list)  # the joined router, trusted
 
     def check(self) -> dict[str, users_mod.User]:
         """Everything needed is there (one clear error naming the command that creates it)."""
@@ -143,7 +151,9 @@ class Security:
             conf.insert_json5("transport/link/tls/listen_private_key", json.dumps(str(robot.key)))
             if self.mtls:
                 conf.insert_json5("transport/link/tls/enable_mtls", "true")
-        conf.insert_json5("access_control", json.dumps(access_control(users)))
+        conf.insert_json5(
+            "access_control", json.dumps(access_control(users, self.router_zids))
+        )
 
     def close(self) -> None:
         if self.runtime is not None:
