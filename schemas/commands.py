@@ -45,6 +45,7 @@ Angles are rad, speeds rad/s or m/s, durations s. Joints are named by id (1..20)
 | playball | op: "start" \\| "stop", color: name (default "red") | start |
 | behaviours | — → the behaviour library and the legacy ``type`` table | no |
 | pages | op: list, get, put, delete, reload, export, play; number, page, step | put… |
+| policy | op: "start" (rate_hz, mode, scale) \\| "command" (x, y, turn) \\| "stop" | start |
 
 A choreography item is ``{"behaviour": id, ...params}`` where params depend on the behaviour's
 kind: ``action`` (page), ``walk`` (duration s, x, y, turn), ``sound`` (file/say), ``led``
@@ -93,6 +94,7 @@ OPS_WITHOUT_LEASE: dict[str, frozenset[str]] = {
     "registers": frozenset({"read"}),
     "walk_params": frozenset({"read"}),
     "pages": frozenset({"list", "get", "export"}),
+    "policy": frozenset({"stop", "status"}),
 }
 
 
@@ -155,5 +157,15 @@ COMMAND_FIELDS: dict[str, dict[str, Field]] = {
         "number": INT,
         "step": INT,
         "page": Field("map", 16),
+    },
+    # The policy stream (schemas/policy.py): start answers the holder a stream key.
+    "policy": {
+        "op": _op("start", "command", "stop", "status"),
+        "rate_hz": NUMBER,
+        "mode": Field("str", 16, ("offset", "absolute")),
+        "scale": NUMBER,
+        "x": NUMBER,
+        "y": NUMBER,
+        "turn": NUMBER,
     },
 }

@@ -31,10 +31,14 @@ VERBS: tuple[str, ...] = (
     "playball",
     "behaviours",
     "pages",
+    "policy",
 )
 
 # Verbs that are accepted without the control lease (they never move the robot, or stop it).
 LEASE_FREE_VERBS: frozenset[str] = frozenset({"lease", "halt", "config", "behaviours"})
+
+# The policy stream's keys under ``…/policy/`` (schemas/policy.py).
+POLICY_TOPICS: tuple[str, ...] = ("obs", "action", "applied", "status")
 
 # rmw_zenoh's key space (``clients/ros2/graph.py``), beside ours on the same routers: liveliness
 # tokens under ``@ros2_lv/<domain>/…``, data and services under ``<domain>/…``.
@@ -108,6 +112,12 @@ class Keys:
     def replay_control(self) -> str:
         """Queryable of ``darwin replay`` (pause, resume, seek)."""
         return f"{self.prefix}/replay/control"
+
+    def policy(self, what: str) -> str:
+        """The policy stream (schemas/policy.py): ``obs``, ``action``, ``applied``, ``status``."""
+        if what not in POLICY_TOPICS:
+            raise ValueError(f"unknown policy topic {what!r}; known: {', '.join(POLICY_TOPICS)}")
+        return f"{self.prefix}/policy/{what}"
 
     @property
     def alive(self) -> str:
