@@ -78,8 +78,11 @@ Sink = Callable[[str, Any], None]  # (topic, message) → published off the moti
 class PolicyModule(MotionModule):
     name = "policy"
 
-    def __init__(self, settings: PolicySettings | None = None) -> None:
+    def __init__(
+        self, settings: PolicySettings | None = None, clock: Callable[[], float] = time.monotonic
+    ) -> None:
         super().__init__()
+        self.clock = clock  # the loop's clock (frame.time): simulated in tests
         self.settings = s = settings or PolicySettings()
         self.filter = GravityFilter(s.filter_tau)
         # Joint limits in contract order (rad), set from the robot config on attach.
@@ -126,22 +129,22 @@ class PolicyModule(MotionModule):
             self.stream_key = secrets.token_bytes(16)
             self.client, self.rate_hz, self.mode, self.scale = client, rate_hz, mode, scale
             self._tokens = float(self.settings.burst)
-            self._token_at = time.monotonic()
+            self._token_at = self.clock()
             self._mail = None
         frame = self.manager.last_frame if self.manager else None
         present = np.array([frame.position[j] for j in JOINT_IDS]) if frame else self.default
         self.target = np.clip(present, self.low, self.high)
         self.last_action = self._to_action(self.target)
         self.state, self.reason = "running", ""
-        self._last_action_at = frame.time if frame else time.monotonic()
+        self._last_action_at = frame.time if frame else self.clock()
         self._missed_since = self._last_action_at
         self.claim(set(JOINT_IDS))
         self.emit("policy", f"policy stream of {client} started at {rate_hz:g} Hz", state="running")
         return self.stream_key
 
-    def offer(self, action: PolicyAction, now: float | None = None) -> str:
+    def offer(self, action: PolicyAction) -> str:
         """Queue ``action`` for the next tick; "" when queued, else why it was refused."""
-        now = time.monotonic() if now is None else now
+        now = self.clock()
         with self._lock:
             if not self.stream_key or self.state in ("idle", "stopped"):
                 key, why = "no_stream", "no policy stream is running: start one (`policy` op=start)"
@@ -154,7 +157,7 @@ class PolicyModule(MotionModule):
             else:
                 rate = self.rate_hz * 1.25
                 self._tokens = min(
-                    float(self.settings.burst), self._tokens + (now - self._token_at) * rate
+                    float(self.settings.burst), self._tokens + max(0.0, now - self._token_at) * rate
                 )
                 self._token_at = now
                 if self._tokens < 1.0:
@@ -253,7 +256,7 @@ class PolicyModule(MotionModule):
         self.target = capped
         self.last_action = self._to_action(capped)
         stamp = next((t for k, t in self._obs_stamps if k == action.obs_tick), None)
-        latency = time.monotonic() - stamp if stamp is not None else 0.0
+        latency = self.clock() - stamp if stamp is not None else 0.0
         if stamp is not None:
             self.latencies.append(latency)
         self._last_action_at = frame.time
