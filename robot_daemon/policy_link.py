@@ -21,8 +21,15 @@ from robot_daemon.motion.policy import PolicyModule
 from robot_daemon.publishers import Publishers
 from schemas.errors import ProtocolError
 from schemas.keys import Keys
-from schemas.messages import encode
-from schemas.policy import JOINT_IDS, JOINT_NAMES, N_JOINTS, PolicyAction, PolicyApplied
+from schemas.messages import decode_dict, encode
+from schemas.policy import (
+    JOINT_IDS,
+    JOINT_NAMES,
+    MAX_PAYLOAD_BYTES,
+    N_JOINTS,
+    PolicyAction,
+    PolicyApplied,
+)
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +66,7 @@ class PolicyLink:
             else:
                 why = self.module.offer(action)
         except ProtocolError as exc:
+            seq = _seq_of(payload)  # so the sender can match the refusal to what it sent
             why = f"invalid action: {exc}"
             self.module.refused["invalid"] = self.module.refused.get("invalid", 0) + 1
         if why:
@@ -96,6 +104,17 @@ class PolicyLink:
                 x.undeclare()
             except Exception:
                 log.debug("undeclare failed at shutdown", exc_info=True)
+
+
+def _seq_of(payload: bytes) -> int:
+    """The ``seq`` of a payload that failed to decode as an action, -1 when it has none."""
+    if len(payload) > MAX_PAYLOAD_BYTES:
+        return -1
+    try:
+        seq = decode_dict(payload).get("seq")
+    except ProtocolError:
+        return -1
+    return seq if isinstance(seq, int) and not isinstance(seq, bool) and seq >= 0 else -1
 
 
 def link_policy(

@@ -307,6 +307,12 @@ class ChoreographyInfo(TypedDict, total=False):
     last_result: str | None
 
 
+class PolicyInfo(TypedDict):
+    active: bool
+    state: str  # idle | running | holding | damping | stopped (schemas/policy.py)
+    reason: str  # why it stopped
+
+
 class MotionInfo(TypedDict, total=False):
     owners: dict[str, str]  # joint id → the module that drives it
     fall: FallInfo
@@ -316,6 +322,7 @@ class MotionInfo(TypedDict, total=False):
     direct: DirectInfo
     ball: BallPlayInfo
     choreography: ChoreographyInfo
+    policy: PolicyInfo
 
 
 @dataclass
