@@ -29,6 +29,12 @@ class GravityFilter:
         if accel is not None:
             self.update((0.0, 0.0, 0.0), accel, 0.0)
 
+    def set(self, g: Sequence[float]) -> None:
+        """Start from a known gravity direction (a simulator's true attitude)."""
+        n = math.sqrt(sum(float(v) ** 2 for v in g)) or 1.0
+        self.g = [float(v) / n for v in g]
+        self._started = True
+
     def update(self, gyro: Sequence[float], accel: Sequence[float], dt: float) -> list[float]:
         gx, gy, gz = self.g
         wx, wy, wz = float(gyro[0]), float(gyro[1]), float(gyro[2])
