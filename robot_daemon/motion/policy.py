@@ -68,6 +68,7 @@ class PolicySettings:
         return section_to(cls, section or {}, "policy")
 
 
+IDX = np.array(JOINT_IDS)  # contract order → JointFrame slots
 STATUS_PERIOD = 0.5  # s between PolicyStatus publications (and on every change of state)
 
 # Health of the servos for the alarm termination: () → a reason, "" when fine (policy_link).
@@ -132,7 +133,7 @@ class PolicyModule(MotionModule):
             self._token_at = self.clock()
             self._mail = None
         frame = self.manager.last_frame if self.manager else None
-        present = np.array([frame.position[j] for j in JOINT_IDS]) if frame else self.default
+        present = frame.position[IDX] if frame else self.default
         self.target = np.clip(present, self.low, self.high)
         self.last_action = self._to_action(self.target)
         self.state, self.reason = "running", ""
@@ -192,13 +193,13 @@ class PolicyModule(MotionModule):
     def _publish_obs(self, frame: JointFrame) -> None:
         if self.sink is None:
             return
-        pos = [float(frame.position[j]) - d for j, d in zip(JOINT_IDS, DEFAULT_POSE, strict=True)]
+        pos = (frame.position[IDX] - self.default).tolist()
         self._obs_stamps.append((frame.tick, frame.time))
         self.sink(
             "obs",
             PolicyObservation(
                 joint_pos=pos,
-                joint_vel=[float(frame.velocity[j]) for j in JOINT_IDS],
+                joint_vel=frame.velocity[IDX].tolist(),
                 gyro=[float(v) for v in frame.gyro],
                 gravity=list(self.filter.g),
                 last_action=self.last_action.tolist(),
@@ -232,7 +233,7 @@ class PolicyModule(MotionModule):
             if frame.time - self._missed_since > self.settings.deadline_periods * period:
                 self.counts["missed"] += 1
                 self._missed_since = frame.time
-        return {j: float(t) for j, t in zip(JOINT_IDS, self.target, strict=True)}
+        return dict(zip(JOINT_IDS, self.target.tolist(), strict=True))
 
     def _apply(self, action: PolicyAction, frame: JointFrame) -> None:
         a = np.array(action.action)
@@ -289,8 +290,8 @@ class PolicyModule(MotionModule):
         if self.filter.upright < s.upright_min:
             tilt = math.degrees(math.acos(max(-1.0, min(1.0, self.filter.upright))))
             return f"fall: tilt {tilt:.0f}°"
-        pos = np.array([frame.position[j] for j in JOINT_IDS])
-        online = np.array([frame.online[j] for j in JOINT_IDS], dtype=bool)
+        pos = frame.position[IDX]
+        online = frame.online[IDX].astype(bool)
         margin = math.radians(s.limit_margin_deg)
         hit = online & ((pos < self.low - margin) | (pos > self.high + margin))
         if hit.any():
