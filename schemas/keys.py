@@ -38,7 +38,7 @@ VERBS: tuple[str, ...] = (
 LEASE_FREE_VERBS: frozenset[str] = frozenset({"lease", "halt", "config", "behaviours"})
 
 # The policy stream's keys under ``…/policy/`` (schemas/policy.py).
-POLICY_TOPICS: tuple[str, ...] = ("obs", "action", "applied", "status")
+POLICY_TOPICS: tuple[str, ...] = ("obs", "action", "applied", "status", "dry_run")
 
 # rmw_zenoh's key space (``clients/ros2/graph.py``), beside ours on the same routers: liveliness
 # tokens under ``@ros2_lv/<domain>/…``, data and services under ``<domain>/…``.
