@@ -37,6 +37,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "record": ("clients.recording.record_cli", "record the robot's publications to MCAP"),
     "replay": ("clients.recording.replay_cli", "republish a recording on the key space"),
     "ros2": ("clients.ros2.cli", "make the robot a ROS 2 node (rmw_zenoh, no ROS install needed)"),
+    "policy": ("clients.learn.runner", "run a policy (ONNX or Python) on the robot or simulator"),
     "urdf": ("clients.ros2.urdf_cli", "print the robot's URDF (from the body description)"),
     "users": ("robot_daemon.security.users_cli", "manage identities and roles (add/remove/list)"),
     "certs": ("robot_daemon.security.certs_cli", "create TLS certificates: CA, robot, clients"),

@@ -38,6 +38,7 @@ from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.power_actions import PowerGuard
+from robot_daemon.policy_link import PolicyLink, link_policy
 from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
 from robot_daemon.security.acl import Security, serve_roles
@@ -123,6 +124,7 @@ class Daemon:
         self._hold_on_return = False  # the first tick after the port is back holds the pose
         self._motion_thread: threading.Thread | None = None
         self.camera: CameraThread | None = None
+        self.policy_link: PolicyLink | None = None
         self.session: zenoh.Session | None = None
         self.pub: Publishers | None = None
         self.arbiter: Arbiter | None = None
@@ -224,6 +226,7 @@ class Daemon:
             self.keys.alive_version(fmt(self.protocol), package_version())
         )
         self._roles = serve_roles(self.session, self.keys)
+        self.policy_link = link_policy(self.session, self.keys, self.manager, self.pub, self)
         if self.options.camera != "none":
             from robot_daemon.camera import CameraThread
 
@@ -263,6 +266,8 @@ class Daemon:
             self.camera.close()
         if self.arbiter is not None:
             self.arbiter.close()
+        if self.policy_link is not None:
+            self.policy_link.close()
         with contextlib.suppress(Exception):
             self._alive.undeclare()
             self._alive_version.undeclare()

@@ -40,6 +40,8 @@ class Publishers:
             keys.events, **qos.for_key(keys.events).kwargs()
         )
         self._slots: dict[str, Message] = {}
+        self._fifo_topics: set[str] = set()
+        self._fifo: deque[tuple[str, Message]] = deque(maxlen=256)
         self._events: deque[Event] = deque(maxlen=1000)
         self._cond = threading.Condition()
         self._stop = False
@@ -48,10 +50,23 @@ class Publishers:
         self._thread = threading.Thread(target=self._run, name="publisher", daemon=True)
         self._thread.start()
 
+    def declare(self, topic: str, key: str, fifo: bool = False) -> None:
+        """Another topic to ``post`` (the policy stream's); ``fifo``: every message is sent, in
+        order (a bounded queue), instead of the newest only."""
+        self._pubs[topic] = self.session.declare_publisher(
+            key, congestion_control=zenoh.CongestionControl.DROP, express=True
+        )
+        if fifo:
+            self._fifo_topics.add(topic)
+
     def post(self, topic: str, msg: Message) -> None:
-        """Hand ``msg`` over; a message of the same topic not yet sent is replaced."""
+        """Hand ``msg`` over; a message of the same topic not yet sent is replaced (unless the
+        topic was declared ``fifo``)."""
         with self._cond:
-            self._slots[topic] = msg
+            if topic in self._fifo_topics:
+                self._fifo.append((topic, msg))
+            else:
+                self._slots[topic] = msg
             self._cond.notify()
 
     def wanted(self, topic: str) -> bool:
@@ -73,15 +88,19 @@ class Publishers:
     def _run(self) -> None:
         while True:
             with self._cond:
-                while not self._slots and not self._events and not self._stop:
+                while not (self._slots or self._events or self._fifo or self._stop):
                     self._cond.wait()
-                if self._stop and not self._slots and not self._events:
+                if self._stop and not (self._slots or self._events or self._fifo):
                     return
                 slots, self._slots = self._slots, {}
                 events = list(self._events)
                 self._events.clear()
+                fifo = list(self._fifo)
+                self._fifo.clear()
             for ev in events:
                 self._put("events", ev)
+            for topic, msg in fifo:
+                self._put(topic, msg)
             for topic, msg in slots.items():
                 self._put(topic, msg)
 

@@ -241,6 +241,15 @@ SPEC: dict[str, Verb] = {
             default_op="get",
         ),
         Verb(
+            "policy",
+            {"op": _op("start", "command", "stop", "status"), "rate_hz": NUMBER,
+             "mode": Field("str", 16, ("offset", "absolute")), "scale": NUMBER, "x": NUMBER,
+             "y": NUMBER, "turn": NUMBER},
+            "`op`: start (`rate_hz`, `mode` offset \\| absolute, `scale`: answers the holder a "
+            "stream key) \\| command (`x`, `y`, `turn`) \\| stop \\| status (docs/learning.md)",
+            free_ops=_ops("stop", "status"),
+        ),
+        Verb(
             "behaviours",
             {},
             "— the behaviour library and the legacy `type` table",

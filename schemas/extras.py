@@ -34,6 +34,9 @@ EXTRA_OF: dict[str, str] = {
     "xxhash": "ros2",
     "mujoco": "physics",
     "OpenGL": "physics",
+    "gymnasium": "learn",
+    "onnxruntime": "learn",
+    "pyarrow": "learn",
 }
 
 DISTRIBUTION = "darwin-zenoh"

@@ -19,6 +19,9 @@ DEFAULT_ROBOT = "op1"
 VERBS: tuple[str, ...] = tuple(SPEC)
 LEASE_FREE_VERBS: frozenset[str] = frozenset(v.name for v in SPEC.values() if not v.lease)
 
+# The policy stream's keys under ``…/policy/`` (schemas/policy.py).
+POLICY_TOPICS: tuple[str, ...] = ("obs", "action", "applied", "status", "dry_run")
+
 # rmw_zenoh's key space (``clients/ros2/graph.py``), beside ours on the same routers: liveliness
 # tokens under ``@ros2_lv/<domain>/…``, data and services under ``<domain>/…``.
 ROS_LIVELINESS = "@ros2_lv"
@@ -91,6 +94,12 @@ class Keys:
     def replay_control(self) -> str:
         """Queryable of ``darwin replay`` (pause, resume, seek)."""
         return f"{self.prefix}/replay/control"
+
+    def policy(self, what: str) -> str:
+        """The policy stream (schemas/policy.py): ``obs``, ``action``, ``applied``, ``status``."""
+        if what not in POLICY_TOPICS:
+            raise ValueError(f"unknown policy topic {what!r}; known: {', '.join(POLICY_TOPICS)}")
+        return f"{self.prefix}/policy/{what}"
 
     @property
     def alive(self) -> str:

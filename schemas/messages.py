@@ -326,6 +326,12 @@ class ChoreographyInfo(TypedDict, total=False):
     last_result: str | None
 
 
+class PolicyInfo(TypedDict):
+    active: bool
+    state: str  # idle | running | holding | damping | stopped (schemas/policy.py)
+    reason: str  # why it stopped
+
+
 class MotionInfo(TypedDict, total=False):
     owners: dict[str, str]  # joint id → the module that drives it
     imu: ImuCalibrationInfo
@@ -336,6 +342,7 @@ class MotionInfo(TypedDict, total=False):
     direct: DirectInfo
     ball: BallPlayInfo
     choreography: ChoreographyInfo
+    policy: PolicyInfo
 
 
 @dataclass

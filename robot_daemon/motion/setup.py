@@ -15,6 +15,7 @@ from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.gyro_centre import GyroCalibration
 from robot_daemon.motion.head import HeadLimits, HeadModule
 from robot_daemon.motion.manager import MotionManager
+from robot_daemon.motion.policy import PolicyModule, PolicySettings
 from robot_daemon.motion.sound import SoundPlayer
 from robot_daemon.motion.walking.gait import WalkingModule
 from robot_daemon.motion.walking.params import WalkParams
@@ -39,6 +40,7 @@ def build_manager(robot: RobotConfig, settings: dict[str, Any]) -> MotionManager
     manager.add(HeadModule(HeadLimits.from_config(settings.get("head"))))
     manager.add(WalkingModule(WalkParams.from_config(settings.get("walking"))))
     manager.add(DirectModule(default_speed=float(robot.max_speed) / 2))
+    manager.add(PolicyModule(PolicySettings.from_config(settings.get("policy"))))
     manager.add(ball_module(settings))
     choreography = ChoreographyModule(SoundPlayer(settings.get("sound")))
     choreography.behaviours = BehaviourLibrary(settings.get("behaviours"))

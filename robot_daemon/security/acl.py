@@ -72,6 +72,9 @@ def _rules() -> list[dict[str, Any]]:
              ["ingress"], ros_key_space()),
     ]
     rules += [rule(f"query-{r}", ["query"], ["ingress"], keys) for r, keys in _QUERIES.items()]
+    # The policy stream's actions are publications (schemas/policy.py says why), by operators;
+    # the daemon still applies only the lease holder's, signed with its stream key.
+    rules.append(rule("policy-stream", ["put"], ["ingress"], [f"{ROOT}/*/policy/action"]))
     return rules
 
 
@@ -81,7 +84,8 @@ def rules_of(role: Role) -> list[str]:
         return ["everything"]
     ladder = LADDER[: LADDER.index(role) + 1]
     ros = ["ros-watch", "ros-deliver", *(["ros-drive"] if Role.OPERATOR in ladder else [])]
-    return ["watch", "present", "deliver", *(f"query-{r}" for r in ladder), *ros]
+    stream = ["policy-stream"] if Role.OPERATOR in ladder else []
+    return ["watch", "present", "deliver", *(f"query-{r}" for r in ladder), *stream, *ros]
 
 
 def access_control(

@@ -1,0 +1,1 @@
+"""Example policies for `darwin policy run` (clients/learn/runner.py)."""

@@ -1,0 +1,162 @@
+"""The policy loop over the real stack (`darwin up`: emulator on a pty, daemon, Zenoh on
+loopback): a client streams signed actions at 50 Hz while it holds the lease; bad input is
+refused or clipped with its reason; silence and a tilt end the stream with a safe stop."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+
+import msgpack
+import pytest
+
+from clients.learn.stream import PolicyStream
+from clients.robot import Robot
+from schemas import SCHEMA_VERSION
+from schemas.messages import Event, encode
+from schemas.policy import DEFAULT_POSE, JOINT_IDS, PolicyAction
+from tests.fixtures.system import RunningSystem
+from tests.integration.test_motion_system import WAIT, Events
+
+
+@pytest.fixture
+def holder(robot_system: RunningSystem) -> Iterator[Robot]:
+    with robot_system.robot_client(name="policy-test") as r:
+        r.wait_for("joints", timeout=WAIT)
+        r.acquire()
+        try:
+            yield r
+        finally:
+            r.command("halt")
+            r.release()
+
+
+def _stream(robot: Robot, steps: int, action: list[float], stream: PolicyStream) -> int:
+    """``steps`` actions, each answering the newest observation (the policy's rate)."""
+    last = -1
+    for _ in range(steps):
+        obs = stream.next_observation(last, timeout=WAIT)
+        assert obs is not None
+        last = obs.tick
+        stream.send(action, obs.tick)
+    return stream.seq
+
+
+def test_a_50hz_stream_is_applied_at_the_next_tick_and_answered(holder: Robot) -> None:
+    stream = PolicyStream(holder).start(rate_hz=50)
+    try:
+        assert stream.info["joints"][12] == "r_knee" and stream.info["mode"] == "offset"
+        sent = _stream(holder, 100, [0.0] * 20, stream)
+        last = stream.answer(sent, timeout=WAIT)
+        assert last is not None and not last.refused
+        # Every action was answered with what was applied, or was overtaken in the mailbox
+        # by the next one before a tick took it (counted).
+        status = holder.command("policy", op="status")
+        answered = {a.seq for a in stream.applied if not a.refused}
+        assert len(answered) + status["overruns"] == sent == status["applied"] + status["overruns"]
+        assert status["latency_p50_ms"] > 0 and status["state"] == "running"
+        # A zero offset is the default pose: the robot is there now.
+        joints = holder.wait_for("joints", timeout=WAIT)
+        for jid, want in zip(JOINT_IDS, DEFAULT_POSE, strict=True):
+            assert joints.position[jid - 1] == pytest.approx(want, abs=math.radians(3))
+        obs = stream.next_observation(timeout=WAIT)
+        assert obs is not None and obs.running
+        assert max(abs(p) for p in obs.joint_pos) < math.radians(3)
+        assert obs.gravity[2] < -0.95  # standing upright
+    finally:
+        stream.stop()
+        stream.close()
+
+
+def _raw(**d: object) -> bytes:
+    return msgpack.packb({"v": SCHEMA_VERSION, "type": "policy_action", **d}, use_bin_type=True)
+
+
+def test_bad_actions_are_refused_or_clipped_with_the_reason(
+    holder: Robot, robot_system: RunningSystem
+) -> None:
+    stream = PolicyStream(holder).start(rate_hz=50)
+    try:
+        cid = holder.client_id
+        bad = {
+            "shape": _raw(client=cid, seq=900, action=[0.0] * 19),
+            "nan": _raw(client=cid, seq=901, action=[math.nan] * 20),
+            "field": _raw(client=cid, seq=902, action=[0.0] * 20, torque=1),
+        }
+        words = {"shape": "list of 20", "nan": "NaN", "field": "unknown field 'torque'"}
+        for seq, (name, payload) in enumerate(bad.items(), start=900):
+            stream.send_raw(payload)
+            ans = stream.answer(seq, WAIT)
+            assert ans is not None and words[name] in ans.refused, name
+        # Signed with another key (e.g. copied from the wire after the key changed): refused.
+        forged = PolicyAction.signed(cid, b"x" * 16, 950, [0.0] * 20)
+        stream.send_raw(encode(forged))
+        ans = stream.answer(950, WAIT)
+        assert ans is not None and "mac" in ans.refused
+        # Out of range: clipped to ±1 and to the joint limits, applied, and said so.
+        ans = stream.send([5.0] * 20, wait=True, timeout=WAIT)
+        assert ans is not None and not ans.refused
+        assert any("outside ±1" in c for c in ans.clipped)
+        assert max(abs(a) for a in ans.action) <= 1.0 + 1e-9
+        # From a client that does not hold the lease: refused, nothing applied.
+        with robot_system.robot_client(name="intruder") as other:
+            spy = PolicyStream(other)
+            spy._key = b"y" * 16
+            spy.seq = 2000
+            sent = spy.send([0.0] * 20)
+            ans = spy.answer(spy.seq, WAIT)
+            assert sent is None and ans is not None
+            assert "does not hold the control lease" in ans.refused
+            spy.close()
+        status = holder.command("policy", op="status")
+        assert status["refused"]["invalid"] >= 3 and status["refused"]["bad_mac"] >= 1
+    finally:
+        stream.stop()
+        stream.close()
+
+
+def _policy_event(words: str):
+    return lambda e: e.kind == "policy" and e.data.get("state") == "stopped" and words in e.message
+
+
+def test_silence_ends_the_stream_with_a_safe_stop(holder: Robot) -> None:
+    events = Events(holder)
+    stream = PolicyStream(holder).start(rate_hz=50)
+    try:
+        _stream(holder, 10, [0.0] * 20, stream)
+        ev: Event = events.wait(_policy_event("silence"))
+        assert "no action for" in ev.data["reason"]
+        status = holder.wait_for("status", lambda s: s.motion["policy"]["state"] == "stopped")
+        assert all(o != "policy" for o in status.motion["owners"].values())
+        late = stream.send([0.0] * 20, wait=True, timeout=WAIT)
+        assert late is not None and "no policy stream" in late.refused
+    finally:
+        stream.close()
+        events.close()
+
+
+def test_a_tilt_ends_the_stream(fresh_system: RunningSystem) -> None:
+    with fresh_system.robot_client(name="tilt") as robot:
+        robot.wait_for("joints", timeout=WAIT)
+        robot.acquire()
+        events = Events(robot)
+        stream = PolicyStream(robot).start(rate_hz=50, mode="absolute")
+        try:
+            # Both feet pitched 0.8 rad up under the body tip it over backwards (as in
+            # test_motion_fall); max_delta brings them there over a few steps.
+            pose = list(DEFAULT_POSE)
+            pose[14], pose[15] = -0.8, 0.8
+            last = -1
+            for _ in range(400):
+                obs = stream.next_observation(last, timeout=WAIT)
+                assert obs is not None
+                last = obs.tick
+                if not obs.running:
+                    break
+                stream.send(pose, obs.tick)
+            ev = events.wait(_policy_event("fall"))
+            assert ev.data["state"] == "stopped"
+        finally:
+            stream.close()
+            events.close()
+            robot.command("halt")
