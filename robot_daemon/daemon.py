@@ -37,8 +37,8 @@ from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
-from robot_daemon.power_actions import PowerGuard
 from robot_daemon.policy_link import PolicyLink, link_policy
+from robot_daemon.power_actions import PowerGuard
 from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
 from robot_daemon.security.acl import Security, serve_roles
