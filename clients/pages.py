@@ -19,30 +19,10 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from schemas.errors import DarwinError
+from schemas.joints import JOINT_NAMES
 from schemas.units import deg_to_raw, raw_to_deg
 
-JOINTS: tuple[str, ...] = (
-    "r_shoulder_pitch",
-    "l_shoulder_pitch",
-    "r_shoulder_roll",
-    "l_shoulder_roll",
-    "r_elbow",
-    "l_elbow",
-    "r_hip_yaw",
-    "l_hip_yaw",
-    "r_hip_roll",
-    "l_hip_roll",
-    "r_hip_pitch",
-    "l_hip_pitch",
-    "r_knee",
-    "l_knee",
-    "r_ankle_pitch",
-    "l_ankle_pitch",
-    "r_ankle_roll",
-    "l_ankle_roll",
-    "head_pan",
-    "head_tilt",
-)  # by id 1..20, the config's names (config/robot.toml)
+JOINTS: tuple[str, ...] = JOINT_NAMES  # by id 1..20, the config's names
 ARM = ("shoulder_pitch", "shoulder_roll", "elbow")
 LEG = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 GROUPS: dict[str, tuple[str, ...]] = {

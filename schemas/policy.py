@@ -53,32 +53,10 @@ import msgpack
 
 from schemas import SCHEMA_VERSION
 from schemas.errors import ProtocolError, brief
+from schemas.joints import JOINT_NAMES
 from schemas.messages import Message, decode_dict
 from schemas.units import raw_to_rad
 
-JOINT_NAMES: tuple[str, ...] = (
-    "r_shoulder_pitch",
-    "l_shoulder_pitch",
-    "r_shoulder_roll",
-    "l_shoulder_roll",
-    "r_elbow",
-    "l_elbow",
-    "r_hip_yaw",
-    "l_hip_yaw",
-    "r_hip_roll",
-    "l_hip_roll",
-    "r_hip_pitch",
-    "l_hip_pitch",
-    "r_knee",
-    "l_knee",
-    "r_ankle_pitch",
-    "l_ankle_pitch",
-    "r_ankle_roll",
-    "l_ankle_roll",
-    "head_pan",
-    "head_tilt",
-)
-JOINT_IDS: tuple[int, ...] = tuple(range(1, 21))
 N_JOINTS = len(JOINT_NAMES)
 
 # The default pose: ROBOTIS's page 1 "stand" (motion_4096.bin, last step; raw goals by id 1..20),

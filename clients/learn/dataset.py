@@ -26,7 +26,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from schemas.policy import JOINT_NAMES, OBSERVATION_LAYOUT, OBSERVATION_SIZE
+from schemas.joints import JOINT_NAMES
+from schemas.policy import OBSERVATION_LAYOUT, OBSERVATION_SIZE
 
 CODEBASE_VERSION = "v3.0"
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"

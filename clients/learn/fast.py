@@ -24,7 +24,8 @@ from robot_daemon.sim.physics.model import IMU_SITE, PhysicsSettings
 from robot_daemon.sim.physics.world import MujocoWorld
 from robot_daemon.sim.world.settings import WorldSettings
 from schemas import units
-from schemas.policy import ACTION_BOUND, DEFAULT_POSE, JOINT_IDS, JOINT_NAMES, PolicyObservation
+from schemas.joints import JOINT_IDS, JOINT_NAMES
+from schemas.policy import ACTION_BOUND, DEFAULT_POSE, PolicyObservation
 
 
 @dataclass

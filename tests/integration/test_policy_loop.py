@@ -13,8 +13,9 @@ import pytest
 from clients.learn.stream import PolicyStream
 from clients.robot import Robot
 from schemas import SCHEMA_VERSION
+from schemas.joints import JOINT_IDS
 from schemas.messages import Event, encode
-from schemas.policy import DEFAULT_POSE, JOINT_IDS, PolicyAction
+from schemas.policy import DEFAULT_POSE, PolicyAction
 from tests.fixtures.system import RunningSystem
 from tests.integration.test_motion_system import WAIT, Events
 

@@ -16,12 +16,11 @@ from robot_daemon.motion.manager import MotionManager
 from robot_daemon.motion.policy import PolicyModule, PolicySettings
 from schemas import SCHEMA_VERSION
 from schemas.errors import ProtocolError
+from schemas.joints import JOINT_IDS, JOINT_NAMES
 from schemas.keys import Keys
 from schemas.messages import encode
 from schemas.policy import (
     DEFAULT_POSE,
-    JOINT_IDS,
-    JOINT_NAMES,
     OBSERVATION_SIZE,
     PolicyAction,
     PolicyApplied,

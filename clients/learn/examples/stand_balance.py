@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from schemas.policy import JOINT_NAMES, N_JOINTS, OBSERVATION_LAYOUT
+from schemas.joints import JOINT_NAMES
+from schemas.policy import N_JOINTS, OBSERVATION_LAYOUT
 
 KI = -2.0  # action units per (gravity x × s)
 KD = -0.4  # action units per rad/s of pitch rate

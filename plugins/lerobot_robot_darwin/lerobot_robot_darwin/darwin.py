@@ -9,7 +9,7 @@ from clients.learn.dataset import FEATURES
 from clients.learn.stream import PolicyStream
 from clients.robot import Robot as DarwinClient
 from lerobot_robot_darwin.config_darwin import DarwinConfig
-from schemas.policy import JOINT_NAMES
+from schemas.joints import JOINT_NAMES
 
 STATE_NAMES: list[str] = FEATURES["observation.state"]["names"]
 

@@ -12,8 +12,9 @@ from typing import Any
 from robot_daemon.arbiter import fields as F
 from robot_daemon.arbiter.registry import MotionContext, Request, verb
 from robot_daemon.motion.policy import PolicyModule
+from schemas.joints import JOINT_NAMES
 from schemas.keys import Keys
-from schemas.policy import DEFAULT_POSE, JOINT_NAMES, MODES, RATE_RANGE
+from schemas.policy import DEFAULT_POSE, MODES, RATE_RANGE
 
 MAX_COMMAND = 2.0  # |x|, |y| m/s and |turn| rad/s of the command the policy observes
 
