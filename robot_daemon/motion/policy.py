@@ -30,11 +30,10 @@ import numpy as np
 from config.loader import ranged, section_to
 from robot_daemon.motion.attitude import GravityFilter
 from robot_daemon.motion.interface import JointFrame, MotionModule
+from schemas.joints import JOINT_IDS, JOINT_NAMES
 from schemas.policy import (
     ACTION_BOUND,
     DEFAULT_POSE,
-    JOINT_IDS,
-    JOINT_NAMES,
     N_JOINTS,
     RATE_RANGE,
     PolicyAction,
