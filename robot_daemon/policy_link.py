@@ -20,11 +20,10 @@ from robot_daemon.bus.tables import ErrorBit
 from robot_daemon.motion.policy import PolicyModule
 from robot_daemon.publishers import Publishers
 from schemas.errors import ProtocolError
+from schemas.joints import JOINT_IDS, JOINT_NAMES
 from schemas.keys import Keys
 from schemas.messages import decode_dict, encode
 from schemas.policy import (
-    JOINT_IDS,
-    JOINT_NAMES,
     MAX_PAYLOAD_BYTES,
     N_JOINTS,
     PolicyAction,
