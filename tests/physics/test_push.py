@@ -22,7 +22,8 @@ def _world_ops() -> None:
 def test_a_push_knocks_the_robot_over_and_the_detector_agrees(fx: float, direction: str) -> None:
     rig = SimRig(seed=1, physics="mujoco", vision_fps=1.0)
     rig.emulator.world = rig.world  # type: ignore[attr-defined]  # as the sim plugin does
-    rig.run(0.5)
+    assert rig.calibrated()  # the detector watches once the gyro centre is measured
+    rig.run(0.7)  # and settled: pushed at once, the detector read the landing as backward
     reply = run_op(rig.emulator, {"op": "push", "fx": fx, "fy": 0.0, "duration": 0.2})
     assert reply["impulse"] == pytest.approx([fx * 0.2, 0.0, 0.0])
     rig.run(2.0)

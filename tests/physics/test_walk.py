@@ -79,13 +79,13 @@ def test_turning_in_place_turns_the_commanded_way(side: float) -> None:
 def test_with_the_opposite_gyro_signs_the_balance_feedback_throws_it_over(monkeypatch) -> None:
     """The evidence for the register signs: the framework's balance law with the gyro X/Y
     counts growing the other way (the project's old map) is positive feedback."""
-    from robot_daemon.bus import robot_bus
+    from robot_daemon.bus import state
     from robot_daemon.bus.tables import CM730
     from robot_daemon.sim import devices
 
     wrong = ((CM730.GYRO_X, 1), (CM730.GYRO_Y, 1), (CM730.GYRO_Z, 1))
     monkeypatch.setattr(devices, "IMU_GYRO_AXES", wrong)
-    monkeypatch.setattr(robot_bus, "IMU_GYRO_AXES", wrong)
+    monkeypatch.setattr(state, "IMU_GYRO_AXES", wrong)
     rig = SimRig(seed=2, physics="mujoco", vision_fps=1.0)
     rig.manager.module("walking").start()
     rig.run(5.0)

@@ -36,9 +36,9 @@ def test_every_verb_is_declared_and_registered_with_its_declaration() -> None:
 
 def _client_verbs() -> set[str]:
     """The verbs the Python clients send: the first argument of every ``command("verb", …)``
-    call in clients/ (the Robot API and the modules it is built from)."""
+    call in clients/ (the Robot API, the modules it is built from and its users)."""
     sent: set[str] = set()
-    for path in (REPO / "clients").glob("*.py"):
+    for path in (REPO / "clients").rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
             if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
                     and node.func.attr == "command" and node.args

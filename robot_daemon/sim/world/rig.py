@@ -133,6 +133,12 @@ class SimRig:
         while self.time < end - 1e-9:
             self.step()
 
+    def calibrated(self, timeout: float = 5.0) -> bool:
+        """Step until the gyro centre is measured (motion/gyro_centre.py): fall detection and
+        walking wait for it, on the robot as here."""
+        imu = self.manager.module("imu")
+        return self.run_until(lambda _r: bool(imu.calibrated), timeout)
+
     def run_until(self, done: Callable[[SimRig], bool], timeout: float) -> bool:
         """Step until ``done(rig)`` (checked every tick) or ``timeout`` simulated seconds."""
         end = self.time + timeout
