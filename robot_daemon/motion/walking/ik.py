@@ -70,12 +70,57 @@ def foot_target(x: float, y: float, z: float, roll: float, pitch: float, yaw: fl
     return t
 
 
+def leg_ik_end_point(
+    x: float, y: float, z: float, roll: float, pitch: float, yaw: float
+) -> LegAngles | None:
+    """:func:`leg_ik` of :func:`foot_target` in plain float arithmetic, for the gait's 8 ms
+    tick: numpy's per-call overhead on 3×3 matrices cost more than the maths (issue #30). The
+    same steps as :func:`leg_ik`, each matrix product written out (equal to it to rounding;
+    ``tests/unit/test_ik_scalar.py`` compares them)."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    # r = Rz(yaw)·Ry(pitch)·Rx(roll)
+    r00, r01, r02 = cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr
+    r10, r11, r12 = sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr
+    r21, r22 = cp * sr, cp * cr  # (r20 = -sp is not needed)
+    ax = x + r02 * ANKLE_LENGTH
+    ay = y + r12 * ANKLE_LENGTH
+    az = z - LEG_LENGTH + r22 * ANKLE_LENGTH
+    dist2 = ax * ax + ay * ay + az * az
+    cos_knee = (dist2 - THIGH_LENGTH**2 - CALF_LENGTH**2) / (2 * THIGH_LENGTH * CALF_LENGTH)
+    if not -1.0 <= cos_knee <= 1.0 or dist2 < 1e-12:
+        return None
+    knee = math.acos(cos_knee)
+    v1 = -(r01 * ax + r11 * ay + r21 * az)
+    v2 = -(r02 * ax + r12 * ay + r22 * az)
+    ankle_roll = math.atan2(v1, v2) if v2 >= 0 else math.atan2(-v1, -v2)
+    ca, sa = math.cos(ankle_roll), math.sin(ankle_roll)
+    # r_shank = r·Rx(-ankle_roll): columns 1 and 2 turn, column 0 stays
+    s01, s11, s21 = r01 * ca - r02 * sa, r11 * ca - r12 * sa, r21 * ca - r22 * sa
+    s02, s12 = r01 * sa + r02 * ca, r11 * sa + r12 * ca
+    hip_yaw = math.atan2(-s01, s11)
+    cw, sw = math.cos(hip_yaw), math.sin(hip_yaw)
+    # m = Rz(-yaw)·r_shank = Rx(roll)·Ry(pitch sum)
+    hip_roll = math.atan2(s21, cw * s11 - sw * s01)
+    pitch_sum = math.atan2(cw * s02 + sw * s12, cw * r00 + sw * r10)
+    # q = Rx(-roll)·Rz(-yaw)·ankle (x and z only)
+    p1 = cw * ay - sw * ax
+    q0 = cw * ax + sw * ay
+    q2 = math.cos(hip_roll) * az - math.sin(hip_roll) * p1
+    ux = -CALF_LENGTH * math.sin(knee)
+    uz = -THIGH_LENGTH - CALF_LENGTH * math.cos(knee)
+    hip_pitch = _wrap(math.atan2(q0, q2) - math.atan2(ux, uz))
+    ankle_pitch = _wrap(pitch_sum - hip_pitch - knee)
+    return (hip_yaw, hip_roll, hip_pitch, knee, ankle_pitch, ankle_roll)
+
+
 def leg_servo_angles(
     side: Side, end_point: Sequence[float], hip_pitch_offset: float = 0.0
 ) -> dict[int, float] | None:
     """Servo angles {id: rad} for a framework end point (x, y, z, roll, pitch, yaw) of one leg,
     with the framework's hip pitch offset (leans the body forward); None if unreachable."""
-    angles = leg_ik(foot_target(*end_point))
+    angles = leg_ik_end_point(*end_point)
     if angles is None:
         return None
     servo = leg_angles_to_servo(angles, side)
