@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import random
 import socket
 import tomllib
 from collections.abc import Mapping
@@ -386,10 +387,30 @@ def open_client(
 
 
 def free_tcp_port(host: str = "127.0.0.1") -> int:
-    """A TCP port nobody listens on right now (tests, ``darwin up`` with port 0)."""
+    """A TCP port nobody listens on right now (tests, ``darwin up`` with port 0).
+
+    Chosen below the kernel's range for outgoing connections (``ip_local_port_range``): a port
+    from that range can be taken by any client's connection between this choice and the
+    listener's bind (seen: "address already in use" in CI), one below it only by a listener."""
+    low = _ephemeral_low()
+    for _ in range(64):
+        port = random.randrange(10000, low) if low > 11000 else 0
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+            try:
+                s.bind((host, port))
+            except OSError:
+                continue
+            return s.getsockname()[1]
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind((host, 0))
         return s.getsockname()[1]
+
+
+def _ephemeral_low() -> int:
+    try:
+        return int(Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 0
 
 
 def endpoint_host_port(endpoint: str) -> tuple[str, int]:
