@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import struct
+import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
@@ -22,6 +23,9 @@ from robot_daemon.bus.tables import CM730, CM730_ID, MX28, MX28_MODEL
 from robot_daemon.doctor.probe import STANDARD_BAUDS
 from schemas import units
 from schemas.errors import BusError, DarwinError
+
+# How long the read-back after the baud rate write keeps asking (s).
+READBACK_S = 2.0
 
 
 class ReplaceRefused(DarwinError):
@@ -134,10 +138,20 @@ def program(
     with contextlib.suppress(BusError):
         bus.write(target, MX28.BAUD_RATE.reg.address, bytes([baud_register(robot_baud)]))
     set_rate(robot_baud)
-    try:
-        start = MX28.ID.reg.address
-        data, _ = bus.read(target, start, MX28.CCW_ANGLE_LIMIT.reg.end - start, tries=3)
-    except BusError:
+    start = MX28.ID.reg.address
+    # A servo applies a new rate after its status reply, and a busy host may ask before that:
+    # keep asking for a bounded while before calling it lost.
+    deadline = time.monotonic() + READBACK_S
+    while True:
+        try:
+            data, _ = bus.read(target, start, MX28.CCW_ANGLE_LIMIT.reg.end - start, tries=3)
+            break
+        except BusError:
+            if time.monotonic() < deadline:
+                continue
+            data = None
+            break
+    if data is None:
         raise ReplaceRefused(
             f"ID {target} does not answer at {robot_baud} bps after its baud rate was set; "
             "run `darwin scan` and the command again"
