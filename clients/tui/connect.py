@@ -11,6 +11,7 @@ from textual.containers import Grid, Horizontal, Vertical
 from textual.screen import ModalScreen
 from textual.widgets import Button, Input, Label, OptionList, Static
 from textual.widgets.option_list import Option
+from textual.worker import Worker
 
 from clients.fleet import RobotRecord
 from clients.tui.i18n import N_, _
@@ -21,6 +22,9 @@ from schemas.session import check_endpoint
 
 # endpoint → the live robots there (clients.fleet.discover_at, or a fixed list in tests)
 RobotFinder = Callable[[str], list[RobotRecord]]
+# The list keeps itself live: a robot that joins (or answers late on a busy network) appears
+# without F5.
+REFRESH_S = 3.0
 
 
 def robot_label(r: RobotRecord) -> str:
@@ -61,6 +65,7 @@ class ConnectScreen(ModalScreen[Settings | None]):
         self.detail = detail
         self.finder = finder
         self.found: list[RobotRecord] = []
+        self._finding: Worker[None] | None = None
 
     def compose(self) -> ComposeResult:
         with Vertical():
@@ -86,6 +91,7 @@ class ConnectScreen(ModalScreen[Settings | None]):
 
     def on_mount(self) -> None:
         self.action_find_robots()
+        self.set_interval(REFRESH_S, self._refresh)
 
     # -- the live robots ---------------------------------------------------------------------
     def action_find_robots(self) -> None:
@@ -103,7 +109,23 @@ class ConnectScreen(ModalScreen[Settings | None]):
         robots.add_option(Option(_("looking for robots at {endpoint}…").format(
             endpoint=endpoint), disabled=True))
         finder = self.finder
-        self.run_worker(lambda: self._find(finder, endpoint), thread=True, exclusive=True)
+        self._finding = self.run_worker(
+            lambda: self._find(finder, endpoint), thread=True, exclusive=True
+        )
+
+    def _refresh(self) -> None:
+        """Look again quietly: the list changes only when what is found does."""
+        if self.finder is None or (self._finding is not None and self._finding.is_running):
+            return
+        endpoint = self.endpoint()
+        try:
+            check_endpoint(endpoint)
+        except ValueError:
+            return
+        finder = self.finder
+        self._finding = self.run_worker(
+            lambda: self._find(finder, endpoint), thread=True, exclusive=True
+        )
 
     def _find(self, finder: RobotFinder, endpoint: str) -> None:
         """In a worker thread: discovery waits on the network."""
@@ -116,16 +138,27 @@ class ConnectScreen(ModalScreen[Settings | None]):
         self.app.call_from_thread(self.show_robots, endpoint, found, error)
 
     def show_robots(self, endpoint: str, found: list[RobotRecord], error: str = "") -> None:
-        self.found = list(found)
         robots = self.query_one("#robots", OptionList)
+        labels = [robot_label(r) for r in found]
+        shown = [str(robots.get_option_at_index(i).prompt) for i in range(robots.option_count)]
+        if found and not error and labels == shown:
+            self.found = list(found)
+            return  # nothing new: the highlight stays where the user left it
+        was = robots.highlighted
+        picked = (
+            robots.get_option_at_index(was).id
+            if was is not None and was < robots.option_count
+            else None
+        )
+        self.found = list(found)
         robots.clear_options()
         if error or not found:
             text = error or _("no live robot at {endpoint}").format(endpoint=endpoint)
             robots.add_option(Option(text, disabled=True))
             return
-        robots.add_options(Option(robot_label(r), id=r.name) for r in found)
-        current = self.query_one("#robot", Input).value.strip()
+        robots.add_options(Option(label, id=r.name) for r, label in zip(found, labels, strict=True))
         names = [r.name for r in found]
+        current = picked if picked in names else self.query_one("#robot", Input).value.strip()
         robots.highlighted = names.index(current) if current in names else 0
 
     def on_option_list_option_selected(self, event: OptionList.OptionSelected) -> None:

@@ -26,6 +26,8 @@ from schemas.errors import BusError, DarwinError
 
 # How long the read-back after the baud rate write keeps asking (s).
 READBACK_S = 2.0
+# How many times the baud rate write is sent when the servo stays at its old rate.
+BAUD_WRITES = 3
 
 
 class ReplaceRefused(DarwinError):
@@ -133,29 +135,12 @@ def program(
         bus.write_unanswered(c.id, MX28.ID.reg.address, bytes([target]))
         if not answers(bus, target):
             raise ReplaceRefused(f"the new servo did not take ID {target}; run the command again")
-    # Waiting for this write's status (or its time-out, if it comes at the new rate) is what
-    # makes sure the instruction has left at the old rate before the port changes rate.
-    with contextlib.suppress(BusError):
-        bus.write(target, MX28.BAUD_RATE.reg.address, bytes([baud_register(robot_baud)]))
-    set_rate(robot_baud)
-    start = MX28.ID.reg.address
-    # A servo applies a new rate after its status reply, and a busy host may ask before that:
-    # keep asking for a bounded while before calling it lost.
-    deadline = time.monotonic() + READBACK_S
-    while True:
-        try:
-            data, _ = bus.read(target, start, MX28.CCW_ANGLE_LIMIT.reg.end - start, tries=3)
-            break
-        except BusError:
-            if time.monotonic() < deadline:
-                continue
-            data = None
-            break
+    data = _switch_rate(bus, set_rate, target, c.baud, robot_baud)
     if data is None:
         raise ReplaceRefused(
             f"ID {target} does not answer at {robot_baud} bps after its baud rate was set; "
             "run `darwin scan` and the command again"
-        ) from None
+        )
     got = {
         "id": data[0],
         "baud": units.baud_register_to_bps(data[1]),
@@ -175,6 +160,48 @@ def program(
         listed = ", ".join(f"{k} {g} (wanted {w})" for k, (g, w) in wrong.items())
         raise ReplaceRefused(f"servo {target} reads back {listed}; run the command again")
     return got
+
+
+def _switch_rate(
+    bus: DxlBus, set_rate: Callable[[int], None], target: int, old: int, new: int
+) -> bytes | None:
+    """Write the baud rate register at ``old``, then read the EEPROM block back at ``new``.
+
+    The status of that write (or its time-out) is what makes sure the instruction left at the
+    old rate before the port changes rate. A servo that is silent at the new rate but still
+    answers at the old one never took the write (a garbled packet, or a host that changed rate
+    too soon): it is written again, a bounded number of times."""
+    start = MX28.ID.reg.address
+    length = MX28.CCW_ANGLE_LIMIT.reg.end - start
+    for _ in range(BAUD_WRITES):
+        set_rate(old)
+        with contextlib.suppress(BusError):
+            bus.write(target, MX28.BAUD_RATE.reg.address, bytes([baud_register(new)]))
+        set_rate(new)
+        # A servo applies a new rate after its status reply, and a busy host may ask before
+        # that: keep asking for a bounded while.
+        deadline = time.monotonic() + READBACK_S
+        while True:
+            try:
+                return bus.read(target, start, length, tries=3)[0]
+            except BusError:
+                if time.monotonic() >= deadline:
+                    break
+        set_rate(old)
+        if not answers_within(bus, target, READBACK_S):
+            break  # silent at both rates: lost, not a write to repeat
+    set_rate(new)
+    return None
+
+
+def answers_within(bus: DxlBus, dxl_id: int, seconds: float) -> bool:
+    """Ping until ``dxl_id`` answers or ``seconds`` pass: a busy host can miss a reply's wire
+    time, and one missed ping must not pass for a lost servo."""
+    deadline = time.monotonic() + seconds
+    while not answers(bus, dxl_id):
+        if time.monotonic() >= deadline:
+            return False
+    return True
 
 
 def power_on(bus: DxlBus, pause: Callable[[float], None], seconds: float) -> None:

@@ -21,6 +21,7 @@ def started(emulator: Emulator, **bus: object) -> tuple[RobotBus, list]:
     rb.power_on()
     rb.scan()
     rb.initial_read()
+    rb.read_registers(KNEE, 0, 1)  # answered once the emulator has taken the writes before
     return rb, events
 
 
