@@ -95,6 +95,11 @@ class Keys:
         """Queryable of ``darwin replay`` (pause, resume, seek)."""
         return f"{self.prefix}/replay/control"
 
+    @property
+    def record_control(self) -> str:
+        """Queryable of ``darwin record --lerobot`` (end the episode, status)."""
+        return f"{self.prefix}/record/control"
+
     def policy(self, what: str) -> str:
         """The policy stream (schemas/policy.py): ``obs``, ``action``, ``applied``, ``status``."""
         if what not in POLICY_TOPICS:

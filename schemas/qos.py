@@ -87,6 +87,7 @@ _BY_SUFFIX: dict[str, Qos] = {
     "sim/world": VIDEO,
     "sim/control": TOOLING,
     "replay/control": TOOLING,
+    "record/control": TOOLING,
 }
 
 

@@ -2,6 +2,9 @@
 robot's publications until Ctrl-C, SIGTERM or ``--duration``; the file (or every segment) is
 closed complete and valid in every case but SIGKILL, which loses at most the last flush interval.
 
+``darwin record --lerobot DIR [--task T] [--fps N] [--no-camera]``: a LeRobotDataset v3 of the
+policy stream (:mod:`clients.learn.live_record`); Enter or the ``episode`` op ends an episode.
+
 ``darwin record recover FILE [-o OUT]``: rewrite a truncated or damaged recording as a complete,
 indexed MCAP (:mod:`clients.recording.recover`).
 """
@@ -13,6 +16,7 @@ import os
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from types import FrameType
 
 import zenoh
@@ -37,9 +41,26 @@ from schemas.session import add_target_arguments, credentials_from_args, open_cl
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.usage = (
         "%(prog)s -o FILE.mcap [options]\n"
+        "       %(prog)s --lerobot DIR [--task TEXT] [--fps N] [--no-camera] [options]\n"
         "       %(prog)s recover FILE [-o OUT] [--force | --in-place]"
     )
     parser.add_argument("-o", "--output", help="file to write (.mcap or .txt)")
+    parser.add_argument(
+        "--lerobot",
+        metavar="DIR",
+        help="write a LeRobotDataset v3 of the policy stream into DIR (a new directory); "
+        "Enter on this terminal or the `episode` op on …/record/control ends an episode",
+    )
+    parser.add_argument("--task", default="", help="with --lerobot: the episodes' task text")
+    parser.add_argument(
+        "--fps", type=float, default=50.0, help="with --lerobot: frames per second (50)"
+    )
+    parser.add_argument(
+        "--no-camera",
+        dest="camera",
+        action="store_false",
+        help="with --lerobot: no observation.images video, even when the robot has a camera",
+    )
     parser.add_argument(
         "--topics",
         nargs="+",
@@ -137,10 +158,18 @@ def run_recover(args: argparse.Namespace) -> int:
 
 def _check(args: argparse.Namespace) -> str:
     """The first thing wrong with the options, or ""."""
-    if not args.output:
-        return "give the file to write with -o FILE.mcap (or: darwin record recover FILE)"
     if args.duration is not None and args.duration <= 0:
         return f"--duration {args.duration} must be > 0"
+    if args.lerobot:
+        if args.output:
+            return "give either -o FILE.mcap or --lerobot DIR, not both (run two recorders)"
+        if os.path.exists(os.path.join(args.lerobot, "meta", "info.json")):
+            return f"{args.lerobot} already holds a dataset: choose another directory"
+        if not 1.0 <= args.fps <= 125.0:
+            return f"--fps {args.fps} must be within 1..125 (the policy loop's rates)"
+        return ""
+    if not args.output:
+        return "give the file to write with -o FILE.mcap (or: darwin record recover FILE)"
     folder = os.path.dirname(os.path.abspath(args.output))
     if not os.path.isdir(folder):
         return f"cannot write {args.output}: no folder {folder}"
@@ -161,6 +190,9 @@ def run_record(args: argparse.Namespace) -> int:
         return 2
     robots = args.robot or []
     several = len(robots) > 1 or "*" in robots
+    if args.lerobot and several:
+        print("darwin record: --lerobot records one robot: give one --robot", file=sys.stderr)
+        return 2
     try:
         target = resolve(
             args.connect,
@@ -196,6 +228,8 @@ def run_record(args: argparse.Namespace) -> int:
             raise
         if skew:
             notice(skew)
+        if args.lerobot:
+            return _record_lerobot(args, session, Keys(target.robot), stop, notice)
         try:
             rec = Recorder(
                 session,
@@ -239,4 +273,41 @@ def run_record(args: argparse.Namespace) -> int:
     finally:
         session.close()
     print(stats.summary(), file=sys.stderr, flush=True)
+    return 0
+
+
+def _record_lerobot(
+    args: argparse.Namespace,
+    session: zenoh.Session,
+    keys: Keys,
+    stop: threading.Event,
+    notice: Callable[[str], None],
+) -> int:
+    from clients.learn.live_record import LiveRecorder
+
+    try:
+        rec = LiveRecorder(
+            session, keys, args.lerobot, fps=args.fps, task=args.task, camera=args.camera,
+            on_notice=notice,
+        ).start()  # fmt: skip
+    except OSError as exc:
+        print(f"darwin record: cannot write {args.lerobot}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    print(
+        f"recording {keys.robot}'s policy stream → {args.lerobot} (LeRobotDataset v3, "
+        f"{args.fps:g} fps); Enter ends an episode, Ctrl-C the recording",
+        file=sys.stderr,
+        flush=True,
+    )
+
+    def episodes_from_keys() -> None:
+        for line in sys.stdin:
+            task = line.strip() or None  # a line with text: the next episode's task
+            rec.new_episode(task)
+
+    if sys.stdin is not None and not sys.stdin.closed:
+        threading.Thread(target=episodes_from_keys, name="episode-keys", daemon=True).start()
+    stop.wait(args.duration)
+    stats = rec.stop()
+    print(stats.summary(rec.root), file=sys.stderr, flush=True)
     return 0

@@ -40,7 +40,8 @@ INTERNAL_PROTOCOLS = ["unixsock-stream"]
 _QUERIES: dict[Role, list[str]] = {
     Role.OBSERVER: [f"{ROOT}/*/cmd/{v}" for v in sorted(READ_VERBS)]
     + [f"{ROOT}/*/read/{v}" for v in READ_OP_VERBS] + [f"{ROOT}/*/role/observer"],
-    Role.OPERATOR: [f"{ROOT}/*/cmd/*", f"{ROOT}/*/replay/control", f"{ROOT}/*/role/operator"],
+    Role.OPERATOR: [f"{ROOT}/*/cmd/*", f"{ROOT}/*/replay/control", f"{ROOT}/*/record/control",
+                    f"{ROOT}/*/role/operator"],
     Role.ADMIN: [f"{ROOT}/*/admin/*", f"{ROOT}/*/role/admin"],
 }
 _QUERIES[SIM_CONTROL_ROLE].append(f"{ROOT}/*/sim/control")

@@ -72,6 +72,45 @@ def test_an_episode_is_durable_before_the_next_one_ends(tmp_path: Path) -> None:
         LeRobotWriter(root, fps=50)
 
 
+def _jpeg(value: int, size: tuple[int, int] = (48, 64)) -> bytes:
+    cv2 = pytest.importorskip("cv2")
+    ok, data = cv2.imencode(".jpg", np.full((*size, 3), value, np.uint8))
+    assert ok
+    return data.tobytes()
+
+
+def test_camera_images_become_one_video_per_episode_of_its_length(tmp_path: Path) -> None:
+    cv2 = pytest.importorskip("cv2")
+    root = tmp_path / "cam"
+    writer = LeRobotWriter(root, fps=25, camera="head_camera")
+    with pytest.raises(ValueError, match="needs a head_camera image"):
+        writer.add_frame(np.zeros(69), np.zeros(20), "look")
+    for length in (12, 7):
+        for k in range(length):
+            # Frames without a new image, and a broken one, repeat the image before.
+            image = _jpeg(40 * (k % 3)) if k % 4 == 0 else (b"not a jpeg" if k == 5 else None)
+            writer.add_frame(np.zeros(69), np.zeros(20), "look", image=image)
+        writer.end_episode()
+    info = json.loads((root / "meta/info.json").read_text())
+    feature = info["features"]["observation.images.head_camera"]
+    assert feature["dtype"] == "video" and feature["shape"] == [48, 64, 3]
+    episodes = pd.read_parquet(root / "meta/episodes/chunk-000/file-000.parquet")
+    for ep, length in enumerate((12, 7)):
+        path = root / info["video_path"].format(
+            video_key="observation.images.head_camera", chunk_index=0, file_index=ep
+        )
+        capture = cv2.VideoCapture(str(path))
+        assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == length
+        capture.release()
+        key = "videos/observation.images.head_camera"
+        assert episodes[f"{key}/file_index"][ep] == ep
+        assert episodes[f"{key}/to_timestamp"][ep] == pytest.approx(length / 25)
+    # Another size in a later episode is refused, and nothing of it is left behind.
+    with pytest.raises(ValueError, match="changed size"):
+        writer.add_frame(np.zeros(69), np.zeros(20), "look", image=_jpeg(0, (32, 32)))
+    assert not list(root.rglob("*.tmp*"))
+
+
 @pytest.mark.skipif(
     importlib.util.find_spec("lerobot") is None,
     reason="lerobot is not installed (it pulls torch; not a dependency of this project)",
