@@ -49,6 +49,9 @@ CAMERA = "head_camera"
 # action was refused, overtaken in the mailbox or lost): it takes the next positions instead.
 ANSWER_WINDOW = 3
 _MAX_TRACKED = 512  # actions and answers kept for pairing (a few seconds at any policy rate)
+# Publications waiting for the worker (about 20 s of a 125 Hz stream): a disk or encoder that
+# cannot keep up loses publications, counted and said once, rather than memory without bound.
+MAX_BACKLOG = 8192
 
 
 @dataclass
@@ -65,12 +68,13 @@ class RecordStats:
     frames: int = 0
     takeover_frames: int = 0
     observations: int = 0
-    images: int = 0
+    dropped: int = 0  # publications the worker could not take (MAX_BACKLOG)
 
     def summary(self, root: Path) -> str:
+        lost = f"; {self.dropped} publications dropped" if self.dropped else ""
         return (
             f"wrote {self.episodes} episode(s), {self.frames} frames "
-            f"({self.takeover_frames} takeover) to {root}"
+            f"({self.takeover_frames} takeover) to {root}{lost}"
         )
 
 
@@ -102,11 +106,12 @@ class LiveRecorder:
         self.writer = LeRobotWriter(self.root, fps, camera=CAMERA if camera else None)
         self.stats = RecordStats()
         self.notice = on_notice or (lambda line: None)
-        self._events: queue.Queue[tuple[str, Any]] = queue.Queue()
+        self._events: queue.Queue[tuple[str, Any]] = queue.Queue(MAX_BACKLOG)
         self._pending: deque[_Frame] = deque()
         self._by_tick: dict[int, _Frame] = {}
         self._obs_tick_of: dict[int, int] = {}  # action seq → the observation it answers
         self._answers: dict[int, PolicyApplied] = {}  # seq → applied, before its action came
+        self._early: dict[int, list[float]] = {}  # obs tick → action, before its observation
         self._next_stamp: float | None = None
         self._image: bytes | None = None
         self._first_image = threading.Event()
@@ -142,20 +147,31 @@ class LiveRecorder:
     def new_episode(self, task: str | None = None, timeout: float = 10.0) -> dict[str, Any]:
         """End the open episode (written before this returns) and start the next."""
         done: queue.Queue[dict[str, Any]] = queue.Queue()
-        self._events.put(("episode", (task, done)))
+        self._events.put(("episode", (task, done)), timeout=timeout)
         return done.get(timeout=timeout)
 
     def stop(self) -> RecordStats:
         for x in (*self._subs, self._control):
             with contextlib.suppress(Exception):
                 x.undeclare()
-        self._events.put(("stop", None))
+        self._events.put(("stop", None))  # blocks while full: the worker is draining it
         self._worker.join()
         return self.stats
 
     # -- Zenoh's threads --------------------------------------------------------------------
     def _queue(self, what: str, sample: zenoh.Sample) -> None:
-        self._events.put((what, sample.payload.to_bytes()))
+        try:
+            self._events.put_nowait((what, sample.payload.to_bytes()))
+        except queue.Full:
+            with self._lock:
+                self.stats.dropped += 1
+                first = self.stats.dropped == 1
+            if first:
+                self.notice(
+                    f"the recorder cannot keep up with {self.keys.robot}'s policy stream: "
+                    "publications are being dropped (a slower --fps, --no-camera or a faster "
+                    "disk helps)"
+                )
 
     def _on_image(self, sample: zenoh.Sample) -> None:
         # The newest image is all a frame takes: no queue, so a slow disk never backs up video.
@@ -231,9 +247,15 @@ class LiveRecorder:
             table.pop(next(iter(table)))
 
     def _answered(self, applied: PolicyApplied) -> None:
-        frame = self._by_tick.get(self._obs_tick_of[applied.seq])
-        if frame is not None and frame.action is None:
-            frame.action = to_action(applied.target, self.scale)
+        tick = self._obs_tick_of[applied.seq]
+        action = to_action(applied.target, self.scale)
+        frame = self._by_tick.get(tick)
+        if frame is None:
+            # Publications on different keys may be delivered out of order: the answer can
+            # come before the observation it answers.
+            self._remember(self._early, tick, action)
+        elif frame.action is None:
+            frame.action = action
 
     def _on_obs(self, obs: PolicyObservation) -> None:
         self.stats.observations += 1
@@ -248,6 +270,7 @@ class LiveRecorder:
             restart = due is None or obs.stamp > due + self.period
             self._next_stamp = (obs.stamp if restart else due) + self.period
             frame = _Frame(obs, self._image if self.camera else None)
+            frame.action = self._early.pop(obs.tick, None)
             self._pending.append(frame)
             self._by_tick[obs.tick] = frame
 
