@@ -33,9 +33,9 @@ from robot_daemon.arbiter.throttle import ArbiterLimits
 from robot_daemon.bus.power_watch import check_dxl_power
 from robot_daemon.bus.robot_bus import RobotBus
 from robot_daemon.fleet_join import ROUTER_CONNECT_TIMEOUT_MS, join_router
+from robot_daemon.frames import JointFrame, Targets
 from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.fall import FallMonitor
-from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.policy_link import PolicyLink, link_policy
 from robot_daemon.power_actions import PowerGuard

@@ -38,7 +38,7 @@ from robot_daemon.bus.tables import (
     ErrorBit,
 )
 from robot_daemon.bus.transport import Transport
-from robot_daemon.motion.interface import JointFrame, Targets
+from robot_daemon.frames import JointFrame, Targets
 from schemas import units
 from schemas.errors import BusError, NoReplyError, PortError
 

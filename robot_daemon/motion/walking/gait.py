@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.frames import JointFrame
+from robot_daemon.motion.interface import MotionModule
 from robot_daemon.motion.walking.ik import leg_servo_angles
 from robot_daemon.motion.walking.params import WalkParams
 from robot_daemon.motion.walking.ready import WalkReady
