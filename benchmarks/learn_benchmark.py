@@ -107,7 +107,7 @@ def policy_loop(seconds: float) -> None:
 
 def tick_cost(ticks: int = 20000) -> None:
     from config.loader import load_all, load_robot
-    from robot_daemon.motion.interface import JointFrame
+    from robot_daemon.frames import JointFrame
     from robot_daemon.motion.setup import build_manager
     from schemas.policy import PolicyAction
 

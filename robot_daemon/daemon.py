@@ -9,33 +9,35 @@ motion comes to a safe stop; losing the port halts every motion module, commands
 bus are refused with ``unavailable`` until it is back, and then the robot holds the pose it is
 in until someone commands it; every shutdown halts the motion and holds the pose before the bus
 is let go.
+
+Beside it: the bus's bring-up, loss and return (``bus_lifecycle.py``), the messages it publishes
+(``broadcast.py``), its Zenoh session (``zenoh_setup.py``), its states
+(``schemas/daemon_state.py``).
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
 import logging
 import threading
 import time
 from dataclasses import dataclass, field
-from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import zenoh
 
 from config.loader import RobotConfig
 from robot_daemon.arbiter.core import Arbiter
 from robot_daemon.arbiter.lease import Holder, Lease
-from robot_daemon.arbiter.registry import MotionContext, Reject, Request, needs_lease
+from robot_daemon.arbiter.registry import MotionContext
 from robot_daemon.arbiter.throttle import ArbiterLimits
+from robot_daemon.broadcast import imu_message, joints_message, status_message
 from robot_daemon.bus.power_watch import check_dxl_power
 from robot_daemon.bus.robot_bus import RobotBus
-from robot_daemon.fleet_join import ROUTER_CONNECT_TIMEOUT_MS, join_router
+from robot_daemon.bus_lifecycle import BusLifecycle
+from robot_daemon.frames import JointFrame, Targets
 from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.fall import FallMonitor
-from robot_daemon.motion.interface import JointFrame, Targets
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.policy_link import PolicyLink, link_policy
 from robot_daemon.power_actions import PowerGuard
@@ -43,10 +45,11 @@ from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
 from robot_daemon.security.acl import Security, serve_roles
 from robot_daemon.services import DaemonInfo
-from schemas.errors import BusError, DarwinError, DxlPowerLostError, ErrorCode, PortError
+from robot_daemon.zenoh_setup import open_session
+from schemas.daemon_state import DaemonState
+from schemas.errors import BusError, PortError
 from schemas.keys import Keys
-from schemas.messages import Imu, Joints, NetworkInfo, Status
-from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config
+from schemas.session import Credentials
 from schemas.versions import announced_protocol, fmt, package_version
 
 if TYPE_CHECKING:
@@ -57,19 +60,6 @@ log = logging.getLogger(__name__)
 # Motion time follows the clock (a late tick moves the gait on by the time that passed), but a
 # stall longer than this many periods counts as this many: the gait must not jump.
 MAX_DT_TICKS = 4.0
-
-
-class ListenError(DarwinError):
-    """The daemon cannot listen on its Zenoh endpoint."""
-
-
-class DaemonState(StrEnum):
-    STARTING = "starting"
-    SCANNING = "scanning"
-    RUNNING = "running"
-    DEGRADED = "degraded"
-    PORT_LOST = "port_lost"
-    STOPPING = "stopping"
 
 
 @dataclass
@@ -87,7 +77,7 @@ class DaemonOptions:
     credentials: Credentials | None = None  # who this robot is to its router (--user…)
 
 
-class Daemon:
+class Daemon(BusLifecycle):
     def __init__(self, options: DaemonOptions, robot: RobotConfig, settings: dict[str, Any]):
         self.options = options
         self.robot = robot
@@ -157,19 +147,6 @@ class Daemon:
                 self._safe_stop.set()
         self._status_dirty = True
 
-    def _outage_gate(self, req: Request) -> None:
-        """While the port is lost, refuse what needs the bus or moves the robot (halt, lease,
-        config and stops still work): acknowledging it would run it when the port returns."""
-        if self._bus_down and (req.verb == "registers" or needs_lease(req.verb, req.fields)):
-            raise Reject(
-                ErrorCode.UNAVAILABLE,
-                f"the serial port {self.bus.port_name} is lost (status.state is port_lost): "
-                f"{req.verb} not done; send it again once the port is back",
-            )
-        why = self.guard.refusal(req.verb, req.fields)
-        if why is not None:
-            raise Reject(ErrorCode.UNAVAILABLE, why)
-
     def _set_state(self, state: DaemonState) -> None:
         if state != self.state:
             log.info("daemon state: %s → %s", self.state, state)
@@ -180,40 +157,14 @@ class Daemon:
 
     # -- lifecycle ---------------------------------------------------------------------------
     def start_network(self) -> None:
-        zcfg = self.settings.get("zenoh", {})
-        conf = server_config(
+        self.session = open_session(
             self.options.listen,
-            int(zcfg.get("link_lease_ms", 3000)),
-            max_message_bytes=int(zcfg.get("max_message_bytes", MAX_MESSAGE_BYTES)),
-            mode=str(zcfg.get("mode", "peer")),
+            self.settings.get("zenoh", {}),
+            router=self.options.router,
+            connect=self.options.connect,
+            credentials=self.options.credentials,
+            security=self.options.security,
         )
-        if self.options.router:
-            join_router(conf, self.options.router, self.options.connect)
-            if self.options.credentials is not None:
-                self.options.credentials.apply(conf)
-        elif self.options.connect:
-            conf.insert_json5("connect/endpoints", json.dumps(self.options.connect))
-        if self.options.security is not None:
-            self.options.security.apply(conf)
-        try:
-            self.session = zenoh.open(conf)
-        except zenoh.ZError as exc:
-            if self.options.router and "connect" in str(exc).lower():
-                wait = ROUTER_CONNECT_TIMEOUT_MS / 1000
-                raise ListenError(
-                    f"cannot reach the router at {self.options.router}: nothing answered within "
-                    f"{wait:g} s; start it first (`darwin router --listen ENDPOINT`) or fix "
-                    "--router"
-                ) from None
-            raise ListenError(
-                f"cannot listen on {', '.join(self.options.listen)}: {_zenoh_reason(exc)}; is "
-                "another daemon or `darwin up` using it? Stop it, or pass --listen "
-                "tcp/127.0.0.1:0 for any free port"
-            ) from None
-        finally:
-            if self.options.security is not None:
-                # Zenoh read the plaintext dictionary while opening: it need not stay on disk.
-                self.options.security.close()
         self.pub = Publishers(self.session, self.keys)
         for kind, message, data in self._early_events:
             self.pub.event(kind, message, **data)
@@ -233,20 +184,6 @@ class Daemon:
             self.camera = CameraThread.from_settings(
                 self.session, self.keys, self.options.camera, self.settings
             )
-
-    def connect_bus(self) -> None:
-        """Open the port, power the servos, scan, hold the present pose."""
-        self._set_state(DaemonState.STARTING)
-        self.bus.open()
-        self._set_state(DaemonState.SCANNING)
-        self.bus.power_on()
-        found = self.bus.scan()
-        log.info("found %d devices on %s: %s", len(found), self.bus.port_name, sorted(found))
-        for w in self.bus.warnings:
-            self._emit("warning", w)
-        self.bus.initial_read()
-        self.bus.read_sensors()
-        self._update_state()
 
     def _update_state(self) -> None:
         st = self.bus.state
@@ -277,22 +214,6 @@ class Daemon:
         if self.session is not None:
             with contextlib.suppress(Exception):
                 self.session.close()
-
-    def _halt_and_hold(self) -> None:
-        """Every module stops now and the present pose is written as the goal, while the bus
-        is still ours: no walk or page goes on (or freezes mid-stride) once nobody drives it."""
-        self.manager.halt()
-        if self.bus.is_open:
-            try:
-                self.bus.read_sensors()
-                frame = self.bus.frame(self.tick + 1, time.monotonic(), self.tick_s)
-                self.manager.hold_present(frame)
-                self.bus.write_targets(self.manager.step(frame))
-            except Exception as exc:  # a port already gone: nothing more to hold
-                log.warning("holding the pose at shutdown failed: %s", exc)
-        if self.pub is not None:
-            for kind, message, data in self.manager.drain_events():
-                self.pub.event(kind, message, **data)
 
     # -- the loop ----------------------------------------------------------------------------
     def run(self) -> None:
@@ -408,9 +329,11 @@ class Daemon:
             self.pub.event(kind, message, **data)
         # Built only for someone: a message nobody subscribes to costs the tick for nothing.
         if self.pub.wanted("joints"):
-            self.pub.post("joints", self._joints_message(frame))
+            self.pub.post(
+                "joints", joints_message(self.robot, self.bus, frame, self._sampled_at, self.tick)
+            )
         if self.pub.wanted("imu"):
-            self.pub.post("imu", self._imu_message(frame))
+            self.pub.post("imu", imu_message(frame, self.fall, self._sampled_at, self.tick))
         self._update_state()
         # Every tick (a lock and a clock read): a silent holder's lease ends within one tick of
         # heartbeat_timeout after its last renewal, so a cut link stops the robot within it.
@@ -422,140 +345,9 @@ class Daemon:
             self.guard.check(self.bus.cm730_status()["voltage"], st.temperature, st.online, now)
             self._publish_status(now)
 
-    def _joints_message(self, frame: JointFrame) -> Joints:
-        # Whole arrays, indexed once by the joint IDs: this runs every tick.
-        st = self.bus.state
-        ids = self.robot.ids
-        idx = list(ids)
-        pos = frame.position[idx]
-        return Joints(
-            id=idx,
-            name=list(self.robot.names),
-            position=pos.tolist(),
-            position_deg=np.degrees(pos).tolist(),
-            goal=self.bus.calibration.positions(st.goal)[idx].tolist(),
-            velocity=frame.velocity[idx].tolist(),
-            load=frame.load[idx].tolist(),
-            temperature=st.temperature[idx].astype(float).tolist(),
-            voltage=st.voltage[idx].astype(float).tolist(),
-            torque_enabled=st.torque[idx].astype(bool).tolist(),
-            online=st.online[idx].astype(bool).tolist(),
-            alarm=st.alarm[idx].astype(int).tolist(),
-            stamp=self._sampled_at,
-            tick=self.tick,
-        )
-
-    def _imu_message(self, frame: JointFrame) -> Imu:
-        # The fall monitor (a motion module) classified this frame in manager.step.
-        fall = self.fall.direction if self.fall is not None else "none"
-        return Imu(
-            gyro=[float(v) for v in frame.gyro],
-            accel=[float(v) for v in frame.accel],
-            gyro_raw=[int(v) for v in frame.gyro_raw],
-            accel_raw=[int(v) for v in frame.accel_raw],
-            fall=fall,
-            stamp=self._sampled_at,
-            tick=self.tick,
-        )
-
-    def status_message(self) -> Status:
-        cm = self.bus.cm730_status()
-        st = self.bus.state
-        alarms = [{"id": j, "bits": int(st.alarm[j])} for j in self.robot.ids if st.alarm[j]]
-        extra: dict[str, Any] = {}
-        if self.camera is not None:
-            extra["camera"] = self.camera.status()
-        else:
-            extra["camera"] = {"source": "none", "captured": 0, "subscribed": False}
-        return Status(
-            state=str(self.state),
-            robot=self.options.robot,
-            lease=self.lease.status(),
-            motion=self.manager.status(),
-            leds=cm["leds"],
-            buttons=cm["buttons"],
-            bus={
-                **self.bus.status(),
-                "bus_errors": self.bus_errors,
-                "arbiter": self.arbiter.counts if self.arbiter else {},
-            },
-            loop={
-                **self.stats.summary(),
-                "scheduling": self.scheduling,
-                "events_dropped": self.pub.dropped_events if self.pub is not None else 0,
-            },
-            voltage=cm["voltage"],
-            alarms=alarms,
-            network=self.network_info(),
-            version=package_version(),
-            power=self.guard.status()[0],
-            heat=self.guard.status()[1],
-            protocol=list(self.protocol),
-            **extra,
-        )
-
-    def network_info(self) -> NetworkInfo:
-        router = self.options.router
-        listen = list(self.options.listen)
-        return NetworkInfo(
-            endpoint=router or (listen[0] if listen else ""), router=router, listen=listen
-        )
-
     def _publish_status(self, now: float) -> None:
         if self.pub is None:
             return
         self._status_dirty = False
         self._last_status = now
-        self.pub.post("status", self.status_message())
-
-    # -- port loss ---------------------------------------------------------------------------
-    def _port_lost(self, exc: Exception) -> None:
-        what = "" if isinstance(exc, DxlPowerLostError) else "serial port lost: "
-        log.warning("%s%s", what, exc)
-        self._emit(
-            "fault", f"{what}{exc}; motion halted, reopening with back-off", port=self.bus.port_name
-        )
-        # Nothing that ran before the outage resumes after it: every module stops now, and
-        # the first tick with the port back holds the pose the robot is in.
-        self._bus_down = True
-        self._hold_on_return = True
-        self.manager.halt()
-        self.bus.close()
-        self.bus.counters.port_reopens += 1
-        self._set_state(DaemonState.PORT_LOST)
-        self._backoff = self.backoff_min
-
-    def _reconnect(self) -> None:
-        """Try to reopen the port; while it fails, keep answering commands and status."""
-        backoff = getattr(self, "_backoff", self.backoff_min)
-        try:
-            self.connect_bus()
-            self._bus_down = False
-            self._emit("port", f"serial port {self.bus.port_name} is back; holding the pose")
-            return
-        except BusError as exc:
-            log.info("reopening %s failed: %s", self.bus.port_name, exc)
-            self.bus.close()
-            self._set_state(DaemonState.PORT_LOST)
-        deadline = time.monotonic() + backoff
-        self._backoff = min(backoff * 2, self.backoff_max)
-        while not self._stop.is_set() and time.monotonic() < deadline:
-            self._wake.clear()
-            if self.arbiter is not None:
-                # Answered at once: refused (the gate) or done without the bus (halt, lease).
-                self.arbiter.apply_pending(self._context(self.frame))
-            if self.lease.expire():
-                self._status_dirty = True
-            for kind, message, data in self.manager.drain_events():
-                self._emit(kind, message, **data)
-            self._publish_status(time.monotonic())
-            self._wake.wait(min(self.status_period, max(0.0, deadline - time.monotonic())))
-
-
-def _zenoh_reason(exc: Exception) -> str:
-    """Zenoh's error without its Rust source paths."""
-    text = str(exc).strip()
-    if "already in use" in text.lower():
-        return "the address is already in use"
-    text = text.splitlines()[0] if text else type(exc).__name__
-    return text.split(" at /", 1)[0][:160]
+        self.pub.post("status", status_message(self))

@@ -27,6 +27,7 @@ from robot_daemon.security.options import (
     secure_listen,
     security_from_args,
 )
+from robot_daemon.zenoh_setup import zenoh_reason
 from schemas.errors import ConfigError, DarwinError
 from schemas.session import server_config
 
@@ -78,12 +79,10 @@ def router_config(listen: list[str], settings: dict[str, Any]) -> zenoh.Config:
 
 
 def open_router(listen: list[str], conf: zenoh.Config) -> zenoh.Session:
-    from robot_daemon.daemon import _zenoh_reason
-
     try:
         return zenoh.open(conf)
     except zenoh.ZError as exc:
-        reason = _zenoh_reason(exc)
+        reason = zenoh_reason(exc)
         if "in use" in reason:
             fix = (
                 "is another router or `darwin up` using it? Stop it, or pass --listen "

@@ -7,7 +7,7 @@ DarwinError
 │   ├── GLUnavailableError  no OpenGL for the MuJoCo camera (robot_daemon/sim/physics)
 │   └── V4L2Error           a V4L2 camera that cannot be opened or give MJPEG (vision/v4l2)
 ├── ChildError              a program `darwin up` started exited or never became ready
-├── ListenError             the daemon cannot listen on its Zenoh endpoint (robot_daemon/daemon)
+├── ListenError             the daemon can't listen on its Zenoh endpoint (robot_daemon/zenoh_setup)
 ├── RouterError             `darwin router` cannot listen (robot_daemon/router)
 ├── MotionFileError         a motion file that cannot be read (robot_daemon/motion/action)
 ├── ReplaceRefused          a servo replacement that would be unsafe (robot_daemon/bus/replace)

@@ -13,7 +13,6 @@ the intake thread, so a busy loop never makes a holder look silent.
 from __future__ import annotations
 
 import contextlib
-import heapq
 import logging
 import queue
 import threading
@@ -27,6 +26,7 @@ import zenoh
 
 from robot_daemon.arbiter import verbs
 from robot_daemon.arbiter.lease import Lease
+from robot_daemon.arbiter.parking import ParkedAnswers
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request
 from robot_daemon.arbiter.request import decode_command, execute, parse_request, request_from
 from robot_daemon.arbiter.throttle import ArbiterLimits, Buckets
@@ -45,9 +45,6 @@ log = logging.getLogger(__name__)
 BUS_VERBS = frozenset(v.name for v in SPEC.values() if v.bus)
 # Halts are cheap (no bus I/O) and always first; this only bounds a flood of them per tick.
 MAX_HALTS_PER_TICK = 64
-# Throttled answers held back until their retry time (see Arbiter._park).
-MAX_PARKED = 256
-MAX_PARK_S = 1.0
 
 
 @dataclass
@@ -94,8 +91,7 @@ class Arbiter:
         self._incoming: queue.SimpleQueue[zenoh.Query | None] = queue.SimpleQueue()
         self._done: queue.SimpleQueue[Pending | None] = queue.SimpleQueue()
         self._outstanding: dict[int, Pending] = {}
-        self._parked: list[tuple[float, int, zenoh.Query, bytes]] = []  # heap by due time
-        self._park_seq = 0
+        self._parked = ParkedAnswers(self._finish_query)  # throttled answers, held back
         self._lock = threading.Lock()
         lim = self.limits
         self._rate = Buckets(lim.client_rate, lim.client_burst)
@@ -141,7 +137,7 @@ class Arbiter:
             except Reject as r:
                 if r.code == ErrorCode.RATE_LIMITED:
                     self.counts["rate_limited"] += 1
-                    self._park(query, verb_name, r)
+                    self._parked.hold(query, verb_name, r)
                     continue
                 self.counts["rejected"] += 1
                 self._finish_query(query, False, error_payload(verb_name, r))
@@ -223,33 +219,6 @@ class Arbiter:
                 retry_after=wait,
             )
 
-    def _park(self, query: zenoh.Query, verb_name: str, r: Reject) -> None:
-        """Answer a throttled command when its wait is over rather than at once: a client that
-        retries on every answer then paces itself, instead of costing the daemon a query per
-        answer as fast as it can send. Only a bounded number is held; the rest is answered now."""
-        wait = min(r.retry_after or 0.0, MAX_PARK_S)
-        with self._lock:
-            if wait > 0 and len(self._parked) < MAX_PARKED:
-                r = Reject(r.code, r.message + " (this answer was held that long)", r.field, 0.0)
-                self._park_seq += 1
-                heapq.heappush(
-                    self._parked,
-                    (time.monotonic() + wait, self._park_seq, query, error_payload(verb_name, r)),
-                )
-                return
-        self._finish_query(query, False, error_payload(verb_name, r))
-
-    def _release_parked(self, now: float) -> float:
-        """Answer the parked queries that are due; returns the seconds until the next one."""
-        due = []
-        with self._lock:
-            while self._parked and self._parked[0][0] <= now:
-                due.append(heapq.heappop(self._parked))
-            nxt = self._parked[0][0] - now if self._parked else 0.25
-        for _, _, query, payload in due:
-            self._finish_query(query, False, payload)
-        return max(0.001, min(0.25, nxt))
-
     def _drain_time(self, queued: int, reads: bool) -> float:
         """About how long until the queue has room again (s)."""
         if reads:  # one read per ~read cost / share of the wall time
@@ -270,7 +239,7 @@ class Arbiter:
             if pending is not None:
                 self._reply(pending)
             now = time.monotonic()
-            wait = self._release_parked(now)
+            wait = self._parked.release(now)
             with self._lock:
                 late = [p for p in self._outstanding.values() if p.deadline < now]
             for p in late:
@@ -414,7 +383,7 @@ class Arbiter:
         with contextlib.suppress(Exception):
             self._clients.undeclare()
         self.fail_pending("the daemon is stopping")
-        self._release_parked(float("inf"))
+        self._parked.release(float("inf"))
         self._incoming.put(None)
         self._done.put(None)
         for t in self._threads:

@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from config.loader import RobotConfig
     from robot_daemon.arbiter.lease import Lease
     from robot_daemon.bus.calibration import Calibration
-    from robot_daemon.motion.interface import JointFrame
+    from robot_daemon.frames import JointFrame
     from robot_daemon.motion.manager import MotionManager
     from robot_daemon.services import CameraFeed, DaemonInfo
     from schemas.messages import Message

@@ -13,7 +13,7 @@ from typing import TypeVar
 import numpy as np
 
 from config.loader import JointConfig, RobotConfig
-from robot_daemon.motion.interface import N_SLOTS
+from robot_daemon.frames import N_SLOTS
 from schemas import units
 
 Angles = TypeVar("Angles", float, np.ndarray)

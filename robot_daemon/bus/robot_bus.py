@@ -3,7 +3,8 @@ per-tick transactions (sync-write goals and gains, bulk-read sensors, round-robi
 
 Joint angles are calibrated here and only here: ``servo = direction · joint + offset``.
 A servo that misses ``offline_after`` bulk reads in a row goes offline (left out of the bulk
-read so it cannot stall the others) and is probed in the round-robin until it answers again.
+read so it cannot stall the others) and is probed in the round-robin until it answers again:
+the bulk read and what it tells are in ``bus/sensor_read.py``.
 """
 
 from __future__ import annotations
@@ -17,45 +18,36 @@ import numpy as np
 
 from config.loader import RobotConfig
 from robot_daemon.bus.calibration import Calibration
-from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
+from robot_daemon.bus.dxl import DxlBus, ReplyBudget
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.preflight import firmware_refusal
-from robot_daemon.bus.read_plan import servos_to_read
 from robot_daemon.bus.scan import identify, identity_warnings
+from robot_daemon.bus.sensor_read import SLOW_LENGTH, SLOW_START, SensorRead
 from robot_daemon.bus.servo_ram import reset_servo_ram
-from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, imu_si, word
+from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, imu_si
 from robot_daemon.bus.tables import (
     CM730,
     CM730_BULK_LENGTH,
-    CM730_BULK_START,
     CM730_MODEL,
     MX28,
     MX28_MODEL,
-    SERVO_BULK_LENGTH,
-    SERVO_BULK_START,
     SYNC_WRITE_LENGTH,
     SYNC_WRITE_START,
-    ErrorBit,
 )
 from robot_daemon.bus.transport import Transport
-from robot_daemon.motion.interface import JointFrame, Targets
+from robot_daemon.frames import JointFrame, Targets
 from schemas import units
 from schemas.errors import BusError, NoReplyError, PortError
 
 log = logging.getLogger(__name__)
 
-# Round-robin slow block: torque enable (24) … present temperature (43).
-SLOW_START = MX28.TORQUE_ENABLE.reg.address
-SLOW_LENGTH = MX28.PRESENT_TEMPERATURE.reg.address + 1 - SLOW_START
-# Alarms the firmware protects against by dropping torque (the MX-28's default shutdown mask).
-PROTECT_BITS = ErrorBit.OVERHEATING | ErrorBit.OVERLOAD
 # A device is asked this many times at start before it is called missing.
 SCAN_TRIES = 3
 # How long the daemon keeps asking the CM-730 at start before it gives up (s).
 CM730_WAIT_S = 5.0
 
 
-class RobotBus:
+class RobotBus(SensorRead):
     """Owns the transport; every method runs in the motion thread.
 
     ``transport`` makes the transport at each :meth:`open`: by default the serial port
@@ -266,114 +258,6 @@ class RobotBus:
             self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
             self.counters.sync_writes += 1
             self.counters.goal_writes += len(rows)
-
-    def read_sensors(self) -> None:
-        """One bulk read: the CM-730's sensors, position/speed/load of the online servos, the
-        slow block (torque … temperature) of one servo in turn, and now and then a probe of
-        an offline servo (last, so a silent one delays nobody)."""
-        st = self.state
-        online = [j for j in self.ids if st.online[j]]
-        n = min(self.slow_per_tick, len(online))
-        slow = {online[(self._rr * n + k) % len(online)] for k in range(n)}
-        self._rr += 1
-        blocks = [
-            (j, SLOW_START, SLOW_LENGTH) if j in slow else (j, SERVO_BULK_START, SERVO_BULK_LENGTH)
-            for j in servos_to_read(online, slow, self._rr, self.servo_share)
-        ]
-        # The CM-730 first, as ROBOTIS's CM730::MakeBulkReadPacket (framework r47), Bold Hearts
-        # and NimbRo-OP; last while it has not answered, so a silent CM-730 (the chain waits
-        # for its status packet) silences nobody.
-        cm = (self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH)
-        blocks.insert(len(blocks) if not self.cm730_online else 0, cm)
-        offline = [j for j in self.ids if not st.online[j] and j not in self.refused]
-        probe = None
-        if offline and self._rr % self.probe_every == 0:
-            probe = offline[(self._rr // self.probe_every) % len(offline)]
-            blocks.append((probe, SLOW_START, SLOW_LENGTH))
-        res = self._bus().bulk_read(blocks)
-        self.cm730_valid = self.cm730_id in res.data and not res.errors.get(self.cm730_id)
-        self._cm730_misses = 0 if self.cm730_id in res.data else self._cm730_misses + 1
-        if self._cm730_misses >= self.offline_after:
-            self.cm730_online = False  # back to the end of the chain until it answers again
-        c = self.counters
-        c.bulk_reads += 1
-        c.missing_replies += len([j for j in res.missing if j != probe])
-        c.corrupt_replies += res.corrupt
-        c.retries += int(res.retried)
-        if (set(res.missing) - {probe}) or res.corrupt:
-            c.stale_ticks += 1
-        for jid, data in res.data.items():
-            if jid == self.cm730_id:
-                self.cm730 = data
-                self.cm730_online = True
-                continue
-            if jid in slow or jid == probe:
-                self._apply_slow(jid, data, res.errors.get(jid, 0))
-                if jid == probe:
-                    st.online[jid] = True
-                    self.emit(
-                        "servo_online",
-                        f"servo {jid} ({self.robot.by_id[jid].name}) answers again",
-                        id=jid,
-                    )
-            else:
-                st.position[jid] = word(data, 0)
-                st.speed[jid] = word(data, 2)
-                st.load[jid] = word(data, 4)
-                self._alarm(jid, res.errors.get(jid, 0))
-            st.misses[jid] = 0
-        if res.stalled:
-            c.bus_stalls += 1
-            return
-        for jid in res.blamed:
-            if jid in (self.cm730_id, probe):
-                continue
-            st.misses[jid] += 1
-            if st.misses[jid] >= self.offline_after and st.online[jid]:
-                st.online[jid] = False
-                self.emit(
-                    "servo_offline",
-                    f"servo {jid} ({self.robot.by_id[jid].name}) missed {st.misses[jid]} reads "
-                    "in a row: offline (check its cable; it comes back when it answers)",
-                    id=jid,
-                )
-
-    def _apply_slow(self, jid: int, data: bytes, error: int) -> None:
-        st = self.state
-
-        def at(reg: MX28) -> int:
-            return reg.reg.address - SLOW_START
-
-        st.torque[jid] = bool(data[at(MX28.TORQUE_ENABLE)])
-        st.goal[jid] = word(data, at(MX28.GOAL_POSITION))
-        st.position[jid] = word(data, at(MX28.PRESENT_POSITION))
-        st.speed[jid] = word(data, at(MX28.PRESENT_SPEED))
-        st.load[jid] = word(data, at(MX28.PRESENT_LOAD))
-        st.voltage[jid] = units.voltage_raw_to_v(data[at(MX28.PRESENT_VOLTAGE)])
-        st.temperature[jid] = float(data[at(MX28.PRESENT_TEMPERATURE)])
-        self._alarm(jid, error)
-
-    def _alarm(self, jid: int, bits: int) -> None:
-        st = self.state
-        if bits == st.alarm[jid]:
-            return
-        old, st.alarm[jid] = int(st.alarm[jid]), bits
-        if not bits:
-            self.emit("servo_alarm_cleared", f"servo {jid} alarm cleared", id=jid, bits=0)
-            return
-        names = error_names(bits)
-        protect = bool(bits & PROTECT_BITS) and not old & PROTECT_BITS
-        self.emit(
-            "servo_alarm",
-            f"servo {jid} ({self.robot.by_id[jid].name}) alarm: {', '.join(names)}"
-            + ("; torque off to protect it" if protect else ""),
-            id=jid,
-            bits=bits,
-            alarms=names,
-        )
-        if protect and st.torque[jid]:
-            # As the firmware's alarm shutdown does: no torque until someone re-enables it.
-            self.set_torque([jid], False)
 
     # -- frame ---------------------------------------------------------------------------------
     def frame(self, tick: int, now: float, dt: float) -> JointFrame:

@@ -15,7 +15,7 @@ from robot_daemon.bus.tables import (
     IMU_GYRO_AXES,
     Register,
 )
-from robot_daemon.motion.interface import N_SLOTS
+from robot_daemon.frames import N_SLOTS
 from schemas import units
 
 

@@ -13,8 +13,9 @@ import itertools
 from collections.abc import Callable
 from typing import Any
 
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.behaviours import BehaviourLibrary, Item
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.motion.interface import MotionModule
 from robot_daemon.motion.sound import SoundPlayer
 from schemas.units import rgb_to_color_word
 

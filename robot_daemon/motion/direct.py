@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.frames import JointFrame
+from robot_daemon.motion.interface import MotionModule
 from robot_daemon.motion.trajectory import Trajectory
 
 

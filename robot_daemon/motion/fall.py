@@ -39,7 +39,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from config.loader import section_to
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.frames import JointFrame
+from robot_daemon.motion.interface import MotionModule
 from schemas.units import IMU_CENTER
 
 UPRIGHT, FORWARD, BACKWARD = "upright", "fallen_forward", "fallen_backward"

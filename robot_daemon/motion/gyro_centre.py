@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 
 from config.loader import section_to
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.frames import JointFrame
+from robot_daemon.motion.interface import MotionModule
 from schemas.units import IMU_CENTER
 
 

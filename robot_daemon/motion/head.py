@@ -8,7 +8,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from config.loader import refuse_unknown
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.frames import JointFrame
+from robot_daemon.motion.interface import MotionModule
 from schemas.kinematics import HEAD_PAN_ID, HEAD_TILT_ID
 
 

@@ -13,7 +13,8 @@ from collections import deque
 from typing import Any
 
 from config.loader import RobotConfig
-from robot_daemon.motion.interface import JointFrame, MotionModule, Targets
+from robot_daemon.frames import JointFrame, Targets
+from robot_daemon.motion.interface import MotionModule
 
 
 class MotionManager:

@@ -28,8 +28,9 @@ from typing import Any
 import numpy as np
 
 from config.loader import ranged, section_to
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.attitude import GravityFilter
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.motion.interface import MotionModule
 from schemas.joints import JOINT_IDS, JOINT_NAMES
 from schemas.policy import (
     ACTION_BOUND,

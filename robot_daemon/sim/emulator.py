@@ -5,10 +5,11 @@
 
 One thread blocks in ``select`` on the pty (and a wake-up pipe), parses what arrives, lets the
 :class:`~robot_daemon.sim.bus.Bus` answer, and writes the replies when a 1 Mbps wire would have
-delivered them. Time: with ``realtime`` the servos advance to "now" before every packet, and a
-physics thread runs the physics hooks every ``idle_step_s`` (only while there are hooks), in
-a quiet moment of the bus when a host is polling it; without it, only :meth:`advance` moves
-time (a simulated clock can then run faster than real time). Every public method is thread-safe.
+delivered them. Time (``sim/clock.py``): with ``realtime`` the servos advance to "now" before
+every packet, and a physics thread runs the physics hooks every ``idle_step_s`` (only while
+there are hooks), in a quiet moment of the bus when a host is polling it; without it, only
+:meth:`advance` moves time (a simulated clock can then run faster than real time). Every public
+method is thread-safe.
 
 The seam for the simulated world (``robot_daemon/sim/world``): :meth:`add_physics_hook` gets
 ``fn(dt, emulator)`` after every physics step (at most ``max_step_s`` long), and inside it the
@@ -26,7 +27,6 @@ import select
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -36,6 +36,7 @@ from robot_daemon.bus.tables import Instruction
 from robot_daemon.realtime import check_priority, enter_realtime
 from robot_daemon.sim import bringup
 from robot_daemon.sim.bus import Bus
+from robot_daemon.sim.clock import EmulatorClock, PhysicsHook
 from robot_daemon.sim.devices import Environment
 from robot_daemon.sim.faults import Faults
 from robot_daemon.sim.ftdi import FtdiChip
@@ -45,14 +46,10 @@ from robot_daemon.sim.state import EmulatorApi
 
 log = logging.getLogger(__name__)
 
-PhysicsHook = Callable[[float, "Emulator"], None]
 _EARLY = 50e-6  # write a reply this close to its due time rather than sleep again
-_MAX_CATCH_UP_S = 0.1
-# A host that sent something this recently is polling: physics waits for a quiet moment.
-_POLLING_S = 0.05
 
 
-class Emulator(EmulatorApi):
+class Emulator(EmulatorClock, EmulatorApi):
     def __init__(self, settings: EmulatorSettings | None = None, **overrides: Any) -> None:
         s = settings or EmulatorSettings()
         for key, value in overrides.items():
@@ -186,85 +183,6 @@ class Emulator(EmulatorApi):
             self.link.open()
         self._wake()
         return self.port
-
-    # ---- time ---------------------------------------------------------------------------------
-
-    def add_physics_hook(self, fn: PhysicsHook) -> None:
-        with self.lock:
-            self._hooks.append(fn)
-        self._physics_wake.set()
-
-    def remove_physics_hook(self, fn: PhysicsHook) -> None:
-        with self.lock:
-            self._hooks.remove(fn)
-
-    def advance(self, dt: float) -> None:
-        """Step the dynamics by ``dt`` seconds now (in steps of at most ``max_step_s``)."""
-        if dt < 0:
-            raise ValueError(f"advance(dt={dt!r}): time only goes forward")
-        remaining = dt
-        while remaining > 1e-12:
-            h = min(remaining, self.settings.max_step_s)
-            with self.lock:
-                self.bus.step(h)
-            self._run_hooks(h)
-            remaining -= h
-
-    @property
-    def sim_time(self) -> float:
-        return self.bus.time
-
-    def _run_hooks(self, dt: float) -> None:
-        # Hooks run without the lock: the bus keeps answering while the world computes, and
-        # the emulator methods a hook calls take the lock themselves.
-        for hook in list(self._hooks):
-            try:
-                hook(dt, self)
-            except Exception:
-                self._hook_failures += 1
-                if self._hook_failures <= 3:
-                    log.exception("emulator: physics hook %r failed", hook)
-
-    def _sync_servos(self) -> None:
-        """Real-time clock: bring the servos to "now" (one exact step, cheap) before answering."""
-        now = time.monotonic()
-        dt, self._clock = now - self._clock, now
-        if dt > 0:
-            self.bus.step(dt)
-
-    def _physics(self) -> None:
-        """Real-time clock: run the physics hooks every ``idle_step_s`` while there are any."""
-        last = time.monotonic()
-        while not self._stopping.is_set():
-            if not self._hooks:
-                self._physics_wake.wait()
-                self._physics_wake.clear()
-                last = time.monotonic()
-                continue
-            if self._stopping.wait(self.settings.idle_step_s):
-                return
-            self._wait_for_quiet_bus()
-            now = time.monotonic()
-            # After a stall (a debugger, a loaded machine) the world skips time, not replays it.
-            dt, last = min(now - last, _MAX_CATCH_UP_S), now
-            with self.lock:
-                self._sync_servos()
-            while dt > 1e-12:
-                h = min(dt, self.settings.max_step_s)
-                self._run_hooks(h)
-                dt -= h
-
-    def _wait_for_quiet_bus(self) -> None:
-        """A physics round is ~2 ms of Python holding the GIL; run mid-transaction, it would
-        make replies late that the wire model says are due. A polling host leaves the bus
-        quiet once each transaction is answered (after its sync write, or its last reply),
-        so wait for the next such moment, but never longer than one more step."""
-        with self.lock:
-            if time.perf_counter() - self._last_rx >= _POLLING_S:
-                return
-            # Not merely "quiet now": the host may be about to start its next transaction.
-            self._quiet.clear()
-        self._quiet.wait(self.settings.idle_step_s)
 
     def _bus_quiet(self) -> bool:
         return not self._out and not self.parser.pending

@@ -18,7 +18,7 @@ from robot_daemon.bus.tables import (
     SERVO_BULK_LENGTH,
     SERVO_IDS,
 )
-from robot_daemon.motion.interface import JointFrame
+from robot_daemon.frames import JointFrame
 from robot_daemon.sim.world.rig import TICK_S, SimRig
 
 FRAME_FIELDS = (
@@ -84,7 +84,7 @@ def test_the_rig_clamps_goals_to_the_joint_limits_as_the_daemon_does() -> None:
     rig = SimRig(seed=2)
     knee = rig.robot.joint("r_knee")
     rig.bus.write_targets(rig.manager.step(rig.frame()))
-    from robot_daemon.motion.interface import Targets
+    from robot_daemon.frames import Targets
 
     rig.bus.write_targets(Targets(goal={knee.id: knee.max_rad + 1.0}))
     assert rig.bus.counters.limit_clamps == 1

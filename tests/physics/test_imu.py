@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from robot_daemon.bus.tables import CM730
-from robot_daemon.motion.interface import Targets
+from robot_daemon.frames import Targets
 from robot_daemon.sim.emulator import Emulator
 from robot_daemon.sim.physics.world import MujocoWorld
 from robot_daemon.sim.world.rig import SimRig

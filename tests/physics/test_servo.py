@@ -8,7 +8,7 @@ import math
 import pytest
 
 from robot_daemon.bus.tables import MX28
-from robot_daemon.motion.interface import Targets
+from robot_daemon.frames import Targets
 from robot_daemon.sim.world.rig import TICK_S, SimRig
 
 PAN = 19

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from robot_daemon.bus.tables import MX28, ErrorBit
-from robot_daemon.motion.interface import Targets
+from robot_daemon.frames import Targets
 from robot_daemon.sim.control import run_op
 from robot_daemon.sim.world import control
 from robot_daemon.sim.world.rig import TICK_S, SimRig

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_daemon.motion.interface import JointFrame
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.manager import MotionManager, Targets
 
 DT = 0.008

@@ -7,7 +7,7 @@ import numpy as np
 
 from config.loader import load_all, load_robot
 from robot_daemon.bus.robot_bus import RobotBus
-from robot_daemon.motion.interface import JointFrame
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.setup import build_manager
 from tests.unit.motion_rig import DT, PerfectServos
 

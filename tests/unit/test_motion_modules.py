@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from config.loader import load_all, load_robot
-from robot_daemon.motion.interface import JointFrame
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.motion.sound import SoundPlayer
 from tests.unit.motion_rig import DT, PerfectServos

@@ -13,10 +13,10 @@ from clients.pages import PageEditor
 from config.loader import load_all
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, needs_lease
 from robot_daemon.arbiter.verbs import pages as pages_verb
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.action import binfile, textfile
 from robot_daemon.motion.action.library import LIBRARY_DIR
 from robot_daemon.motion.action.store import PageStore
-from robot_daemon.motion.interface import JointFrame
 from schemas.errors import ErrorCode
 from tests.fixtures.emulator import darwin_command
 from tests.fixtures.motion import motion_context

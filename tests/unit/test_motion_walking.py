@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from config.loader import load_all, load_robot
-from robot_daemon.motion.interface import JointFrame
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.manager import MotionManager
 from robot_daemon.motion.walking.gait import (
     WalkingModule,

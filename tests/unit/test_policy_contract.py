@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from config.loader import load_all, load_robot
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.attitude import GravityFilter
-from robot_daemon.motion.interface import JointFrame
 from robot_daemon.motion.manager import MotionManager
 from robot_daemon.motion.policy import PolicyModule, PolicySettings
 from schemas import SCHEMA_VERSION

@@ -25,11 +25,12 @@ from typing import Any
 
 import numpy as np
 
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.action.binfile import JOINT_SLOTS, SCHEDULE_SPEED, Page
 from robot_daemon.motion.action.check import page_problems
 from robot_daemon.motion.action.library import MotionLibrary
 from robot_daemon.motion.action.store import PageStore
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.motion.interface import MotionModule
 from schemas.units import raw_to_rad
 
 TIME_UNIT_S = 0.008  # at speed 32

@@ -18,11 +18,12 @@ import math
 import threading
 from typing import Any
 
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.ball.follower import Follower
 from robot_daemon.motion.ball.settings import BallPlaySettings
 from robot_daemon.motion.ball.tracker import HeadTracker
 from robot_daemon.motion.ball.walk_port import WalkPort
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.motion.interface import MotionModule
 from schemas.kinematics import HEAD_PAN_ID, HEAD_TILT_ID
 from schemas.messages import BallDetection
 

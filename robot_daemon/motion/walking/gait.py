@@ -20,19 +20,18 @@ from typing import Any
 
 import numpy as np
 
-from robot_daemon.motion.interface import JointFrame, MotionModule
+from robot_daemon.frames import JointFrame
+from robot_daemon.motion.interface import MotionModule
+from robot_daemon.motion.walking.balance import gyro_feedback
 from robot_daemon.motion.walking.ik import leg_servo_angles
 from robot_daemon.motion.walking.params import WalkParams
 from robot_daemon.motion.walking.ready import WalkReady
-from schemas.units import RAD_PER_UNIT
 
 LEG_IDS = tuple(range(7, 19))
 ARM_IDS = (1, 2)
 WALK_IDS = (*ARM_IDS, *LEG_IDS)
 ARM_INIT_DEG = {1: -48.345, 2: 41.313}
 ARM_P_GAIN = 8  # the framework's shoulder pitch while walking
-# Framework servo directions used by the gyro feedback (Walking.cpp ``dir``).
-_DIR = {9: -1, 10: -1, 13: 1, 14: -1, 15: -1, 16: 1, 17: 1, 18: 1}
 
 
 def _wsin(t: float, period: float, shift: float, mag: float, mag_shift: float) -> float:
@@ -327,40 +326,10 @@ class WalkingModule(WalkReady, MotionModule):
         goals[1] = math.radians(ARM_INIT_DEG[1] - arm)
         goals[2] = math.radians(ARM_INIT_DEG[2] - arm)
         if balance and p.balance_enable:
-            self._balance(goals, frame)
+            self._gyro_f = gyro_feedback(goals, frame, p, self._gyro_f)
         if not self._within_limits(goals):
             return None
         return goals
-
-    def _balance(self, goals: dict[int, float], frame: JointFrame) -> None:
-        """The framework's gyro feedback (servo units per count × gain × 4), low-passed over
-        ``balance_filter`` s and limited to ``balance_limit`` degrees per joint: on a body
-        without compliance (the simulator) the raw law feeds its own correction back."""
-        p = self.params
-        # Relative to the centres measured at start (motion/gyro_centre.py); stale adds nothing.
-        centre = frame.gyro_centre
-        raw = (
-            (float(frame.gyro_raw[0] - centre[0]), float(frame.gyro_raw[1] - centre[1]))
-            if frame.imu_valid
-            else (0.0, 0.0)
-        )
-        a = 1.0 if p.balance_filter <= 0 else min(1.0, frame.dt / (p.balance_filter + frame.dt))
-        self._gyro_f = [f + (r - f) * a for f, r in zip(self._gyro_f, raw, strict=True)]
-        rl, fb = self._gyro_f
-        unit = RAD_PER_UNIT  # the framework adds servo units
-        limit = math.radians(p.balance_limit)
-        terms = {
-            9: _DIR[9] * rl * p.balance_hip_roll_gain,
-            10: _DIR[10] * rl * p.balance_hip_roll_gain,
-            13: -_DIR[13] * fb * p.balance_knee_gain,
-            14: -_DIR[14] * fb * p.balance_knee_gain,
-            15: -_DIR[15] * fb * p.balance_ankle_pitch_gain,
-            16: -_DIR[16] * fb * p.balance_ankle_pitch_gain,
-            17: -_DIR[17] * rl * p.balance_ankle_roll_gain,
-            18: -_DIR[18] * rl * p.balance_ankle_roll_gain,
-        }
-        for j, term in terms.items():
-            goals[j] += max(-limit, min(limit, term * 4 * unit))
 
     def _within_limits(self, goals: dict[int, float]) -> bool:
         if self.manager is None:

@@ -23,7 +23,7 @@ from typing import Any
 from config.loader import RobotConfig, load_all, robot_from_dict
 from robot_daemon.bus.calibration import joint_raw
 from robot_daemon.bus.robot_bus import RobotBus
-from robot_daemon.motion.interface import JointFrame
+from robot_daemon.frames import JointFrame
 from robot_daemon.motion.setup import build_manager
 from robot_daemon.sim.emulator import Emulator
 from robot_daemon.sim.link import EmulatorLink

@@ -1,0 +1,168 @@
+"""The tick's bulk read and what it tells: present position, speed and load of the servos, the
+slow block (torque … temperature) of one servo in turn, the CM-730's sensors, alarms, and servos
+going offline after ``offline_after`` missed reads in a row and coming back when a probe answers.
+
+A mixin of :class:`~robot_daemon.bus.robot_bus.RobotBus` (which provides the state, the
+counters and the transport); kept apart so the bus's start-up and commands stay readable.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from robot_daemon.bus.dxl import error_names
+from robot_daemon.bus.read_plan import servos_to_read
+from robot_daemon.bus.state import BusCounters, ServoState, word
+from robot_daemon.bus.tables import (
+    CM730_BULK_LENGTH,
+    CM730_BULK_START,
+    MX28,
+    SERVO_BULK_LENGTH,
+    SERVO_BULK_START,
+    ErrorBit,
+)
+from schemas import units
+
+if TYPE_CHECKING:
+    from config.loader import RobotConfig
+    from robot_daemon.bus.dxl import DxlBus
+
+# Round-robin slow block: torque enable (24) … present temperature (43).
+SLOW_START = MX28.TORQUE_ENABLE.reg.address
+SLOW_LENGTH = MX28.PRESENT_TEMPERATURE.reg.address + 1 - SLOW_START
+# Alarms the firmware protects against by dropping torque (the MX-28's default shutdown mask).
+PROTECT_BITS = ErrorBit.OVERHEATING | ErrorBit.OVERLOAD
+
+
+class SensorRead:
+    # The RobotBus's, set in its __init__.
+    robot: RobotConfig
+    ids: tuple[int, ...]
+    cm730_id: int
+    cm730: bytes
+    cm730_online: bool
+    cm730_valid: bool
+    _cm730_misses: int
+    state: ServoState
+    counters: BusCounters
+    refused: dict[int, str]
+    offline_after: int
+    slow_per_tick: int
+    servo_share: int
+    probe_every: int
+    emit: Callable[..., Any]
+    _rr: int
+
+    if TYPE_CHECKING:
+
+        def _bus(self) -> DxlBus: ...
+        def set_torque(self, ids: list[int], enable: bool) -> None: ...
+
+    def read_sensors(self) -> None:
+        """One bulk read: the CM-730's sensors, position/speed/load of the online servos, the
+        slow block (torque … temperature) of one servo in turn, and now and then a probe of
+        an offline servo (last, so a silent one delays nobody)."""
+        st = self.state
+        online = [j for j in self.ids if st.online[j]]
+        n = min(self.slow_per_tick, len(online))
+        slow = {online[(self._rr * n + k) % len(online)] for k in range(n)}
+        self._rr += 1
+        blocks = [
+            (j, SLOW_START, SLOW_LENGTH) if j in slow else (j, SERVO_BULK_START, SERVO_BULK_LENGTH)
+            for j in servos_to_read(online, slow, self._rr, self.servo_share)
+        ]
+        # The CM-730 first, as ROBOTIS's CM730::MakeBulkReadPacket (framework r47), Bold Hearts
+        # and NimbRo-OP; last while it has not answered, so a silent CM-730 (the chain waits
+        # for its status packet) silences nobody.
+        cm = (self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH)
+        blocks.insert(len(blocks) if not self.cm730_online else 0, cm)
+        offline = [j for j in self.ids if not st.online[j] and j not in self.refused]
+        probe = None
+        if offline and self._rr % self.probe_every == 0:
+            probe = offline[(self._rr // self.probe_every) % len(offline)]
+            blocks.append((probe, SLOW_START, SLOW_LENGTH))
+        res = self._bus().bulk_read(blocks)
+        self.cm730_valid = self.cm730_id in res.data and not res.errors.get(self.cm730_id)
+        self._cm730_misses = 0 if self.cm730_id in res.data else self._cm730_misses + 1
+        if self._cm730_misses >= self.offline_after:
+            self.cm730_online = False  # back to the end of the chain until it answers again
+        c = self.counters
+        c.bulk_reads += 1
+        c.missing_replies += len([j for j in res.missing if j != probe])
+        c.corrupt_replies += res.corrupt
+        c.retries += int(res.retried)
+        if (set(res.missing) - {probe}) or res.corrupt:
+            c.stale_ticks += 1
+        for jid, data in res.data.items():
+            if jid == self.cm730_id:
+                self.cm730 = data
+                self.cm730_online = True
+                continue
+            if jid in slow or jid == probe:
+                self._apply_slow(jid, data, res.errors.get(jid, 0))
+                if jid == probe:
+                    st.online[jid] = True
+                    self.emit(
+                        "servo_online",
+                        f"servo {jid} ({self.robot.by_id[jid].name}) answers again",
+                        id=jid,
+                    )
+            else:
+                st.position[jid] = word(data, 0)
+                st.speed[jid] = word(data, 2)
+                st.load[jid] = word(data, 4)
+                self._alarm(jid, res.errors.get(jid, 0))
+            st.misses[jid] = 0
+        if res.stalled:
+            c.bus_stalls += 1
+            return
+        for jid in res.blamed:
+            if jid in (self.cm730_id, probe):
+                continue
+            st.misses[jid] += 1
+            if st.misses[jid] >= self.offline_after and st.online[jid]:
+                st.online[jid] = False
+                self.emit(
+                    "servo_offline",
+                    f"servo {jid} ({self.robot.by_id[jid].name}) missed {st.misses[jid]} reads "
+                    "in a row: offline (check its cable; it comes back when it answers)",
+                    id=jid,
+                )
+
+    def _apply_slow(self, jid: int, data: bytes, error: int) -> None:
+        st = self.state
+
+        def at(reg: MX28) -> int:
+            return reg.reg.address - SLOW_START
+
+        st.torque[jid] = bool(data[at(MX28.TORQUE_ENABLE)])
+        st.goal[jid] = word(data, at(MX28.GOAL_POSITION))
+        st.position[jid] = word(data, at(MX28.PRESENT_POSITION))
+        st.speed[jid] = word(data, at(MX28.PRESENT_SPEED))
+        st.load[jid] = word(data, at(MX28.PRESENT_LOAD))
+        st.voltage[jid] = units.voltage_raw_to_v(data[at(MX28.PRESENT_VOLTAGE)])
+        st.temperature[jid] = float(data[at(MX28.PRESENT_TEMPERATURE)])
+        self._alarm(jid, error)
+
+    def _alarm(self, jid: int, bits: int) -> None:
+        st = self.state
+        if bits == st.alarm[jid]:
+            return
+        old, st.alarm[jid] = int(st.alarm[jid]), bits
+        if not bits:
+            self.emit("servo_alarm_cleared", f"servo {jid} alarm cleared", id=jid, bits=0)
+            return
+        names = error_names(bits)
+        protect = bool(bits & PROTECT_BITS) and not old & PROTECT_BITS
+        self.emit(
+            "servo_alarm",
+            f"servo {jid} ({self.robot.by_id[jid].name}) alarm: {', '.join(names)}"
+            + ("; torque off to protect it" if protect else ""),
+            id=jid,
+            bits=bits,
+            alarms=names,
+        )
+        if protect and st.torque[jid]:
+            # As the firmware's alarm shutdown does: no torque until someone re-enables it.
+            self.set_torque([jid], False)

@@ -1,0 +1,119 @@
+"""The emulator's time: a simulated clock that only :meth:`advance` moves, or the real clock,
+with the servos brought to "now" before every packet and a physics thread running the hooks
+every ``idle_step_s`` in a quiet moment of the bus.
+
+A mixin of :class:`~robot_daemon.sim.emulator.Emulator` (which provides ``lock``, ``bus``,
+``settings`` and the serving thread's events); kept apart so the serving loop stays readable.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from robot_daemon.sim.bus import Bus
+    from robot_daemon.sim.emulator import Emulator
+    from robot_daemon.sim.settings import EmulatorSettings
+
+# Logged as the emulator: its lines keep the name they are filtered and read by.
+log = logging.getLogger("robot_daemon.sim.emulator")
+
+PhysicsHook = Callable[[float, "Emulator"], None]
+_MAX_CATCH_UP_S = 0.1
+# A host that sent something this recently is polling: physics waits for a quiet moment.
+_POLLING_S = 0.05
+
+
+class EmulatorClock:
+    # The Emulator's, set in its __init__.
+    lock: threading.RLock
+    bus: Bus
+    settings: EmulatorSettings
+    _hooks: list[PhysicsHook]
+    _hook_failures: int
+    _clock: float
+    _last_rx: float
+    _physics_wake: threading.Event
+    _quiet: threading.Event
+    _stopping: threading.Event
+
+    def add_physics_hook(self, fn: PhysicsHook) -> None:
+        with self.lock:
+            self._hooks.append(fn)
+        self._physics_wake.set()
+
+    def remove_physics_hook(self, fn: PhysicsHook) -> None:
+        with self.lock:
+            self._hooks.remove(fn)
+
+    def advance(self, dt: float) -> None:
+        """Step the dynamics by ``dt`` seconds now (in steps of at most ``max_step_s``)."""
+        if dt < 0:
+            raise ValueError(f"advance(dt={dt!r}): time only goes forward")
+        remaining = dt
+        while remaining > 1e-12:
+            h = min(remaining, self.settings.max_step_s)
+            with self.lock:
+                self.bus.step(h)
+            self._run_hooks(h)
+            remaining -= h
+
+    @property
+    def sim_time(self) -> float:
+        return self.bus.time
+
+    def _run_hooks(self, dt: float) -> None:
+        # Hooks run without the lock: the bus keeps answering while the world computes, and
+        # the emulator methods a hook calls take the lock themselves.
+        for hook in list(self._hooks):
+            try:
+                hook(dt, self)
+            except Exception:
+                self._hook_failures += 1
+                if self._hook_failures <= 3:
+                    log.exception("emulator: physics hook %r failed", hook)
+
+    def _sync_servos(self) -> None:
+        """Real-time clock: bring the servos to "now" (one exact step, cheap) before answering."""
+        now = time.monotonic()
+        dt, self._clock = now - self._clock, now
+        if dt > 0:
+            self.bus.step(dt)
+
+    def _physics(self) -> None:
+        """Real-time clock: run the physics hooks every ``idle_step_s`` while there are any."""
+        last = time.monotonic()
+        while not self._stopping.is_set():
+            if not self._hooks:
+                self._physics_wake.wait()
+                self._physics_wake.clear()
+                last = time.monotonic()
+                continue
+            if self._stopping.wait(self.settings.idle_step_s):
+                return
+            self._wait_for_quiet_bus()
+            now = time.monotonic()
+            # After a stall (a debugger, a loaded machine) the world skips time, not replays it.
+            dt, last = min(now - last, _MAX_CATCH_UP_S), now
+            with self.lock:
+                self._sync_servos()
+            while dt > 1e-12:
+                h = min(dt, self.settings.max_step_s)
+                self._run_hooks(h)
+                dt -= h
+
+    def _wait_for_quiet_bus(self) -> None:
+        """A physics round is ~2 ms of Python holding the GIL; run mid-transaction, it would
+        make replies late that the wire model says are due. A polling host leaves the bus
+        quiet once each transaction is answered (after its sync write, or its last reply),
+        so wait for the next such moment, but never longer than one more step."""
+        with self.lock:
+            if time.perf_counter() - self._last_rx >= _POLLING_S:
+                return
+            # Not merely "quiet now": the host may be about to start its next transaction.
+            self._quiet.clear()
+        self._quiet.wait(self.settings.idle_step_s)
