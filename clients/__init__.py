@@ -1,5 +1,6 @@
 """Clients of the robot's key space: the Robot API (notebooks, scripts), the TUI, recording."""
 
-from clients.robot import Commander, Robot
+from clients.commander import Commander
+from clients.robot import Robot
 
 __all__ = ["Commander", "Robot"]

@@ -26,7 +26,7 @@ from config.user_file import set_joint_offsets
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from clients.robot import Commander
+    from clients.commander import Commander
 
 
 def partner(name: str) -> str | None:

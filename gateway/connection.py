@@ -9,7 +9,7 @@ import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from clients.robot import Commander
+from clients.commander import Commander
 from gateway.framing import Frame, FrameDecoder, FramingError, encode_frame, parse_frame
 from gateway.limits import TokenBucket
 from gateway.messages import (

@@ -1,6 +1,6 @@
 """From Foxglove to the robot, through the arbiter and the lease, never around them.
 
-Each Foxglove client gets its own :class:`~clients.robot.Commander` (its own client id and
+Each Foxglove client gets its own :class:`~clients.commander.Commander` (its own client id and
 liveliness token on the server's Zenoh session), so the lease is bound to the Foxglove client
 that took it, exactly as for any other client; it is closed (and the arbiter releases its lease,
 bringing motion to a safe stop) when that Foxglove client goes away.
@@ -16,7 +16,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from clients.robot import Commander, Robot
+from clients.commander import Commander
+from clients.robot import Robot
 from schemas.errors import DarwinError, ProtocolError
 
 log = logging.getLogger(__name__)

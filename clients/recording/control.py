@@ -12,7 +12,7 @@ from typing import Any
 
 import zenoh
 
-from clients.robot import Commander
+from clients.commander import Commander
 from schemas.errors import RobotUnreachableError
 from schemas.keys import Keys
 from schemas.query import ask, request_payload

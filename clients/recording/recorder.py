@@ -30,6 +30,7 @@ from typing import Any, Self
 
 import zenoh
 
+from clients.commander import Commander
 from clients.recording.mcap_sink import CHUNK_BYTES, McapSink
 from clients.recording.profile import DARWIN, Profile, check_topics, get_profile
 from clients.recording.segments import (
@@ -40,7 +41,6 @@ from clients.recording.segments import (
     truncation_notice,
 )
 from clients.recording.text_sink import TextSink
-from clients.robot import Commander
 from schemas.errors import ClientError
 from schemas.keys import Keys, check_robot_name, every_robot, robot_of
 from schemas.session import resolve

@@ -111,7 +111,7 @@ def ros_channel(
 
 def body_for(session: zenoh.Session, keys: Keys) -> Body:
     """The daemon's body (its config reply: its own joint limits), else the local config's."""
-    from clients.robot import Commander
+    from clients.commander import Commander
 
     try:
         # Closed at once: its liveliness token must not outlive the question.

@@ -18,18 +18,19 @@ from textual.binding import Binding
 from textual.screen import Screen
 from textual.widgets import TabbedContent, TabPane
 
-from clients.fleet import RobotRecord, discover, discover_at
 from clients.tui import i18n
+from clients.tui.app_commands import CommandsMixin
+from clients.tui.app_fleet import FleetMixin
 from clients.tui.connect import ConnectScreen, RobotFinder
 from clients.tui.help import HelpScreen
 from clients.tui.i18n import N_, _
-from clients.tui.link import CommandDone, Link
+from clients.tui.link import Link
 from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
 from clients.tui.model import Model
 from clients.tui.settings import Settings, default_path
 from clients.tui.tabs.actions import ActionsTab
-from clients.tui.tabs.base import SendCommand, TabView, role_at_least
-from clients.tui.tabs.behaviours import BehavioursTab, library_entries
+from clients.tui.tabs.base import TabView
+from clients.tui.tabs.behaviours import BehavioursTab
 from clients.tui.tabs.camera import CameraTab
 from clients.tui.tabs.imu import ImuTab
 from clients.tui.tabs.log import LogTab
@@ -38,14 +39,13 @@ from clients.tui.tabs.pose import PoseTab
 from clients.tui.tabs.walk import WalkTab
 from clients.tui.widgets.header import RobotHeader
 from clients.tui.widgets.keybar import KeyBar
-from config.loader import RobotConfig, load_robot, robot_from_dict
-from schemas.errors import ClientError, ConfigError
+from config.loader import RobotConfig, load_robot
+from schemas.errors import ClientError
 from schemas.messages import Event
-from schemas.roles import Role, allows
+from schemas.roles import allows
 from schemas.session import Credentials
 
 RENDER_HZ = 15.0
-FIND_TIMEOUT_S = 1.0  # how long the robot list waits for each robot's status
 TABS: tuple[tuple[str, str], ...] = (
     ("imu", N_("IMU")),
     ("motors", N_("Motors")),
@@ -84,10 +84,11 @@ class MainScreen(Screen[None]):
         app.redraw(force=True)
 
 
-class DarwinApp(App[None]):
+class DarwinApp(CommandsMixin, FleetMixin, App[None]):
     """The app, ready to ``run()`` (CLI) or ``run_test()`` (tests). ``connect=False`` starts
     without a link, for a fixed scene fed by posting messages; ``clock`` stamps the UI's own
-    log lines (a fixed one keeps snapshots still)."""
+    log lines (a fixed one keeps snapshots still). Its commands and their replies are
+    :mod:`clients.tui.app_commands`, the robots at its endpoint :mod:`clients.tui.app_fleet`."""
 
     TITLE = "darwin tui"
     ENABLE_COMMAND_PALETTE = False  # its texts are Textual's, untranslated; help has every key
@@ -273,72 +274,6 @@ class DarwinApp(App[None]):
         )
         self.link.watch_camera(wanted)
 
-    # -- commands --------------------------------------------------------------------------------
-    def on_send_command(self, message: SendCommand) -> None:
-        origin = message.control.TAB_ID if isinstance(message.control, TabView) else "app"
-        self.link.send(
-            message.verb, tag=f"{origin}:{message.tag}", quiet=message.quiet, **message.fields
-        )
-
-    def on_command_done(self, message: CommandDone) -> None:
-        origin, _sep, tag = message.tag.partition(":")
-        if message.error:
-            self.local_event("refused", message.error)
-        if origin == "app":
-            self.app_command_done(tag, message)
-            return
-        tabs = self.screen.query(f"#{origin}") if origin else None
-        if tabs:
-            tabs.first(TabView).command_done(tag, message.applied, message.error)
-        elif message.error:
-            self.notify(message.error, severity="error", timeout=6)
-
-    def app_command_done(self, tag: str, message: CommandDone) -> None:
-        if message.error:
-            self.notify(message.error, severity="error", timeout=6)
-        elif tag == "config":
-            try:
-                self.use_robot_config(daemon_robot_config(message.applied, self.robot_config))
-            except (ConfigError, KeyError, TypeError, ValueError) as exc:
-                self.local_event("refused", f"the daemon's config reply is unusable: {exc}")
-        elif tag == "library":
-            self.model.edits.behaviours = library_entries(message.applied)
-            self.model.bump("library")
-        elif tag == "walk-params":
-            params = message.applied.get("params", message.applied)
-            if isinstance(params, dict):
-                self.model.edits.walk_params = dict(params)
-                self.model.bump("params")
-        elif tag == "halt":
-            self.model.edits.walk = (0.0, 0.0, 0.0)
-            self.local_event("halt", _("Halted: every motion stopped, the pose is held."))
-            self.notify(_("Halted: every motion stopped, the pose is held."), timeout=4)
-        elif tag == "lease":
-            holds = message.applied.get("holder", message.applied.get("client"))
-            self.notify(_("Lease: {state}").format(state=holds or message.applied or "ok"))
-
-    def use_robot_config(self, robot: RobotConfig) -> None:
-        """Limits and names from now on; the open tabs switch too."""
-        self.robot_config = robot
-        for screen in self.screen_stack:
-            for tab in screen.query(TabView):
-                if hasattr(tab, "robot"):
-                    tab.robot = robot  # type: ignore[attr-defined]
-
-    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
-        # Halt and the lease are command verbs: an observer sees them greyed out.
-        if action in ("halt", "lease") and not role_at_least(self, Role.OPERATOR):
-            return None
-        return True
-
-    def action_halt(self) -> None:
-        self.link.halt()
-
-    def action_lease(self) -> None:
-        holder = self.model.lease_holder()
-        op = "release" if holder is not None and holder[1] else "acquire"
-        self.link.send("lease", tag="app:lease", op=op)
-
     # -- screens and settings --------------------------------------------------------------------
     def action_connect(self) -> None:
         detail = self.link_info.detail if self.link_info.state is LinkState.UNREACHABLE else ""
@@ -348,47 +283,6 @@ class DarwinApp(App[None]):
                 self.connect(result)
 
         self.push_screen(ConnectScreen(self.settings, detail, self.find_robots), done)
-
-    # -- a fleet: the robots at this endpoint ----------------------------------------------------
-    def _find_robots(self, endpoint: str) -> list[RobotRecord]:
-        """Live robots at ``endpoint`` (in a worker thread), through the link's session when it
-        goes there (a router's: the fleet), else a session of its own."""
-        robot = self.link.robot
-        if robot is not None and robot.target.endpoint == endpoint:
-            return discover(robot.session, timeout=FIND_TIMEOUT_S)
-        return discover_at(endpoint, timeout=FIND_TIMEOUT_S, creds=self.link.credentials)
-
-    def action_next_robot(self) -> None:
-        """Switch to the next live robot at the same endpoint (by name, wrapping round)."""
-        finder, endpoint = self.find_robots, self.settings.endpoint
-        if finder is None:
-            self.notify(_("No robot list without a connection."), severity="warning")
-            return
-
-        def find() -> None:
-            try:
-                names = [r.name for r in finder(endpoint)]
-            except Exception as exc:  # unreachable, or the session closed: say so
-                self.call_from_thread(self.notify, str(exc), severity="error", timeout=8)
-                return
-            self.call_from_thread(self._switch_robot, names)
-
-        self.run_worker(find, thread=True, exclusive=True, group="next-robot")
-
-    def _switch_robot(self, names: list[str]) -> None:
-        current = self.settings.robot
-        others = [n for n in names if n != current]
-        if not others:
-            self.notify(
-                _("No other live robot at {endpoint}.").format(endpoint=self.settings.endpoint)
-            )
-            return
-        later = [n for n in others if n > current]
-        nxt = (later or others)[0]
-        self.connect(Settings(self.settings.endpoint, nxt, self.settings.name, self.settings.lang))
-        self.model.status = None  # the previous robot's state must not show as this one's
-        self.model.bump("status")
-        self.notify(_("Switched to {robot}.").format(robot=nxt))
 
     def action_help(self) -> None:
         if isinstance(self.screen, HelpScreen):
@@ -459,26 +353,3 @@ class DarwinApp(App[None]):
         summary = recorder.stop().summary()
         self.local_event("record", summary)
         return summary
-
-
-def daemon_robot_config(reply: dict[str, Any], local: RobotConfig) -> RobotConfig:
-    """The robot as the daemon's ``config`` verb describes it (its limits are the ones that
-    count), in the same checked form as a config file; ``local`` where the reply is silent."""
-    section = {
-        "name": reply.get("robot", local.name),
-        "cm730_id": local.cm730_id,
-        "defaults": {"max_speed": reply.get("max_speed", local.max_speed)},
-        "joints": {
-            j["name"]: {
-                "id": j["id"],
-                "urdf": j.get("urdf", j["name"]),
-                "min_deg": j["min_deg"],
-                "max_deg": j["max_deg"],
-                "offset_deg": j.get("offset_deg", 0.0),
-                "direction": j.get("direction", 1),
-                **dict(zip(("p", "i", "d"), j.get("pid", (32, 0, 0)), strict=False)),
-            }
-            for j in reply.get("joints", [])
-        },
-    }
-    return robot_from_dict(section) if section["joints"] else local

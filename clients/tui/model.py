@@ -31,7 +31,7 @@ class Edits:
     behaviours: list[dict[str, Any]] = field(default_factory=list)
     walk_params: dict[str, Any] = field(default_factory=dict)
     walk: tuple[float, float, float] = (0.0, 0.0, 0.0)  # commanded x m/s, y m/s, turn rad/s
-    actions: Any = None  # the Actions tab's state (clients/tui/tabs/actions.py)
+    actions: Any = None  # the Actions tab's state (ActionsState, clients/tui/tabs/page_edit.py)
 
 
 @dataclass
