@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from schemas.body import MX28_STALL_TORQUE, Body
+from schemas.daemon_state import DaemonState
 from schemas.errors import ProtocolError
 from schemas.kinematics import quaternion
 from schemas.messages import Imu, Joints, Status, World
@@ -187,7 +188,7 @@ def diagnostics(
                 )
             )
     if status is not None:
-        healthy = status.state == "running"
+        healthy = status.state == DaemonState.RUNNING
         values = [
             kv(key="state", value=status.state),
             kv(key="battery_v", value=f"{status.voltage:.1f}"),
