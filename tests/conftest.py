@@ -8,6 +8,7 @@ import tempfile
 pytest_plugins = [
     "tests.fixtures.emulator",
     "tests.fixtures.system",
+    "tests.fixtures.zenoh_pair",
 ]
 
 # Daemons started by the tests (in-process or `darwin up`) read the user's own action pages

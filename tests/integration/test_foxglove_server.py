@@ -73,6 +73,9 @@ def test_joints_and_transforms_match_the_kinematics(fox: tuple[RunningSystem, st
             assert len(joints[column]) == 20
         assert set(joints["by_name"][joints["name"][0]]) >= {"position", "goal", "load"}
         assert "gyro" in fc.take("/imu") and "state" in fc.take("/status")
+        # What the layout's battery and heat plot reads (docs/power.md).
+        status = fc.take("/status", lambda m: bool(m.get("heat", {}).get("hottest")))
+        assert status["power"]["volts"] > 0 and status["heat"]["hottest"][0]["celsius"] > 0
         assert "p50" in str(fc.take("/loop")) or fc.take("/loop")
         # A /tf message carries the stamp of the joints it was computed from.
         seen: dict[int, dict] = {}

@@ -6,7 +6,7 @@ the answer window, and the frames are taken at --fps on the daemon's clock."""
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -24,22 +24,9 @@ from schemas.policy import (
     PolicyApplied,
     PolicyObservation,
 )
-from schemas.session import client_config, free_tcp_port, server_config
 
 pytest.importorskip("pyarrow", reason="pip install -e '.[learn]' runs this test")
 KEYS = Keys("rec1")
-
-
-@pytest.fixture
-def pair() -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
-    port = free_tcp_port()
-    server = zenoh.open(server_config([f"tcp/127.0.0.1:{port}"]))
-    client = zenoh.open(client_config(f"tcp/127.0.0.1:{port}"))
-    try:
-        yield server, client
-    finally:
-        client.close()
-        server.close()
 
 
 def until(condition: Callable[[], object], what: str) -> None:
@@ -62,9 +49,9 @@ def applied(seq: int, offset_rad: float) -> bytes:
 
 
 def test_frames_pair_observations_with_what_answered_them(
-    pair: tuple[zenoh.Session, zenoh.Session], tmp_path: Path
+    zenoh_pair: tuple[zenoh.Session, zenoh.Session], tmp_path: Path
 ) -> None:
-    server, client = pair
+    server, client = zenoh_pair
     rec = LiveRecorder(client, KEYS, tmp_path / "d", fps=50, task="t", camera=False).start()
     pubs = {w: server.declare_publisher(KEYS.policy(w)) for w in ("obs", "action", "applied")}
     until(lambda: all(p.matching_status.matching for p in pubs.values()), "the subscriptions")
@@ -101,12 +88,12 @@ def test_frames_pair_observations_with_what_answered_them(
 
 
 def test_the_record_control_op_ends_an_episode_and_names_a_bad_op(
-    pair: tuple[zenoh.Session, zenoh.Session], tmp_path: Path
+    zenoh_pair: tuple[zenoh.Session, zenoh.Session], tmp_path: Path
 ) -> None:
     from clients.recording.control import RecordControl
     from schemas.errors import InvalidCommandError
 
-    server, client = pair
+    server, client = zenoh_pair
     rec = LiveRecorder(client, KEYS, tmp_path / "d", fps=50, camera=False).start()
     try:
         pub = server.declare_publisher(KEYS.policy("obs"))

@@ -9,7 +9,6 @@ import logging
 import re
 import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -33,7 +32,7 @@ from schemas.errors import (
 )
 from schemas.messages import error_reply
 from schemas.query import MAX_PAYLOAD, ask, check_bounds, request_payload, serve
-from schemas.session import client_config, free_tcp_port, server_config
+from schemas.session import free_tcp_port, server_config
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -79,8 +78,9 @@ def test_every_project_exception_is_in_the_one_tree() -> None:
     assert all(issubclass(c, DarwinError) for c in exceptions), exceptions
     everywhere = _project_exceptions()
     assert len(everywhere) > len(exceptions)  # the scan reached beyond schemas/errors.py
-    outside = [f"{c.__module__}.{c.__qualname__}" for c in everywhere
-               if not issubclass(c, DarwinError)]
+    outside = [
+        f"{c.__module__}.{c.__qualname__}" for c in everywhere if not issubclass(c, DarwinError)
+    ]
     assert not outside, f"exceptions outside the tree (schemas/errors.py): {outside}"
     drawn = errors_module.__doc__ or ""
     undrawn = [c.__name__ for c in everywhere if not re.search(rf"\b{c.__name__}\b", drawn)]
@@ -115,24 +115,12 @@ def test_check_bounds_names_the_path() -> None:
     check_bounds({"items": [{"behaviour": 1}] * 256})
 
 
-@pytest.fixture
-def pair() -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
-    port = free_tcp_port()
-    server = zenoh.open(server_config([f"tcp/127.0.0.1:{port}"]))
-    client = zenoh.open(client_config(f"tcp/127.0.0.1:{port}"))
-    try:
-        yield server, client
-    finally:
-        client.close()
-        server.close()
-
-
 def _unreachable() -> Exception:
     return RobotUnreachableError("nobody there")
 
 
-def test_serve_and_ask_round_trip_with_errors_translated_once(pair) -> None:
-    server, client = pair
+def test_serve_and_ask_round_trip_with_errors_translated_once(zenoh_pair) -> None:
+    server, client = zenoh_pair
 
     def handle(req: dict) -> dict:
         if req["op"] == "fail":
@@ -164,8 +152,8 @@ def test_serve_and_ask_round_trip_with_errors_translated_once(pair) -> None:
         q.undeclare()
 
 
-def test_a_queryable_that_never_answers_is_a_timeout(pair) -> None:
-    server, client = pair
+def test_a_queryable_that_never_answers_is_a_timeout(zenoh_pair) -> None:
+    server, client = zenoh_pair
     held: list[zenoh.Query] = []
     q = server.declare_queryable(KSLOW, held.append)
     try:
