@@ -138,23 +138,35 @@ def test_silence_ends_the_stream_with_a_safe_stop(holder: Robot) -> None:
 
 def test_a_tilt_ends_the_stream(fresh_system: RunningSystem) -> None:
     with fresh_system.robot_client(name="tilt") as robot:
-        robot.wait_for("joints", timeout=WAIT)
+        # A daemon just started is still measuring its gyro centre (and the machine is busy
+        # starting it): stream once it has settled.
+        robot.wait_for("status", lambda s: s.motion.get("imu", {}).get("calibrated"), WAIT)
         robot.acquire()
         events = Events(robot)
-        stream = PolicyStream(robot).start(rate_hz=50, mode="absolute")
+        stream = PolicyStream(robot)
         try:
             # Both feet pitched 0.8 rad up under the body tip it over backwards (as in
             # test_motion_fall); max_delta brings them there over a few steps.
             pose = list(DEFAULT_POSE)
             pose[14], pose[15] = -0.8, 0.8
-            last = -1
-            for _ in range(400):
-                obs = stream.next_observation(last, timeout=WAIT)
-                assert obs is not None
-                last = obs.tick
-                if not obs.running:
+            # A test process starved for half a second on a loaded machine ends the stream
+            # for silence, as it should; that is not the stop this test is about, so stream
+            # again (a bounded number of times).
+            for _attempt in range(3):
+                stream.start(rate_hz=50, mode="absolute")
+                last = -1
+                for _ in range(400):
+                    obs = stream.next_observation(last, timeout=WAIT)
+                    assert obs is not None
+                    last = obs.tick
+                    if not obs.running:
+                        break
+                    stream.send(pose, obs.tick)
+                status = robot.wait_for(
+                    "status", lambda s: s.motion.get("policy", {}).get("state") == "stopped", WAIT
+                )
+                if "silence" not in status.motion["policy"].get("reason", ""):
                     break
-                stream.send(pose, obs.tick)
             ev = events.wait(_policy_event("fall"))
             assert ev.data["state"] == "stopped"
         finally:

@@ -108,6 +108,8 @@ def replay_to_the_end(
         if proc.poll() is None:
             proc.kill()
             proc.communicate()
+        if proc.stderr is not None:
+            proc.stderr.close()  # also when the replay ended by itself before a failure here
         if listener:
             listener.close()
     return got, err, listener
