@@ -39,6 +39,12 @@ class Publishers:
         self._pubs["events"] = session.declare_publisher(
             keys.events, **qos.for_key(keys.events).kwargs()
         )
+        # Whether anyone subscribes, per loop topic, kept current by Zenoh's matching listeners:
+        # asking ``matching_status`` costs tens of µs, twice a tick.
+        self._matching: dict[str, bool] = {}
+        self._listeners: list[Any] = []
+        for topic in LOOP_TOPICS:
+            self._watch(topic)
         self._slots: dict[str, Message] = {}
         self._fifo_topics: set[str] = set()
         self._fifo: deque[tuple[str, Message]] = deque(maxlen=256)
@@ -69,13 +75,22 @@ class Publishers:
                 self._slots[topic] = msg
             self._cond.notify()
 
-    def wanted(self, topic: str) -> bool:
-        """Whether any subscriber matches ``topic`` now (Zenoh's matching status: a fraction of
-        a µs), so the loop builds no message for nobody."""
+    def _watch(self, topic: str) -> None:
+        pub = self._pubs[topic]
+
+        def changed(status: Any) -> None:
+            self._matching[topic] = bool(status.matching)
+
         try:
-            return bool(self._pubs[topic].matching_status.matching)
-        except Exception:  # a session closing under us: publish as before
-            return True
+            self._listeners.append(pub.declare_matching_listener(changed))
+            self._matching[topic] = bool(pub.matching_status.matching)
+        except Exception:  # no listener: publish always, as when someone listens
+            log.debug("no matching listener for %s", topic, exc_info=True)
+
+    def wanted(self, topic: str) -> bool:
+        """Whether any subscriber matches ``topic`` (as Zenoh's matching listener last said;
+        True for a topic without one), so the loop builds no message for nobody."""
+        return self._matching.get(topic, True)
 
     def event(self, kind: str, message: str, **data: Any) -> None:
         with self._cond:
@@ -115,6 +130,11 @@ class Publishers:
             self._stop = True
             self._cond.notify()
         self._thread.join(timeout=2.0)
+        for listener in self._listeners:
+            try:
+                listener.undeclare()
+            except Exception:
+                log.debug("undeclare failed at shutdown", exc_info=True)
         for pub in self._pubs.values():
             try:
                 pub.undeclare()

@@ -52,11 +52,19 @@ class Calibration:
             self.sign[j.id] = j.direction
             self.offset[j.id] = math.radians(j.offset_deg)
             self.min[j.id], self.max[j.id] = j.min_rad, j.max_rad
+        self._lists()
+
+    def _lists(self) -> None:
+        # The same figures as plain lists for :meth:`goal_raw`, which runs for every goal of
+        # every tick: indexing a list costs a fraction of indexing a numpy array.
+        self._sign, self._offset = self.sign.tolist(), self.offset.tolist()
+        self._min, self._max = self.min.tolist(), self.max.tolist()
 
     def set_offset(self, jid: int, offset_deg: float) -> None:
         """A new offset for joint ``jid``, used from the next conversion on (the next goal
         written shifts by the change)."""
         self.offset[jid] = math.radians(offset_deg)
+        self._lists()
 
     def to_joint(self, jid: int, raw: int | float) -> float:
         return float(servo_to_joint(raw, self.sign[jid], self.offset[jid]))
@@ -68,16 +76,17 @@ class Calibration:
         """Joint angles of every slot at once (slot 0 is unused and stays meaningless)."""
         return servo_to_joint(raw, self.sign, self.offset)
 
-    def goals_to_raw(self, ids: np.ndarray, rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Many goals at once: (raw positions, which were outside their limits and clamped).
-        The same conversion as :meth:`to_raw` after :meth:`clamp` (``round`` is half-even in
-        both), without a Python call per joint."""
-        lo, hi = self.min[ids], self.max[ids]
-        outside = (rad < lo - 1e-9) | (rad > hi + 1e-9)
-        rad = np.where(outside, np.clip(rad, lo, hi), rad)
-        raw = np.round((self.sign[ids] * rad + self.offset[ids]) / units.RAD_PER_UNIT)
-        raw = np.clip(raw.astype(int) + units.POSITION_CENTER, 0, units.POSITION_MAX)
-        return raw, outside
+    def goal_raw(self, jid: int, rad: float) -> tuple[int, bool]:
+        """A goal to write: (raw position, whether it was outside the joint's limits and
+        clamped). The same conversion as :meth:`to_raw` after :meth:`clamp` (``round`` is
+        half-even), on plain floats: 20 goals a tick cost less this way than as arrays."""
+        lo, hi = self._min[jid], self._max[jid]
+        clamped = rad < lo - 1e-9 or rad > hi + 1e-9
+        if clamped:
+            rad = lo if rad < lo else hi
+        raw = int(round((self._sign[jid] * rad + self._offset[jid]) / units.RAD_PER_UNIT))
+        raw += units.POSITION_CENTER
+        return (0 if raw < 0 else units.POSITION_MAX if raw > units.POSITION_MAX else raw), clamped
 
     def in_limits(self, jid: int, rad: float) -> bool:
         return bool(self.min[jid] - 1e-9 <= rad <= self.max[jid] + 1e-9)

@@ -84,6 +84,10 @@ class _BulkPlan:
     waits: list[float]  # ms, each reply's own wait (wire time, return delay, margin)
     all_waits: float  # ms, their sum: the longest the transaction may take after the request
     wire: float  # ms, when every reply is in if all goes well (no margins)
+    packet: bytes  # the BULK_READ instruction packet itself
+    # (id, data length, the packet's LEN byte) in order: what an in-order answer looks like
+    expect: list[tuple[int, int, int]]
+    tail: list[int]  # bytes of the replies from each one in order to the end
 
     @classmethod
     def make(
@@ -99,7 +103,11 @@ class _BulkPlan:
             byte_ms * (want[i] + PACKET_OVERHEAD) + budget.delays_ms.get(i, 0.0) for i in order
         )
         rank = {dxl_id: k for k, dxl_id in enumerate(order)}
-        return cls(param, want, order, rank, waits, sum(waits), wire)
+        packet = instruction_packet(BROADCAST_ID, Instruction.BULK_READ, param)
+        expect = [(i, want[i], want[i] + 2) for i in order]
+        sizes = [want[i] + PACKET_OVERHEAD for i in order]
+        tail = [sum(sizes[k:]) for k in range(len(sizes))]
+        return cls(param, want, order, rank, waits, sum(waits), wire, packet, expect, tail)
 
 
 class DxlBus:
@@ -130,15 +138,19 @@ class DxlBus:
             "power and the ID (`darwin scan`)"
         )
 
-    def _send(self, dxl_id: int, instruction: int, params: Iterable[int]) -> float:
-        """Send one instruction packet; returns when its last byte will be on the wire, behind
-        whatever was sent before it. Built here (one ``bytes``, one checksum ``sum``) rather
-        than by the SDK's ``txPacket``, whose per-byte Python loop ran twice a tick."""
-        try:
-            packet = instruction_packet(dxl_id, instruction, params)
-        except ValueError as exc:
-            name = Instruction(instruction).name
-            raise BusError(f"{name} to {dxl_id} on {self.name}: {exc}") from exc
+    def _send(
+        self, dxl_id: int, instruction: int, params: Iterable[int], packet: bytes | None = None
+    ) -> float:
+        """Send one instruction packet (``packet`` when it is already built); returns when its
+        last byte will be on the wire, behind whatever was sent before it. Built here (one
+        ``bytes``, one checksum ``sum``) rather than by the SDK's ``txPacket``, whose per-byte
+        Python loop ran twice a tick."""
+        if packet is None:
+            try:
+                packet = instruction_packet(dxl_id, instruction, params)
+            except ValueError as exc:
+                name = Instruction(instruction).name
+                raise BusError(f"{name} to {dxl_id} on {self.name}: {exc}") from exc
         port = self.port
         start = max(port.getCurrentTime(), self._wire_free)
         port.clearPort()  # a late reply to an earlier transaction must not pass for this one's
@@ -214,6 +226,16 @@ class DxlBus:
         self.port.is_using = False
         return len(param) + PACKET_OVERHEAD
 
+    def sync_write_rows(self, start: int, length: int, rows: bytes) -> int:
+        """SYNC_WRITE with the rows (each: id, then ``length`` bytes) already packed."""
+        if not rows:
+            return 0
+        if len(rows) % (length + 1):
+            raise ValueError(f"sync write rows of {len(rows)} bytes are not rows of {length + 1}")
+        self._send(BROADCAST_ID, Instruction.SYNC_WRITE, bytes((start, length)) + rows)
+        self.port.is_using = False
+        return len(rows) + 2 + PACKET_OVERHEAD
+
     def bulk_read(self, blocks: Iterable[tuple[int, int, int]]) -> BulkResult:
         """BULK_READ ``(id, start, length)`` blocks; every reply that arrives is kept."""
         blocks = list(blocks)
@@ -265,7 +287,7 @@ class DxlBus:
         """One BULK_READ; returns the IDs whose data did not come, and the IDs heard at all
         (a garbled reply was still on the wire)."""
         plan = self._plan(blocks)
-        sent = self._send(BROADCAST_ID, Instruction.BULK_READ, plan.param)
+        sent = self._send(BROADCAST_ID, Instruction.BULK_READ, (), plan.packet)
         port = self.port
         want, order, rank, waits = plan.want, plan.order, plan.rank, plan.waits
         # Replies come in bus order, so each wait is for the next device due after the last one
@@ -286,12 +308,54 @@ class DxlBus:
         # one pass: on an FTDI that is one wake-up per 62-byte USB packet, not one SDK round
         # trip (header, then body, each a read) per device.
         parser = PacketParser()
-        while due < len(order):
+        # The usual case costs one comparison per reply: replies in the order asked, each
+        # whole, are taken straight off the bytes (``raw`` from ``pos``); the first thing that
+        # is not that hands the rest to the parser, which copes with anything.
+        raw = bytearray()
+        pos = 0
+        expect = plan.expect
+        n = len(order)
+        in_order = True
+        while due < n:
             limit = min(deadline, final)
             port.idle_until(min(whole, limit))
             chunk = port.read_chunk(limit)
             if not chunk:
                 break  # the reply due is not coming
+            if in_order:
+                raw += chunk
+                have = len(raw)
+                while due < n:
+                    dxl_id, length, code = expect[due]
+                    end = pos + length + PACKET_OVERHEAD
+                    if have < end:
+                        break
+                    if (
+                        raw[pos] != 0xFF
+                        or raw[pos + 1] != 0xFF
+                        or raw[pos + 2] != dxl_id
+                        or raw[pos + 3] != code
+                        or (~sum(raw[pos + 2 : end - 1]) & 0xFF) != raw[end - 1]
+                    ):
+                        in_order = False
+                        break
+                    data[dxl_id] = bytes(raw[pos + 5 : end - 1])
+                    if raw[pos + 4]:
+                        errors[dxl_id] = raw[pos + 4]
+                    pending.discard(dxl_id)
+                    heard.add(dxl_id)
+                    due += 1
+                    pos = end
+                if in_order:
+                    if due < n:
+                        now = port.getCurrentTime()
+                        deadline = now + waits[due]
+                        # The rest cannot be in before its bytes have crossed: sleep until then
+                        # rather than wake for every reply that trickles in.
+                        rest = plan.tail[due] - (have - pos)
+                        whole = max(whole, now + rest * port.tx_time_per_byte)
+                    continue
+                chunk = bytes(raw[pos:])
             for frame in parser.feed(chunk):
                 dxl_id = frame.id
                 k = rank.get(dxl_id)
@@ -310,10 +374,12 @@ class DxlBus:
                 if k is not None:
                     heard.add(dxl_id)
                     due = max(due, k + 1)  # one answering out of turn does not rewind the wait
-                    while due < len(order) and order[due] not in pending:
+                    while due < n and order[due] not in pending:
                         due += 1
-            if due < len(order):
+            if due < n:
                 deadline = port.getCurrentTime() + waits[due]
+        if in_order and len(raw) - pos >= 3 and raw[pos] == 0xFF and raw[pos + 1] == 0xFF:
+            parser.feed(bytes(raw[pos : pos + 3]))  # a reply cut short: who was talking
         late = parser.pending_id
         if late is not None and late in want:
             heard.add(late)  # cut short on the wire: the device was still talking

@@ -35,7 +35,7 @@ from robot_daemon.bus.tables import (
     SYNC_WRITE_START,
 )
 from robot_daemon.bus.transport import Transport
-from robot_daemon.frames import JointFrame, Targets
+from robot_daemon.frames import N_SLOTS, JointFrame, Targets
 from schemas import units
 from schemas.errors import BusError, NoReplyError, PortError
 
@@ -96,6 +96,11 @@ class RobotBus(SensorRead):
         self.dxl: DxlBus | None = None
         self._rr = 0
         self.calibration = Calibration(robot)
+        # Each joint's configured (D, I, P, 0): the sync write's gain bytes unless a module
+        # sets others this tick.
+        self._gain_rows = [bytes(4)] * N_SLOTS
+        for j in robot.joints:
+            self._gain_rows[j.id] = bytes((j.d, j.i, j.p, 0))
 
     # -- calibration ---------------------------------------------------------------------------
     def raw_to_joint(self, jid: int, raw: int | float) -> float:
@@ -240,24 +245,33 @@ class RobotBus(SensorRead):
         if not targets.goal:
             return
         st = self.state
-        ids = np.fromiter(targets.goal, int, len(targets.goal))
-        rad = np.fromiter(targets.goal.values(), float, len(ids))
-        live = st.online[ids] & st.torque[ids]
-        self.counters.skipped_goals += int(len(ids) - live.sum())
-        ids, rad = ids[live], rad[live]
-        # The arbiter rejects out-of-range commands; the clamp guards module bugs.
-        raw, clamped = self.calibration.goals_to_raw(ids, rad)
-        self.counters.limit_clamps += int(clamped.sum())
-        st.goal[ids] = raw
-        gains = targets.gains
-        rows = {
-            jid: self._sync_row(jid, goal, gains.get(jid))
-            for jid, goal in zip(ids.tolist(), raw.tolist(), strict=True)
-        }
-        if rows:
-            self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
-            self.counters.sync_writes += 1
-            self.counters.goal_writes += len(rows)
+        online, torque = st.online.tolist(), st.torque.tolist()
+        goal_raw = self.calibration.goal_raw
+        default, gains = self._gain_rows, targets.gains
+        rows = bytearray()
+        written: dict[int, int] = {}
+        clamps = 0
+        # One plain loop over the goals (about 20): numpy's per-call cost is more than the
+        # work on arrays this small.
+        for jid, rad in targets.goal.items():
+            if not (online[jid] and torque[jid]):
+                continue
+            # The arbiter rejects out-of-range commands; the clamp guards module bugs.
+            raw, clamped = goal_raw(jid, rad)
+            clamps += clamped
+            written[jid] = raw
+            pid = gains.get(jid)
+            gain_bytes = default[jid] if pid is None else bytes((pid[2], pid[1], pid[0], 0))
+            rows += bytes((jid,)) + gain_bytes + bytes((raw & 0xFF, raw >> 8))
+        c = self.counters
+        c.skipped_goals += len(targets.goal) - len(written)
+        c.limit_clamps += clamps
+        if not written:
+            return
+        st.goal[list(written)] = list(written.values())
+        self._bus().sync_write_rows(SYNC_WRITE_START, SYNC_WRITE_LENGTH, bytes(rows))
+        c.sync_writes += 1
+        c.goal_writes += len(written)
 
     # -- frame ---------------------------------------------------------------------------------
     def frame(self, tick: int, now: float, dt: float) -> JointFrame:
@@ -265,22 +279,23 @@ class RobotBus(SensorRead):
         # Whole arrays at once, handed to the frame as made (slot 0 is unused and stays
         # meaningless): this runs every tick.
         cal = self.calibration
-        f = JointFrame(
+        gyro_raw, accel_raw = self.imu_raw()
+        gyro, accel = imu_si(gyro_raw, accel_raw, self.gyro_dps)
+        return JointFrame(
             tick=tick,
             time=now,
             dt=dt,
             position=cal.positions(st.position),
-            velocity=cal.sign * units.speed_raw_to_rad_s(st.speed),
-            load=cal.sign * units.load_raw_to_fraction(st.load),
+            velocity=cal.sign * units.SPEED_RAD_S_TABLE[st.speed & 0x7FF],
+            load=cal.sign * units.LOAD_FRACTION_TABLE[st.load & 0x7FF],
             online=st.online.copy(),
             torque_enabled=st.torque.copy(),
+            gyro=gyro,
+            accel=accel,
+            gyro_raw=np.array(gyro_raw),
+            accel_raw=np.array(accel_raw),
+            imu_valid=self.cm730_valid,
         )
-        f.imu_valid = self.cm730_valid
-        gyro_raw, accel_raw = self.imu_raw()
-        f.gyro_raw = np.array(gyro_raw)
-        f.accel_raw = np.array(accel_raw)
-        f.gyro, f.accel = imu_si(gyro_raw, accel_raw, self.gyro_dps)
-        return f
 
     def imu_raw(self) -> tuple[list[int], list[int]]:
         return imu_raw(self.cm730)

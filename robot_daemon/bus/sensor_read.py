@@ -11,6 +11,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from robot_daemon.bus.dxl import error_names
 from robot_daemon.bus.read_plan import servos_to_read
 from robot_daemon.bus.state import BusCounters, ServoState, word
@@ -64,7 +66,8 @@ class SensorRead:
         slow block (torque … temperature) of one servo in turn, and now and then a probe of
         an offline servo (last, so a silent one delays nobody)."""
         st = self.state
-        online = [j for j in self.ids if st.online[j]]
+        on = st.online.tolist()  # plain bools: indexing a numpy array per servo costs more
+        online = [j for j in self.ids if on[j]]
         n = min(self.slow_per_tick, len(online))
         slow = {online[(self._rr * n + k) % len(online)] for k in range(n)}
         self._rr += 1
@@ -77,7 +80,7 @@ class SensorRead:
         # for its status packet) silences nobody.
         cm = (self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH)
         blocks.insert(len(blocks) if not self.cm730_online else 0, cm)
-        offline = [j for j in self.ids if not st.online[j] and j not in self.refused]
+        offline = [j for j in self.ids if not on[j] and j not in self.refused]
         probe = None
         if offline and self._rr % self.probe_every == 0:
             probe = offline[(self._rr // self.probe_every) % len(offline)]
@@ -94,13 +97,14 @@ class SensorRead:
         c.retries += int(res.retried)
         if (set(res.missing) - {probe}) or res.corrupt:
             c.stale_ticks += 1
+        fast: list[int] = []  # position, speed and load: decoded below, all at once
         for jid, data in res.data.items():
             if jid == self.cm730_id:
                 self.cm730 = data
                 self.cm730_online = True
-                continue
-            if jid in slow or jid == probe:
+            elif jid in slow or jid == probe:
                 self._apply_slow(jid, data, res.errors.get(jid, 0))
+                st.misses[jid] = 0
                 if jid == probe:
                     st.online[jid] = True
                     self.emit(
@@ -109,11 +113,16 @@ class SensorRead:
                         id=jid,
                     )
             else:
-                st.position[jid] = word(data, 0)
-                st.speed[jid] = word(data, 2)
-                st.load[jid] = word(data, 4)
-                self._alarm(jid, res.errors.get(jid, 0))
-            st.misses[jid] = 0
+                fast.append(jid)
+        if fast:
+            words = np.frombuffer(b"".join([res.data[j] for j in fast]), "<u2").reshape(-1, 3)
+            st.position[fast] = words[:, 0]
+            st.speed[fast] = words[:, 1]
+            st.load[fast] = words[:, 2]
+            st.misses[fast] = 0
+            if res.errors or st.alarm[fast].any():
+                for jid in fast:
+                    self._alarm(jid, res.errors.get(jid, 0))
         if res.stalled:
             c.bus_stalls += 1
             return

@@ -58,8 +58,8 @@ class MotionModule:
         return {"active": self.active}
 
     # -- helpers for subclasses ------------------------------------------------------------
-    def owned(self) -> set[int]:
-        return self.manager.owned_by(self.name) if self.manager else set()
+    def owned(self) -> frozenset[int]:
+        return self.manager.owned_by(self.name) if self.manager else frozenset()
 
     def claim(self, ids: set[int] | list[int] | tuple[int, ...]) -> None:
         assert self.manager is not None, f"{self.name} is not attached to a manager"

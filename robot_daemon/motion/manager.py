@@ -23,6 +23,9 @@ class MotionManager:
         self.modules: list[MotionModule] = []
         self._by_name: dict[str, MotionModule] = {}
         self._owner: dict[int, str | None] = {jid: None for jid in robot.ids}
+        # Joints by owner, made from ``_owner`` when first asked after a change: the tick asks
+        # for every module's, twice.
+        self._owned: dict[str | None, frozenset[int]] | None = None
         self._hold: dict[int, float] = {}  # goals of unowned joints to (re)write, e.g. after halt
         self._last_goal: dict[int, float] = {}
         self.events: deque[tuple[str, str, dict[str, Any]]] = deque(maxlen=1000)
@@ -49,8 +52,13 @@ class MotionManager:
     def owner(self, joint_id: int) -> str | None:
         return self._owner.get(joint_id)
 
-    def owned_by(self, name: str) -> set[int]:
-        return {j for j, o in self._owner.items() if o == name}
+    def owned_by(self, name: str) -> frozenset[int]:
+        if self._owned is None:
+            by: dict[str | None, set[int]] = {}
+            for j, o in self._owner.items():
+                by.setdefault(o, set()).add(j)
+            self._owned = {o: frozenset(js) for o, js in by.items()}
+        return self._owned.get(name, frozenset())
 
     def claim(self, name: str, ids: set[int]) -> None:
         if name not in self._by_name:
@@ -64,6 +72,7 @@ class MotionManager:
             if prev is not None and prev != name:
                 taken.setdefault(prev, set()).add(j)
             self._owner[j] = name
+            self._owned = None
             self._hold.pop(j, None)
         for prev, lost in taken.items():
             self._by_name[prev].on_released(lost)
@@ -72,6 +81,7 @@ class MotionManager:
         for j, o in self._owner.items():
             if o == name and (ids is None or j in ids):
                 self._owner[j] = None
+                self._owned = None
                 if j in self._last_goal:  # written again with the configured gains
                     self._hold[j] = self._last_goal[j]
 
@@ -116,6 +126,7 @@ class MotionManager:
             m.halt()
         for j in self._owner:
             self._owner[j] = None
+        self._owned = None
         frame = self.last_frame
         if frame is not None:
             self.hold_present(frame)
