@@ -50,6 +50,7 @@ class PolicyLink:
         self.pub = pub
         self._refusals = session.declare_publisher(keys.policy("applied"))
         module.sink = lambda topic, msg: pub.post(f"policy_{topic}", msg)
+        module.wanted = lambda topic: pub.wanted(f"policy_{topic}")
         module.health = self.health
         self._sub = session.declare_subscriber(keys.policy("action"), self._on_action)
 

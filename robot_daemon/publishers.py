@@ -62,6 +62,7 @@ class Publishers:
         self._pubs[topic] = self.session.declare_publisher(
             key, congestion_control=zenoh.CongestionControl.DROP, express=True
         )
+        self._watch(topic)
         if fifo:
             self._fifo_topics.add(topic)
 

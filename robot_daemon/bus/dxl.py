@@ -29,6 +29,11 @@ from schemas.errors import BusError, NoReplyError, PacketError, PortError
 
 T = TypeVar("T")
 
+# The learnt lateness of a bulk read's replies (DxlBus.late_ms): how fast it comes down after a
+# read that was all in at once, and its ceiling (ms).
+LATENESS_STEP_MS = 0.02
+MAX_LATENESS_MS = 2.0
+
 # Until the scan has read a device's return delay, assume the longest it can be set to.
 UNKNOWN_RETURN_DELAY_MS = units.return_delay_s(MX28.RETURN_DELAY_TIME.reg.high) * 1000.0
 
@@ -122,6 +127,10 @@ class DxlBus:
         # ms): a write returns before its bytes have crossed, and a reply cannot start before.
         self._wire_free = 0.0
         self._plans: dict[tuple[object, ...], _BulkPlan] = {}
+        # How much later than their wire time a bulk read's replies are all in (ms): the USB
+        # adapter's latency timer, the host's scheduling, an emulator's pace. Learnt, so that
+        # the receive wakes once, when they are in, rather than early and then again.
+        self.late_ms = 0.0
 
     @property
     def name(self) -> str:
@@ -269,6 +278,9 @@ class DxlBus:
             out.blamed = scattered + tail
         return out
 
+    def _learn_lateness(self, woken: int, seen_ms: float) -> None:
+        self.late_ms = _next_lateness(self.late_ms, woken, seen_ms)
+
     def _plan(self, blocks: list[tuple[int, int, int]]) -> _BulkPlan:
         """What a bulk read of ``blocks`` needs beside its replies, made once per block list
         (the loop cycles through a few dozen) rather than every tick."""
@@ -298,7 +310,8 @@ class DxlBus:
         final = sent + plan.all_waits
         # When every reply should be in if all goes well (no margins): reads wait for that,
         # never past a deadline, so the loop wakes a few times per bulk read, not per reply.
-        whole = sent + plan.wire
+        whole = sent + plan.wire + self.late_ms
+        woken = 0  # reads so far: the first that finds everything in means we slept enough
         due = 0  # index in ``order`` of the next device waited for; len(order): none
         deadline = sent + waits[0]
         pending = set(order)
@@ -320,6 +333,7 @@ class DxlBus:
             limit = min(deadline, final)
             port.idle_until(min(whole, limit))
             chunk = port.read_chunk(limit)
+            woken += 1
             if not chunk:
                 break  # the reply due is not coming
             if in_order:
@@ -378,12 +392,23 @@ class DxlBus:
                         due += 1
             if due < n:
                 deadline = port.getCurrentTime() + waits[due]
+        if in_order and due == n:
+            self._learn_lateness(woken, port.getCurrentTime() - (sent + plan.wire))
         if in_order and len(raw) - pos >= 3 and raw[pos] == 0xFF and raw[pos + 1] == 0xFF:
             parser.feed(bytes(raw[pos : pos + 3]))  # a reply cut short: who was talking
         late = parser.pending_id
         if late is not None and late in want:
             heard.add(late)  # cut short on the wire: the device was still talking
         return [i for i in order if i in pending], heard
+
+
+def _next_lateness(late_ms: float, woken: int, seen_ms: float) -> float:
+    """The lateness to sleep for next time: a little less after a bulk read that was all in at
+    the first read (it may have been in earlier), part of the way to what was seen after one
+    that needed more reads. Bounded, so a stall does not make the loop sleep through its tick."""
+    if woken <= 1:
+        return max(0.0, late_ms - LATENESS_STEP_MS)
+    return min(MAX_LATENESS_MS, late_ms + (max(seen_ms, late_ms) - late_ms) * 0.5)
 
 
 def _split_tail(

@@ -91,6 +91,9 @@ class PolicyModule(MotionModule):
         self.high = np.full(N_JOINTS, math.pi)
         self.default = np.array(DEFAULT_POSE)
         self.sink: Sink | None = None
+        # Whether anyone listens to a topic of the sink (the daemon's Publishers.wanted): an
+        # idle module builds no observation for nobody.
+        self.wanted: Callable[[str], bool] = lambda topic: True
         self.health: Health | None = None
         self.command = [0.0, 0.0, 0.0]
         self._lock = threading.Lock()
@@ -191,7 +194,7 @@ class PolicyModule(MotionModule):
             self.sink("status", self.policy_status())
 
     def _publish_obs(self, frame: JointFrame) -> None:
-        if self.sink is None:
+        if self.sink is None or (self.state == "idle" and not self.wanted("obs")):
             return
         pos = (frame.position[IDX] - self.default).tolist()
         self._obs_stamps.append((frame.tick, frame.time))
