@@ -49,6 +49,7 @@ from robot_daemon.zenoh_setup import open_session
 from schemas.daemon_state import DaemonState
 from schemas.errors import BusError, PortError
 from schemas.keys import Keys
+from schemas.messages import Message
 from schemas.session import Credentials
 from schemas.versions import announced_protocol, fmt, package_version
 
@@ -328,12 +329,15 @@ class Daemon(BusLifecycle):
         for kind, message, data in self.manager.drain_events():
             self.pub.event(kind, message, **data)
         # Built only for someone: a message nobody subscribes to costs the tick for nothing.
+        out: list[tuple[str, Message]] = []
         if self.pub.wanted("joints"):
-            self.pub.post(
-                "joints", joints_message(self.robot, self.bus, frame, self._sampled_at, self.tick)
+            out.append(
+                ("joints", joints_message(self.robot, self.bus, frame, self._sampled_at, self.tick))
             )
         if self.pub.wanted("imu"):
-            self.pub.post("imu", imu_message(frame, self.fall, self._sampled_at, self.tick))
+            out.append(("imu", imu_message(frame, self.fall, self._sampled_at, self.tick)))
+        if out:
+            self.pub.post_all(out)
         self._update_state()
         # Every tick (a lock and a clock read): a silent holder's lease ends within one tick of
         # heartbeat_timeout after its last renewal, so a cut link stops the robot within it.

@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import threading
 from collections import deque
+from collections.abc import Iterable
 from typing import Any
 
 import zenoh
@@ -69,11 +70,17 @@ class Publishers:
     def post(self, topic: str, msg: Message) -> None:
         """Hand ``msg`` over; a message of the same topic not yet sent is replaced (unless the
         topic was declared ``fifo``)."""
+        self.post_all(((topic, msg),))
+
+    def post_all(self, messages: Iterable[tuple[str, Message]]) -> None:
+        """Hand several over at once: the publisher thread wakes once for them all (the tick's
+        joints and IMU), not once each."""
         with self._cond:
-            if topic in self._fifo_topics:
-                self._fifo.append((topic, msg))
-            else:
-                self._slots[topic] = msg
+            for topic, msg in messages:
+                if topic in self._fifo_topics:
+                    self._fifo.append((topic, msg))
+                else:
+                    self._slots[topic] = msg
             self._cond.notify()
 
     def _watch(self, topic: str) -> None:

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from config.loader import load_all, robot_from_dict
+from robot_daemon.bus.bulk_receive import LATENESS_STEP_MS, MAX_LATENESS_MS, next_lateness
 from robot_daemon.bus.calibration import Calibration
-from robot_daemon.bus.dxl import LATENESS_STEP_MS, MAX_LATENESS_MS, _next_lateness
 from schemas import units
 
 
@@ -46,17 +46,17 @@ def test_speed_and_load_tables_are_the_conversions() -> None:
 
 
 def test_lateness_comes_down_after_a_read_that_was_all_in() -> None:
-    assert _next_lateness(0.5, 1, 0.9) == pytest.approx(0.5 - LATENESS_STEP_MS)
-    assert _next_lateness(0.0, 1, 0.3) == 0.0  # never below the wire time
+    assert next_lateness(0.5, 1, 0.9) == pytest.approx(0.5 - LATENESS_STEP_MS)
+    assert next_lateness(0.0, 1, 0.3) == 0.0  # never below the wire time
 
 
 def test_lateness_goes_towards_what_was_seen_after_more_reads() -> None:
     late = 0.0
     for _ in range(20):
-        late = _next_lateness(late, 3, 0.8)
+        late = next_lateness(late, 3, 0.8)
     assert late == pytest.approx(0.8, abs=1e-3)
-    assert _next_lateness(0.4, 2, 0.1) == 0.4  # seen before the estimate: no faster than it
+    assert next_lateness(0.4, 2, 0.1) == 0.4  # seen before the estimate: no faster than it
 
 
 def test_lateness_is_bounded_whatever_was_seen() -> None:
-    assert _next_lateness(1.9, 2, 500.0) == MAX_LATENESS_MS
+    assert next_lateness(1.9, 2, 500.0) == MAX_LATENESS_MS

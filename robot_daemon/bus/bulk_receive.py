@@ -1,0 +1,214 @@
+"""The bulk read's receive path: the plan of one transaction, and its replies read off the
+transport.
+
+Whatever has arrived is read in one call (:meth:`Transport.read_chunk`). Replies in the order
+asked, each whole, are taken straight off the bytes; the first thing that is not that hands the
+rest to :class:`PacketParser`, which copes with anything, so one silent or corrupt device costs
+only its own data. The receive sleeps until the replies' wire time plus a learnt lateness
+(:func:`next_lateness`), so a tick wakes once for its replies, not once per reply.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, NamedTuple
+
+from robot_daemon.bus.packet import PACKET_OVERHEAD, Packet, PacketParser, instruction_packet
+from robot_daemon.bus.tables import BROADCAST_ID, Instruction
+from robot_daemon.bus.transport import Transport
+
+if TYPE_CHECKING:
+    from robot_daemon.bus.dxl import ReplyBudget
+
+# The learnt lateness of a bulk read's replies: how fast it comes down after a read that was
+# all in at once, and its ceiling (ms).
+LATENESS_STEP_MS = 0.02
+MAX_LATENESS_MS = 2.0
+
+
+@dataclass
+class BulkResult:
+    """Data of one bulk read: id → bytes for every device that answered correctly."""
+
+    data: dict[int, bytes] = field(default_factory=dict)
+    errors: dict[int, int] = field(default_factory=dict)  # id → error bits of its status packet
+    missing: list[int] = field(default_factory=list)  # no data this time
+    # The missing ones whose silence is their own: a device heard after them shows the chain
+    # held, or they were the first of the devices not heard at the end (on the real bus, the
+    # one that silences the rest). The others at the end were cut off with it, or by a late bus.
+    blamed: list[int] = field(default_factory=list)
+    corrupt: int = 0  # packets dropped for a bad checksum or length
+    retried: bool = False
+    stalled: bool = False  # nothing answered at all
+
+
+@dataclass(frozen=True)
+class BulkPlan:
+    param: list[int]  # the BULK_READ parameters
+    want: dict[int, int]  # id → data length
+    order: list[int]  # ids in the order asked
+    rank: dict[int, int]  # id → its place in ``order``
+    waits: list[float]  # ms, each reply's own wait (wire time, return delay, margin)
+    all_waits: float  # ms, their sum: the longest the transaction may take after the request
+    wire: float  # ms, when every reply is in if all goes well (no margins)
+    packet: bytes  # the BULK_READ instruction packet itself
+    # (id, data length, the packet's LEN byte) in order: what an in-order answer looks like
+    expect: list[tuple[int, int, int]]
+    tail: list[int]  # bytes of the replies from each one in order to the end
+
+    @classmethod
+    def make(
+        cls, blocks: list[tuple[int, int, int]], budget: ReplyBudget, byte_ms: float
+    ) -> BulkPlan:
+        param: list[int] = [0x00]  # the protocol's leading 0
+        for dxl_id, start, length in blocks:
+            param += [length, dxl_id, start]
+        want = {dxl_id: length for dxl_id, _, length in blocks}
+        order = [dxl_id for dxl_id, _, _ in blocks]
+        waits = [budget.reply_ms(byte_ms, i, want[i] + PACKET_OVERHEAD) for i in order]
+        wire = sum(
+            byte_ms * (want[i] + PACKET_OVERHEAD) + budget.delays_ms.get(i, 0.0) for i in order
+        )
+        rank = {dxl_id: k for k, dxl_id in enumerate(order)}
+        packet = instruction_packet(BROADCAST_ID, Instruction.BULK_READ, param)
+        expect = [(i, want[i], want[i] + 2) for i in order]
+        sizes = [want[i] + PACKET_OVERHEAD for i in order]
+        tail = [sum(sizes[k:]) for k in range(len(sizes))]
+        return cls(param, want, order, rank, waits, sum(waits), wire, packet, expect, tail)
+
+
+class Received(NamedTuple):
+    missing: list[int]  # IDs whose data did not come
+    heard: set[int]  # IDs heard at all (a garbled reply was still on the wire)
+    woken: int  # reads it took
+    seen_ms: float | None  # how much later than their wire time all were in (None: not all)
+
+
+def receive(
+    port: Transport, plan: BulkPlan, sent: float, late_ms: float, out: BulkResult
+) -> Received:
+    """The replies to one BULK_READ sent (its last byte on the wire at ``sent``, the
+    transport's clock), into ``out``; ``late_ms``: how much later than their wire time they
+    are expected all in."""
+    want, order, rank, waits = plan.want, plan.order, plan.rank, plan.waits
+    # Replies come in bus order, so each wait is for the next device due after the last one
+    # heard: the first one after the instruction has crossed the wire, each later one after
+    # the reply before it. Once a device is heard, the ones before it that were not never
+    # will be: nobody waits for them. The whole transaction never takes longer than every
+    # reply's own wait, however the replies trickle in.
+    final = sent + plan.all_waits
+    # When every reply should be in if all goes well (no margins): reads wait for that,
+    # never past a deadline, so the loop wakes a few times per bulk read, not per reply.
+    whole = sent + plan.wire + late_ms
+    woken = 0  # reads so far: the first that finds everything in means we slept enough
+    due = 0  # index in ``order`` of the next device waited for; len(order): none
+    deadline = sent + waits[0]
+    pending = set(order)
+    heard: set[int] = set()
+    data, errors = out.data, out.errors
+    # Whatever has arrived is read in one call and every complete packet in it framed in
+    # one pass: on an FTDI that is one wake-up per 62-byte USB packet, not one SDK round
+    # trip (header, then body, each a read) per device.
+    parser = PacketParser()
+    # The usual case costs one comparison per reply: replies in the order asked, each
+    # whole, are taken straight off the bytes (``raw`` from ``pos``); the first thing that
+    # is not that hands the rest to the parser, which copes with anything.
+    raw = bytearray()
+    pos = 0
+    expect = plan.expect
+    n = len(order)
+    in_order = True
+    while due < n:
+        limit = min(deadline, final)
+        port.idle_until(min(whole, limit))
+        chunk = port.read_chunk(limit)
+        woken += 1
+        if not chunk:
+            break  # the reply due is not coming
+        if in_order:
+            raw += chunk
+            have = len(raw)
+            while due < n:
+                dxl_id, length, code = expect[due]
+                end = pos + length + PACKET_OVERHEAD
+                if have < end:
+                    break
+                if (
+                    raw[pos] != 0xFF
+                    or raw[pos + 1] != 0xFF
+                    or raw[pos + 2] != dxl_id
+                    or raw[pos + 3] != code
+                    or (~sum(raw[pos + 2 : end - 1]) & 0xFF) != raw[end - 1]
+                ):
+                    in_order = False
+                    break
+                data[dxl_id] = bytes(raw[pos + 5 : end - 1])
+                if raw[pos + 4]:
+                    errors[dxl_id] = raw[pos + 4]
+                pending.discard(dxl_id)
+                heard.add(dxl_id)
+                due += 1
+                pos = end
+            if in_order:
+                if due < n:
+                    now = port.getCurrentTime()
+                    deadline = now + waits[due]
+                    # The rest cannot be in before its bytes have crossed: sleep until then
+                    # rather than wake for every reply that trickles in.
+                    rest = plan.tail[due] - (have - pos)
+                    whole = max(whole, now + rest * port.tx_time_per_byte)
+                continue
+            chunk = bytes(raw[pos:])
+        for frame in parser.feed(chunk):
+            dxl_id = frame.id
+            k = rank.get(dxl_id)
+            if (
+                k is not None
+                and dxl_id in pending
+                and type(frame) is Packet
+                and len(frame.params) == want[dxl_id]
+            ):
+                data[dxl_id] = frame.params
+                if frame.code:
+                    errors[dxl_id] = frame.code
+                pending.discard(dxl_id)
+            elif dxl_id not in data:  # (a second copy is a late echo, not a fault)
+                out.corrupt += 1
+            if k is not None:
+                heard.add(dxl_id)
+                due = max(due, k + 1)  # one answering out of turn does not rewind the wait
+                while due < n and order[due] not in pending:
+                    due += 1
+        if due < n:
+            deadline = port.getCurrentTime() + waits[due]
+    seen = port.getCurrentTime() - (sent + plan.wire) if in_order and due == n else None
+    if in_order and len(raw) - pos >= 3 and raw[pos] == 0xFF and raw[pos + 1] == 0xFF:
+        parser.feed(bytes(raw[pos : pos + 3]))  # a reply cut short: who was talking
+    late = parser.pending_id
+    if late is not None and late in want:
+        heard.add(late)  # cut short on the wire: the device was still talking
+    return Received([i for i in order if i in pending], heard, woken, seen)
+
+
+def next_lateness(late_ms: float, woken: int, seen_ms: float) -> float:
+    """The lateness to sleep for next time: a little less after a bulk read that was all in at
+    the first read (it may have been in earlier), part of the way to what was seen after one
+    that needed more reads. Bounded, so a stall does not make the loop sleep through its tick."""
+    if woken <= 1:
+        return max(0.0, late_ms - LATENESS_STEP_MS)
+    return min(MAX_LATENESS_MS, late_ms + (max(seen_ms, late_ms) - late_ms) * 0.5)
+
+
+def split_tail(
+    blocks: list[tuple[int, int, int]], missing: list[int], heard: set[int]
+) -> tuple[list[int], list[int]]:
+    """The missing IDs before the last device heard, and those after it (in bus order)."""
+    order = [b[0] for b in blocks]
+    last = max((k for k, i in enumerate(order) if i in heard), default=-1)
+    before = [i for i in missing if order.index(i) < last]
+    return before, [i for i in missing if order.index(i) > last]
+
+
+def blame(blocks: list[tuple[int, int, int]], missing: list[int], heard: set[int]) -> list[int]:
+    before, tail = split_tail(blocks, missing, heard)
+    return before + tail[:1]
