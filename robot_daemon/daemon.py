@@ -293,7 +293,8 @@ class Daemon(BusLifecycle):
             self._hold_on_return = False
             self.manager.hold_present(frame)
         assert self.arbiter is not None
-        self.arbiter.apply_pending(self._context(frame))
+        if self.arbiter.has_pending():  # most ticks have no command: no context to build
+            self.arbiter.apply_pending(self._context(frame))
         try:
             targets = self.manager.step(frame)
         except Exception as exc:

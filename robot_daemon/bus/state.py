@@ -73,13 +73,20 @@ def cm730_field(block: bytes, reg: CM730) -> int:
     return field_value(block, CM730_BULK_START, reg.reg)
 
 
+# Where each axis's word is in the CM-730's bulk-read block, in robot axes (x, y, z).
+_GYRO_AT = tuple(reg.reg.address - CM730_BULK_START for reg, _ in IMU_GYRO_AXES)
+_ACCEL_AT = tuple(reg.reg.address - CM730_BULK_START for reg, _ in IMU_ACCEL_AXES)
+_GYRO_SIGN = tuple(s for _, s in IMU_GYRO_AXES)
+_ACCEL_SIGN = tuple(s for _, s in IMU_ACCEL_AXES)
+
+
 def imu_raw(block: bytes) -> tuple[list[int], list[int]]:
     """Gyro and accelerometer counts in robot axes (x, y, z)."""
     if not block:
         return [units.IMU_CENTER] * 3, [units.IMU_CENTER] * 3
     return (
-        [cm730_field(block, reg) for reg, _ in IMU_GYRO_AXES],
-        [cm730_field(block, reg) for reg, _ in IMU_ACCEL_AXES],
+        [block[o] | block[o + 1] << 8 for o in _GYRO_AT],
+        [block[o] | block[o + 1] << 8 for o in _ACCEL_AT],
     )
 
 
@@ -87,13 +94,9 @@ def imu_si(
     gyro_raw: list[int], accel_raw: list[int], gyro_dps: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """Gyro (rad/s) and accelerometer (m/s²) in robot axes from :func:`imu_raw`'s counts."""
-    gyro = [
-        s * units.gyro_raw_to_rad_s(r, gyro_dps)
-        for r, (_, s) in zip(gyro_raw, IMU_GYRO_AXES, strict=True)
-    ]
-    accel = [
-        s * units.accel_raw_to_ms2(r) for r, (_, s) in zip(accel_raw, IMU_ACCEL_AXES, strict=True)
-    ]
+    to_rad_s, to_ms2 = units.gyro_raw_to_rad_s, units.accel_raw_to_ms2
+    gyro = [s * to_rad_s(r, gyro_dps) for r, s in zip(gyro_raw, _GYRO_SIGN, strict=True)]
+    accel = [s * to_ms2(r) for r, s in zip(accel_raw, _ACCEL_SIGN, strict=True)]
     return np.array(gyro), np.array(accel)
 
 
