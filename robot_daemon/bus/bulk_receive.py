@@ -52,8 +52,8 @@ class BulkPlan:
     all_waits: float  # ms, their sum: the longest the transaction may take after the request
     wire: float  # ms, when every reply is in if all goes well (no margins)
     packet: bytes  # the BULK_READ instruction packet itself
-    # (id, data length, the packet's LEN byte) in order: what an in-order answer looks like
-    expect: list[tuple[int, int, int]]
+    # (id, data length, FF FF ID LEN) in order: what an in-order answer looks like
+    expect: list[tuple[int, int, bytes]]
     tail: list[int]  # bytes of the replies from each one in order to the end
 
     @classmethod
@@ -71,7 +71,7 @@ class BulkPlan:
         )
         rank = {dxl_id: k for k, dxl_id in enumerate(order)}
         packet = instruction_packet(BROADCAST_ID, Instruction.BULK_READ, param)
-        expect = [(i, want[i], want[i] + 2) for i in order]
+        expect = [(i, want[i], bytes((0xFF, 0xFF, i, want[i] + 2))) for i in order]
         sizes = [want[i] + PACKET_OVERHEAD for i in order]
         tail = [sum(sizes[k:]) for k in range(len(sizes))]
         return cls(param, want, order, rank, waits, sum(waits), wire, packet, expect, tail)
@@ -100,7 +100,7 @@ def receive(
     # When every reply should be in if all goes well (no margins): reads wait for that,
     # never past a deadline, so the loop wakes a few times per bulk read, not per reply.
     whole = sent + plan.wire + late_ms
-    woken = 0  # reads so far: the first that finds everything in means we slept enough
+    woken = 0  # reads since the expected time: one that finds everything in, we slept enough
     due = 0  # index in ``order`` of the next device waited for; len(order): none
     deadline = sent + waits[0]
     pending = set(order)
@@ -120,31 +120,30 @@ def receive(
     in_order = True
     while due < n:
         limit = min(deadline, final)
-        port.idle_until(min(whole, limit))
+        target = min(whole, limit)
+        port.idle_until(target)
         chunk = port.read_chunk(limit)
-        woken += 1
+        # Only reads at the expected time teach the lateness: an earlier one, capped by the
+        # due reply's deadline, says nothing of when the rest come.
+        woken += target >= whole
         if not chunk:
             break  # the reply due is not coming
         if in_order:
             raw += chunk
-            have = len(raw)
+            buf = bytes(raw)  # slices of bytes are the data as is; of a bytearray, a copy more
+            have = len(buf)
             while due < n:
-                dxl_id, length, code = expect[due]
+                dxl_id, length, header = expect[due]
                 end = pos + length + PACKET_OVERHEAD
                 if have < end:
                     break
-                if (
-                    raw[pos] != 0xFF
-                    or raw[pos + 1] != 0xFF
-                    or raw[pos + 2] != dxl_id
-                    or raw[pos + 3] != code
-                    or (~sum(raw[pos + 2 : end - 1]) & 0xFF) != raw[end - 1]
-                ):
+                # ID + LEN + ERR + data + checksum of a good packet sum to 0xFF (mod 256).
+                if buf[pos : pos + 4] != header or sum(buf[pos + 2 : end]) & 0xFF != 0xFF:
                     in_order = False
                     break
-                data[dxl_id] = bytes(raw[pos + 5 : end - 1])
-                if raw[pos + 4]:
-                    errors[dxl_id] = raw[pos + 4]
+                data[dxl_id] = buf[pos + 5 : end - 1]
+                if buf[pos + 4]:
+                    errors[dxl_id] = buf[pos + 4]
                 pending.discard(dxl_id)
                 heard.add(dxl_id)
                 due += 1
@@ -153,10 +152,11 @@ def receive(
                 if due < n:
                     now = port.getCurrentTime()
                     deadline = now + waits[due]
-                    # The rest cannot be in before its bytes have crossed: sleep until then
-                    # rather than wake for every reply that trickles in.
-                    rest = plan.tail[due] - (have - pos)
-                    whole = max(whole, now + rest * port.tx_time_per_byte)
+                    if now >= whole:
+                        # Later than expected: the rest cannot be in before its bytes have
+                        # crossed, so sleep that long rather than wake for every reply.
+                        rest = plan.tail[due] - (have - pos)
+                        whole = now + rest * port.tx_time_per_byte
                 continue
             chunk = bytes(raw[pos:])
         for frame in parser.feed(chunk):

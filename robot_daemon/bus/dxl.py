@@ -204,6 +204,8 @@ class DxlBus:
         if not blocks:
             return out
         missing, heard = self._bulk_once(blocks, out)
+        if not missing:
+            return out  # everyone answered: nothing to blame, nothing to ask again
         if not heard:
             # Not one byte came back: the bus (or the adapter) stalled, not a device. Every
             # reading is stale this tick; nobody is blamed.
