@@ -187,8 +187,8 @@ class Daemon(BusLifecycle):
             )
 
     def _update_state(self) -> None:
-        st = self.bus.state
-        healthy = self.bus.cm730_online and all(st.online[j] for j in self.robot.ids)
+        online = self.bus.state.online.tolist()
+        healthy = self.bus.cm730_online and all(online[j] for j in self.robot.ids)
         self._set_state(DaemonState.RUNNING if healthy else DaemonState.DEGRADED)
 
     def stop(self) -> None:

@@ -33,6 +33,14 @@ if TYPE_CHECKING:
 # Round-robin slow block: torque enable (24) … present temperature (43).
 SLOW_START = MX28.TORQUE_ENABLE.reg.address
 SLOW_LENGTH = MX28.PRESENT_TEMPERATURE.reg.address + 1 - SLOW_START
+# Where each register is in the slow block.
+_TORQUE = MX28.TORQUE_ENABLE.reg.address - SLOW_START
+_GOAL = MX28.GOAL_POSITION.reg.address - SLOW_START
+_POSITION = MX28.PRESENT_POSITION.reg.address - SLOW_START
+_SPEED = MX28.PRESENT_SPEED.reg.address - SLOW_START
+_LOAD = MX28.PRESENT_LOAD.reg.address - SLOW_START
+_VOLTAGE = MX28.PRESENT_VOLTAGE.reg.address - SLOW_START
+_TEMPERATURE = MX28.PRESENT_TEMPERATURE.reg.address - SLOW_START
 # Alarms the firmware protects against by dropping torque (the MX-28's default shutdown mask).
 PROTECT_BITS = ErrorBit.OVERHEATING | ErrorBit.OVERLOAD
 
@@ -141,17 +149,13 @@ class SensorRead:
 
     def _apply_slow(self, jid: int, data: bytes, error: int) -> None:
         st = self.state
-
-        def at(reg: MX28) -> int:
-            return reg.reg.address - SLOW_START
-
-        st.torque[jid] = bool(data[at(MX28.TORQUE_ENABLE)])
-        st.goal[jid] = word(data, at(MX28.GOAL_POSITION))
-        st.position[jid] = word(data, at(MX28.PRESENT_POSITION))
-        st.speed[jid] = word(data, at(MX28.PRESENT_SPEED))
-        st.load[jid] = word(data, at(MX28.PRESENT_LOAD))
-        st.voltage[jid] = units.voltage_raw_to_v(data[at(MX28.PRESENT_VOLTAGE)])
-        st.temperature[jid] = float(data[at(MX28.PRESENT_TEMPERATURE)])
+        st.torque[jid] = bool(data[_TORQUE])
+        st.goal[jid] = word(data, _GOAL)
+        st.position[jid] = word(data, _POSITION)
+        st.speed[jid] = word(data, _SPEED)
+        st.load[jid] = word(data, _LOAD)
+        st.voltage[jid] = units.voltage_raw_to_v(data[_VOLTAGE])
+        st.temperature[jid] = float(data[_TEMPERATURE])
         self._alarm(jid, error)
 
     def _alarm(self, jid: int, bits: int) -> None:

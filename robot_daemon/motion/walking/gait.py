@@ -70,6 +70,7 @@ class WalkingModule(WalkReady, MotionModule):
         self._next_phase = 1  # the phase point (1, 2, 3) this period has not reached yet
         self._wrapped = False  # the period just ended: the next tick starts the new one
         self._last: dict[int, float] = {}
+        self._limits: dict[int, tuple[float, float]] | None = None
         self._gyro_f = [0.0, 0.0]  # low-passed gyro counts (right/left, front/back)
         self._update_time()
         self._update_move()
@@ -334,8 +335,17 @@ class WalkingModule(WalkReady, MotionModule):
     def _within_limits(self, goals: dict[int, float]) -> bool:
         if self.manager is None:
             return True
-        by_id = self.manager.robot.by_id
-        return all(j not in by_id or by_id[j].within(g) for j, g in goals.items())
+        limits = self._limits
+        if limits is None:  # the robot's limits, as JointConfig.within has them, made once
+            by_id = self.manager.robot.by_id
+            limits = self._limits = {
+                j: (c.min_rad - 1e-9, c.max_rad + 1e-9) for j, c in by_id.items()
+            }
+        for j, g in goals.items():
+            lim = limits.get(j)
+            if lim is not None and not lim[0] <= g <= lim[1]:
+                return False
+        return True
 
     def gains(self) -> dict[int, tuple[int, int, int]]:
         p = self.params
