@@ -96,11 +96,11 @@ class RobotBus(SensorRead):
         self.dxl: DxlBus | None = None
         self._rr = 0
         self.calibration = Calibration(robot)
-        # Each joint's configured (D, I, P, 0): the sync write's gain bytes unless a module
-        # sets others this tick.
-        self._gain_rows = [bytes(4)] * N_SLOTS
+        # Each joint's configured (D, I, P): the sync write's gain bytes unless a module sets
+        # others this tick.
+        self._gain_rows = [(0, 0, 0)] * N_SLOTS
         for j in robot.joints:
-            self._gain_rows[j.id] = bytes((j.d, j.i, j.p, 0))
+            self._gain_rows[j.id] = (j.d, j.i, j.p)
 
     # -- calibration ---------------------------------------------------------------------------
     def raw_to_joint(self, jid: int, raw: int | float) -> float:
@@ -248,7 +248,7 @@ class RobotBus(SensorRead):
         online, torque = st.online.tolist(), st.torque.tolist()
         goal_raw = self.calibration.goal_raw
         default, gains = self._gain_rows, targets.gains
-        rows = bytearray()
+        row: list[int] = []  # the packet's rows: id, D, I, P, 0, goal low, goal high
         written: dict[int, int] = {}
         clamps = 0
         # One plain loop over the goals (about 20): numpy's per-call cost is more than the
@@ -261,15 +261,18 @@ class RobotBus(SensorRead):
             clamps += clamped
             written[jid] = raw
             pid = gains.get(jid)
-            gain_bytes = default[jid] if pid is None else bytes((pid[2], pid[1], pid[0], 0))
-            rows += bytes((jid,)) + gain_bytes + bytes((raw & 0xFF, raw >> 8))
+            if pid is None:
+                d, i, p = default[jid]
+            else:
+                p, i, d = pid
+            row += (jid, d, i, p, 0, raw & 0xFF, raw >> 8)
         c = self.counters
         c.skipped_goals += len(targets.goal) - len(written)
         c.limit_clamps += clamps
         if not written:
             return
         st.goal[list(written)] = list(written.values())
-        self._bus().sync_write_rows(SYNC_WRITE_START, SYNC_WRITE_LENGTH, bytes(rows))
+        self._bus().sync_write_rows(SYNC_WRITE_START, SYNC_WRITE_LENGTH, bytes(row))
         c.sync_writes += 1
         c.goal_writes += len(written)
 

@@ -124,11 +124,12 @@ class SensorRead:
                 fast.append(jid)
         if fast:
             words = np.frombuffer(b"".join([res.data[j] for j in fast]), "<u2").reshape(-1, 3)
-            st.position[fast] = words[:, 0]
-            st.speed[fast] = words[:, 1]
-            st.load[fast] = words[:, 2]
-            st.misses[fast] = 0
-            if res.errors or st.alarm[fast].any():
+            at = np.fromiter(fast, np.intp, len(fast))  # one index array for the five uses
+            st.position[at] = words[:, 0]
+            st.speed[at] = words[:, 1]
+            st.load[at] = words[:, 2]
+            st.misses[at] = 0
+            if res.errors or st.alarm[at].any():
                 for jid in fast:
                     self._alarm(jid, res.errors.get(jid, 0))
         if res.stalled:
