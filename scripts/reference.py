@@ -43,11 +43,12 @@ def render() -> str:
     # Defaults under the user's home read as `~/…`, not as this machine's home directory.
     os.environ["XDG_CONFIG_HOME"] = "~/.config"
     sys.path.insert(0, str(REPO))
-    from robot_daemon.cli import COMMANDS, command_parser
+    from robot_daemon.launch.cli import COMMANDS, command_parser
 
     parts = [INTRO]
-    parts += [f"| [`darwin {name}`](#darwin-{name}) | {text} |\n" for name, (_, text) in
-              COMMANDS.items()]
+    parts += [
+        f"| [`darwin {name}`](#darwin-{name}) | {text} |\n" for name, (_, text) in COMMANDS.items()
+    ]
     for name in COMMANDS:
         try:
             _, parser = command_parser(name)
@@ -95,8 +96,11 @@ def main(argv: list[str]) -> int:
     if "--check" in argv:
         stale = [str(p.relative_to(REPO)) for p, text in outputs.items() if p.read_text() != text]
         if stale:
-            print(f"{', '.join(stale)} out of step with the programs and the verb spec: "
-                  "run `python scripts/reference.py`", file=sys.stderr)
+            print(
+                f"{', '.join(stale)} out of step with the programs and the verb spec: "
+                "run `python scripts/reference.py`",
+                file=sys.stderr,
+            )
             return 1
         return 0
     for path, text in outputs.items():

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from robot_daemon.cli import COMMANDS, command_parser
+from robot_daemon.launch.cli import COMMANDS, command_parser
 
 REPO = Path(__file__).resolve().parents[2]
 PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
@@ -67,8 +67,9 @@ def _commands(text: str) -> list[str]:
 
 
 def _documented() -> list[tuple[str, str]]:
-    return [(str(page.relative_to(REPO)), cmd) for page in PAGES
-            for cmd in _commands(page.read_text())]
+    return [
+        (str(page.relative_to(REPO)), cmd) for page in PAGES for cmd in _commands(page.read_text())
+    ]
 
 
 def test_the_pages_show_commands() -> None:
@@ -93,8 +94,13 @@ def test_documented_command_parses(page: str, command: str) -> None:
 
 
 def test_reference_pages_are_in_step_with_programs_and_spec() -> None:
-    run = subprocess.run([sys.executable, "scripts/reference.py", "--check"], cwd=REPO,
-                         capture_output=True, text=True, env={**os.environ, "CI": "1"})
+    run = subprocess.run(
+        [sys.executable, "scripts/reference.py", "--check"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "CI": "1"},
+    )
     assert run.returncode == 0, run.stderr
 
 
@@ -108,7 +114,11 @@ def test_readme_links_reach_pages() -> None:
 def test_site_builds_strict(tmp_path: Path) -> None:
     mkdocs = shutil.which("mkdocs", path=str(Path(sys.executable).parent))
     assert mkdocs, "mkdocs is part of the test extra"
-    run = subprocess.run([mkdocs, "build", "--strict", "--site-dir", str(tmp_path / "site")],
-                         cwd=REPO, capture_output=True, text=True,
-                         env={**os.environ, "NO_MKDOCS_2_WARNING": "1"})
+    run = subprocess.run(
+        [mkdocs, "build", "--strict", "--site-dir", str(tmp_path / "site")],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
+    )
     assert run.returncode == 0, run.stderr[-3000:]

@@ -28,10 +28,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from config.loader import load_all
-from robot_daemon.adapter_logins import ADAPTERS, UI, adapter_login, roles, ui_login
-from robot_daemon.children import Child, ChildError, relay_to_stderr
-from robot_daemon.daemon_cli import _resolve_listen, router_of
-from robot_daemon.fleet_join import check_login_needs_router
+from robot_daemon.engine.fleet_join import check_login_needs_router
+from robot_daemon.launch.adapter_logins import ADAPTERS, UI, adapter_login, roles, ui_login
+from robot_daemon.launch.children import Child, ChildError, relay_to_stderr
+from robot_daemon.launch.daemon_cli import _resolve_listen, router_of
 from robot_daemon.security.acl import check_listen
 from robot_daemon.security.internal import Internal
 from robot_daemon.security.options import (
@@ -338,7 +338,16 @@ def run_tui(
     endpoint: str, robot: str, login: list[str] | None = None, env: dict[str, str] | None = None
 ) -> int:
     """The terminal UI in the foreground; everything stops when it exits."""
-    cmd = [sys.executable, "-m", "robot_daemon.cli", "tui", "--connect", endpoint, "--robot", robot]
+    cmd = [
+        sys.executable,
+        "-m",
+        "robot_daemon.launch.cli",
+        "tui",
+        "--connect",
+        endpoint,
+        "--robot",
+        robot,
+    ]
     cmd += login or []
     # The UI handles Ctrl-C itself; this process waits for it instead of dying first.
     signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -11,24 +11,33 @@ import re
 import sys
 from types import ModuleType
 
-from robot_daemon.children import watch_parent
+from robot_daemon.launch.children import watch_parent
 from schemas.errors import DarwinError
 from schemas.extras import explain
 
 # name → (module, one-line help). Keep in the order a newcomer meets them.
 COMMANDS: dict[str, tuple[str, str]] = {
-    "up": ("robot_daemon.up", "start emulator (or --port), daemon and gateway in one command"),
+    "up": (
+        "robot_daemon.launch.up",
+        "start emulator (or --port), daemon and gateway in one command",
+    ),
     "daemon": (
-        "robot_daemon.daemon_cli",
+        "robot_daemon.launch.daemon_cli",
         "run the robot daemon (owns the bus, publishes, arbiter)",
     ),
-    "router": ("robot_daemon.router", "a Zenoh router: the meeting point of a fleet of robots"),
+    "router": (
+        "robot_daemon.launch.router",
+        "a Zenoh router: the meeting point of a fleet of robots",
+    ),
     "list": ("clients.fleet_cli", "list every live robot (name, endpoint, lease, battery…)"),
     "sim": ("robot_daemon.sim.cli", "run the hardware emulator on a pseudo-terminal"),
     "scan": ("robot_daemon.bus.scan", "list every device on a serial port (ID, model, firmware)"),
     "doctor": ("robot_daemon.doctor.cli", "check the robot: port, bus, servos, power, loop, Zenoh"),
     "calibrate": ("clients.calibrate_cli", "joint offsets: import ROBOTIS's config.ini offsets"),
-    "servo": ("robot_daemon.servo_cli", "servo maintenance: give a new servo its ID and settings"),
+    "servo": (
+        "robot_daemon.launch.servo_cli",
+        "servo maintenance: give a new servo its ID and settings",
+    ),
     "gateway": ("gateway.cli", "serve the legacy TCP JSON protocol to any number of clients"),
     "tui": ("clients.tui.cli", "the terminal UI (works over SSH)"),
     "web": ("clients.web.cli", "serve the terminal UI to web browsers"),
@@ -41,7 +50,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "urdf": ("clients.ros2.urdf_cli", "print the robot's URDF (from the body description)"),
     "users": ("robot_daemon.security.users_cli", "manage identities and roles (add/remove/list)"),
     "certs": ("robot_daemon.security.certs_cli", "create TLS certificates: CA, robot, clients"),
-    "service": ("robot_daemon.service_cli", "start the daemon at boot: systemd units, udev rule"),
+    "service": (
+        "robot_daemon.launch.service_cli",
+        "start the daemon at boot: systemd units, udev rule",
+    ),
 }
 
 
