@@ -53,15 +53,8 @@ from schemas.session import free_tcp_port  # noqa: E402
 ROBOTS = ("s1", "s2", "s3")
 LEASE_STOP_S = 15.0
 READY_S = 90.0
-USERS = {
-    **{r: "robot" for r in ROBOTS},
-    "obs": "observer",
-    "op": "operator",
-    "gw": "operator",
-    "fox": "observer",
-    "ros": "observer",
-    "rec": "observer",
-}
+USERS = {**{r: "robot" for r in ROBOTS}, "obs": "observer", "op": "operator", "gw": "operator",
+         "fox": "observer", "ros": "observer", "rec": "observer"}
 
 
 def darwin(*args: str) -> list[str]:
@@ -107,119 +100,43 @@ class Soak:
     def setup(self) -> None:
         for user, role in USERS.items():
             self.pw(user).write_text(f"{user}-soak-password\n")
-            done = subprocess.run(
-                darwin(
-                    "users",
-                    "add",
-                    user,
-                    "--role",
-                    role,
-                    "--password-file",
-                    str(self.pw(user)),
-                    "--users",
-                    str(self.users),
-                ),
-                capture_output=True,
-                text=True,
-                cwd=REPO,
-            )
+            done = subprocess.run(darwin("users", "add", user, "--role", role, "--password-file",
+                                         str(self.pw(user)), "--users", str(self.users)),
+                                  capture_output=True, text=True, cwd=REPO)
             if done.returncode != 0:
                 raise RuntimeError(done.stderr)
         port = free_tcp_port()
         host = "0.0.0.0" if self.net else "127.0.0.1"
-        self.start(
-            "router",
-            darwin("router", "--listen", f"tcp/{host}:{port}", "--auth", str(self.users)),
-            "router:",
-            "router",
-        )
+        self.start("router", darwin("router", "--listen", f"tcp/{host}:{port}", "--auth",
+                                    str(self.users)), "router:", "router")
         self.ep = f"tcp/127.0.0.1:{port}"
         for robot in ROBOTS:
             ns, ep = "router", self.ep
             if self.net and robot == "s3":
                 ns, ep = "s3", f"tcp/{self.net.router_addr('s3')}:{port}"
-            self.start(
-                robot,
-                darwin(
-                    "up",
-                    "--router",
-                    ep,
-                    "--robot",
-                    robot,
-                    "--user",
-                    robot,
-                    "--password-file",
-                    str(self.pw(robot)),
-                    "--no-gateway",
-                    "--camera",
-                    "none",
-                ),
-                "robot:",
-                ns,
-            )
+            self.start(robot, darwin("up", "--router", ep, "--robot", robot, "--user", robot,
+                                     "--password-file", str(self.pw(robot)), "--no-gateway",
+                                     "--camera", "none"), "robot:", ns)
         login = lambda u: ["--user", u, "--password-file", str(self.pw(u))]  # noqa: E731
         # A fixed port: the legacy client finds the gateway again after the chaos restarts it.
-        gw = self.start(
-            "gateway",
-            darwin(
-                "gateway",
-                "--connect",
-                self.ep,
-                "--robot",
-                "s1",
-                "--listen",
-                f"127.0.0.1:{free_tcp_port()}",
-                *login("gw"),
-            ),
-            "gateway:",
-            "router",
-        )
-        self.start(
-            "foxglove",
-            darwin(
-                "foxglove",
-                "--connect",
-                self.ep,
-                "--robot",
-                "s2",
-                "--listen",
-                "127.0.0.1:0",
-                *login("fox"),
-            ),
-            "foxglove:",
-            "router",
-        )
-        self.start(
-            "ros2",
-            darwin("ros2", "--connect", self.ep, "--robot", "s3", *login("ros")),
-            "ros2:",
-            "router",
-        )
-        for kind, robot, user, where in (
-            ("observer", "*", "obs", self.ep),
-            ("counter", "s2", "obs", self.ep),
-            ("driver", "s1", "op", self.ep),
-            ("legacy", "s1", "op", gw.ready_rest.strip()),
-        ):
+        gw = self.start("gateway", darwin("gateway", "--connect", self.ep, "--robot", "s1",
+                                          "--listen", f"127.0.0.1:{free_tcp_port()}",
+                                          *login("gw")),
+                        "gateway:", "router")
+        self.start("foxglove", darwin("foxglove", "--connect", self.ep, "--robot", "s2",
+                                      "--listen", "127.0.0.1:0", *login("fox")),
+                   "foxglove:", "router")
+        self.start("ros2", darwin("ros2", "--connect", self.ep, "--robot", "s3", *login("ros")),
+                   "ros2:", "router")
+        for kind, robot, user, where in (("observer", "*", "obs", self.ep),
+                                         ("counter", "s2", "obs", self.ep),
+                                         ("driver", "s1", "op", self.ep),
+                                         ("legacy", "s1", "op", gw.ready_rest.strip())):
             self.start(kind, child(kind, where, robot, user, self.pw(user)), '{"t"', "router")
         self.recording = self.directory / "s2.mcap"
-        self.start(
-            "recorder",
-            darwin(
-                "record",
-                "-o",
-                str(self.recording),
-                "--connect",
-                self.ep,
-                "--robot",
-                "s2",
-                "--topics",
-                "status",
-                *login("rec"),
-            ),
-            "",
-            "router",
-        )
+        self.start("recorder", darwin("record", "-o", str(self.recording), "--connect", self.ep,
+                                      "--robot", "s2", "--topics", "status", *login("rec")), "",
+                   "router")
         self.record_from = self.count()
 
     @property
@@ -260,11 +177,8 @@ class Soak:
             # Started again only after the check: a new driver would take the lease again.
             self.lease_checks += 1
             free = self.procs["observer"].wait_json(
-                lambda m: (
-                    m.get("t", 0) > killed + 0.5 and m.get("lease", {}).get("s1") != "soak-driver"
-                ),
-                LEASE_STOP_S,
-            )
+                lambda m: m.get("t", 0) > killed + 0.5
+                and m.get("lease", {}).get("s1") != "soak-driver", LEASE_STOP_S)
             self.lease_missed += 0 if free else 1
         proc.start()
         if not proc.wait_ready(READY_S):
@@ -276,8 +190,7 @@ class Soak:
         self.restart("router")
         back = time.time()
         seen = self.procs["observer"].wait_json(
-            lambda m: m.get("t", 0) > back and set(ROBOTS) <= set(m.get("listed", [])), 120.0
-        )
+            lambda m: m.get("t", 0) > back and set(ROBOTS) <= set(m.get("listed", [])), 120.0)
         self.unlisted.append((seen["t"] - back) if seen else float("inf"))
 
     def bounce_link(self, cut: bool) -> None:
@@ -297,34 +210,28 @@ class Soak:
         published = self.count() - self.record_from
         self.procs["recorder"].terminate(15.0)
         self.figures.update(
-            lease_stops_checked=self.lease_checks,
-            lease_stops_missed=self.lease_missed,
+            lease_stops_checked=self.lease_checks, lease_stops_missed=self.lease_missed,
             router_restarts=len(self.unlisted),
             longest_unlisted_s=round(max(self.unlisted), 1) if self.unlisted else None,
-            published=published,
-            recorded=count_recorded(self.recording),
-            record_window=2,
+            published=published, recorded=count_recorded(self.recording), record_window=2,
         )
         for name in sorted(self.procs):
             if not self.procs[name].terminate(15.0):
                 self.stuck.append(f"{name} (did not end within 15 s of SIGTERM)")
         self.figures["stuck"] = len(self.stuck)
         self.figures["driver_bursts"] = sum(1 for m in self.procs["driver"].json if m.get("held"))
-        self.figures["driver_errors"] = [
-            m["error"] for m in self.procs["driver"].json if "error" in m
-        ][-3:]
+        self.figures["driver_errors"] = [m["error"] for m in self.procs["driver"].json
+                                         if "error" in m][-3:]
         legacy = self.procs["legacy"].last_json("received")
         self.figures["legacy_received"] = legacy["received"] if legacy else 0
-        self.figures["legacy_errors"] = [
-            m["error"] for m in self.procs["legacy"].json if "error" in m
-        ][-3:]
+        self.figures["legacy_errors"] = [m["error"] for m in self.procs["legacy"].json
+                                         if "error" in m][-3:]
         self.figures["stuck_detail"] = self.stuck
         growth = {}
         for name, start in start_usage.items():
             end = end_usage.get(name, start)
-            growth[name] = {
-                k: [start[k], end[k], round((end[k] - start[k]) / hours, 1)] for k in start
-            }
+            growth[name] = {k: [start[k], end[k], round((end[k] - start[k]) / hours, 1)]
+                            for k in start}
         self.figures["processes"] = growth  # each: [start, end, growth per hour]
 
 
@@ -332,11 +239,8 @@ def count_recorded(path: Path) -> int:
     from mcap.reader import make_reader
 
     with path.open("rb") as f:
-        return sum(
-            1
-            for _, channel, _ in make_reader(f).iter_messages()
-            if channel.topic.endswith("status")
-        )
+        return sum(1 for _, channel, _ in make_reader(f).iter_messages()
+                   if channel.topic.endswith("status"))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -368,11 +272,8 @@ def main(argv: list[str] | None = None) -> int:
         stop.wait(max(0.0, args.minutes * 60.0 - (time.monotonic() - began)))
         stop.set()
         chaos.join()
-        soak.figures.update(
-            minutes=round((time.monotonic() - began) / 60, 1),
-            period_s=period,
-            netns=net is not None,
-        )
+        soak.figures.update(minutes=round((time.monotonic() - began) / 60, 1), period_s=period,
+                            netns=net is not None)
         soak.finish(start_usage, max(1e-3, (time.monotonic() - began) / 3600))
     if args.json:
         print(json.dumps(soak.figures, indent=1))

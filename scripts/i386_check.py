@@ -101,21 +101,9 @@ def dry_run(log: Path) -> None:
     reqs = [r for r in core_requirements() if not r.startswith("numpy")]
     with tempfile.TemporaryDirectory() as target:
         run(
-            [
-                sys.executable,
-                "-m",
-                "pip",
-                "install",
-                "--dry-run",
-                "--only-binary=:all:",
-                "--platform",
-                "manylinux2014_i686",
-                "--python-version",
-                "3.11",
-                "--target",
-                target,
-                *reqs,
-            ],
+            [sys.executable, "-m", "pip", "install", "--dry-run", "--only-binary=:all:",
+             "--platform", "manylinux2014_i686", "--python-version", "3.11",
+             "--target", target, *reqs],
             "pip install --dry-run for manylinux2014_i686 / 3.11 of the core",
             log,
         )
@@ -199,9 +187,7 @@ def prepare(root: Path) -> None:
     shutil.rmtree(src, ignore_errors=True)
     files = subprocess.run(
         ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
-        cwd=REPO,
-        capture_output=True,
-        check=True,
+        cwd=REPO, capture_output=True, check=True,
     ).stdout.split(b"\0")
     for name in filter(None, files):
         path = REPO / os.fsdecode(name)
@@ -229,20 +215,15 @@ def install(root: Path, blocks: list[str], built: bool, log: Path) -> None:
     sizes = [used_mb(root)]
     for block in blocks:
         t0 = time.monotonic()
-        run(
-            chroot_cmd(root, "/bin/bash", "-euxo", "pipefail", "-c", block),
-            f"the recipe of docs/robot.md ({label(block)})",
-            log,
-        )
+        run(chroot_cmd(root, "/bin/bash", "-euxo", "pipefail", "-c", block),
+            f"the recipe of docs/robot.md ({label(block)})", log)
         say(f"recipe: {label(block)}: {time.monotonic() - t0:.0f} s")
         sizes.append(used_mb(root))
     figures = CACHE / "footprint.txt"
     if built:
         lines = [f"disk: minimal Debian 12 i386 root {sizes[0]:.0f} MB"]
-        lines += [
-            f"disk: + {after - before:.0f} MB for {label(block)}"
-            for block, before, after in zip(blocks, sizes[:-1], sizes[1:], strict=True)
-        ]
+        lines += [f"disk: + {after - before:.0f} MB for {label(block)}"
+                  for block, before, after in zip(blocks, sizes[:-1], sizes[1:], strict=True)]
         lines.append(f"disk: {sizes[-1]:.0f} MB in all")
         figures.write_text("\n".join(lines) + "\n")
     if figures.is_file():
@@ -256,10 +237,7 @@ def install(root: Path, blocks: list[str], built: bool, log: Path) -> None:
 def start_emulator(log: Path) -> tuple[subprocess.Popen[str], str]:
     proc = subprocess.Popen(
         [sys.executable, "-m", "robot_daemon.launch.cli", "sim"],
-        stdout=subprocess.PIPE,
-        stderr=log.open("a"),
-        text=True,
-        cwd=REPO,
+        stdout=subprocess.PIPE, stderr=log.open("a"), text=True, cwd=REPO,
         start_new_session=True,
     )
     assert proc.stdout is not None
@@ -277,10 +255,7 @@ def start_daemon(
     words = shlex.split(command.replace(ROBOT_PORT, pty).replace(ROBOT_LISTEN, endpoint))
     proc = subprocess.Popen(
         chroot_cmd(root, *words, "--robot", robot),
-        stdout=subprocess.PIPE,
-        stderr=log.open("a"),
-        text=True,
-        start_new_session=True,
+        stdout=subprocess.PIPE, stderr=log.open("a"), text=True, start_new_session=True,
     )
     assert proc.stdout is not None
     deadline = time.monotonic() + START_TIMEOUT
@@ -343,16 +318,11 @@ def check(log: Path) -> None:
             try:
                 install(root, blocks, built, log)
                 info = subprocess.run(
-                    chroot_cmd(
-                        root,
-                        "/opt/darwin/bin/python",
-                        "-c",
-                        "import platform, struct, numpy, zenoh; print(platform.machine(),"
-                        " struct.calcsize('P') * 8, platform.python_version(),"
-                        " 'numpy', numpy.__version__)",
-                    ),
-                    capture_output=True,
-                    text=True,
+                    chroot_cmd(root, "/opt/darwin/bin/python", "-c",
+                               "import platform, struct, numpy, zenoh; print(platform.machine(),"
+                               " struct.calcsize('P') * 8, platform.python_version(),"
+                               " 'numpy', numpy.__version__)"),
+                    capture_output=True, text=True,
                 )
                 if info.returncode != 0 or " 32 " not in info.stdout:
                     got = (info.stdout + info.stderr).strip().splitlines()[-1:]

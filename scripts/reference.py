@@ -46,9 +46,8 @@ def render() -> str:
     from robot_daemon.launch.cli import COMMANDS, command_parser
 
     parts = [INTRO]
-    parts += [
-        f"| [`darwin {name}`](#darwin-{name}) | {text} |\n" for name, (_, text) in COMMANDS.items()
-    ]
+    parts += [f"| [`darwin {name}`](#darwin-{name}) | {text} |\n" for name, (_, text) in
+              COMMANDS.items()]
     for name in COMMANDS:
         try:
             _, parser = command_parser(name)
@@ -96,11 +95,8 @@ def main(argv: list[str]) -> int:
     if "--check" in argv:
         stale = [str(p.relative_to(REPO)) for p, text in outputs.items() if p.read_text() != text]
         if stale:
-            print(
-                f"{', '.join(stale)} out of step with the programs and the verb spec: "
-                "run `python scripts/reference.py`",
-                file=sys.stderr,
-            )
+            print(f"{', '.join(stale)} out of step with the programs and the verb spec: "
+                  "run `python scripts/reference.py`", file=sys.stderr)
             return 1
         return 0
     for path, text in outputs.items():

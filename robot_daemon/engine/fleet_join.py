@@ -84,16 +84,12 @@ def _refusal(router: str, creds: Credentials | None) -> str:
         who = who or "the certificate's name"
     tls = router.startswith("tls/")
     if who:
-        fix = (
-            f"check {who}'s password or certificate, and that the router's identities list "
-            f"{who} (`darwin users add {who} --role robot --password-file FILE --users "
-            "ROUTER_USERS`)"
-        )
+        fix = (f"check {who}'s password or certificate, and that the router's identities list "
+               f"{who} (`darwin users add {who} --role robot --password-file FILE --users "
+               "ROUTER_USERS`)")
     else:
-        fix = (
-            "it requires a login: pass --user NAME --password-file FILE (or DARWIN_USER and "
-            "DARWIN_PASSWORD_FILE) of an identity with the role robot there"
-        )
+        fix = ("it requires a login: pass --user NAME --password-file FILE (or DARWIN_USER and "
+               "DARWIN_PASSWORD_FILE) of an identity with the role robot there")
     if tls and (creds is None or not creds.ca):
         fix += "; a tls/ router also needs --ca CA (its `darwin certs` CA certificate)"
     elif not tls:
@@ -154,12 +150,9 @@ class RouterWatch:
                 now = self.sees(key)
                 if now != seen:
                     seen = now
-                    say(
-                        f"the router at {self.router} sees this robot again"
-                        if now
-                        else f"the router at {self.router} does not see this robot: clients of the "
-                        "router cannot reach it until it does (Zenoh rejoins by itself)"
-                    )
+                    say(f"the router at {self.router} sees this robot again" if now else
+                        f"the router at {self.router} does not see this robot: clients of the "
+                        "router cannot reach it until it does (Zenoh rejoins by itself)")
 
         self._thread = threading.Thread(target=loop, name="router-watch", daemon=True)
         self._thread.start()
@@ -180,11 +173,8 @@ def check_login_needs_router(args: object, router: str | None) -> None:
     """``--user``/``--password-file``/``--cert``/``--key``/``--ca`` on a robot say who it is to
     a router: without one they would be ignored, so they are refused (the variables
     ``DARWIN_USER``… are a person's client login and stay unread)."""
-    given = [
-        f"--{o.replace('_', '-')}"
-        for o in ("user", "password_file", "cert", "key", "ca")
-        if getattr(args, o, None)
-    ]
+    given = [f"--{o.replace('_', '-')}" for o in ("user", "password_file", "cert", "key", "ca")
+             if getattr(args, o, None)]
     # Without --router, `darwin up --tui`'s --user… are the login of the person at the UI.
     if given and not router and not getattr(args, "tui", False):
         raise ValueError(

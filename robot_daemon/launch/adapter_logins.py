@@ -64,7 +64,8 @@ def roles(settings: dict[str, Any], overrides: list[str] | None) -> dict[str, Ro
     for item in overrides or []:
         name, sep, role = item.rpartition("=")
         if sep and name not in out:
-            raise ConfigError(f"--adapter-role {item}: {name!r} is not one of {', '.join(out)}")
+            raise ConfigError(f"--adapter-role {item}: {name!r} is not one of "
+                              f"{', '.join(out)}")
         for each in [name] if sep else list(out):
             out[each] = _role(role, f"--adapter-role {item}")
     return out
@@ -91,12 +92,8 @@ def _identity(**kwargs: Any) -> str | None:
 
 
 def adapter_login(
-    name: str,
-    role: Role,
-    settings: dict[str, Any],
-    args: argparse.Namespace,
-    router: str | None,
-    internal: Internal | None,
+    name: str, role: Role, settings: dict[str, Any], args: argparse.Namespace,
+    router: str | None, internal: Internal | None,
 ) -> Login:
     own = configured(settings, name)
     if own:
@@ -104,25 +101,18 @@ def adapter_login(
     if router:
         robot = robot_identity(args)
         if robot:
-            return Login(
-                role,
-                [],
-                (
-                    f"under --router it logs in with an identity of its own, not the robot's "
-                    f"({robot}): add one to the router's identities (`darwin users add NAME --role "
-                    f"{role} --password-file F`) and set user and password_file in "
-                    f"[adapters.{name}] of --config"
-                ),
-            )
+            return Login(role, [], (
+                f"under --router it logs in with an identity of its own, not the robot's "
+                f"({robot}): add one to the router's identities (`darwin users add NAME --role "
+                f"{role} --password-file F`) and set user and password_file in "
+                f"[adapters.{name}] of --config"
+            ))
         return Login(role, [])  # an open router: nobody logs in
     return Login(role, internal.identity_args(name, role) if internal is not None else [])
 
 
 def ui_login(
-    role: Role,
-    settings: dict[str, Any],
-    args: argparse.Namespace,
-    router: str | None,
+    role: Role, settings: dict[str, Any], args: argparse.Namespace, router: str | None,
     internal: Internal | None,
 ) -> Login:
     own = configured(settings, UI)
@@ -133,15 +123,11 @@ def ui_login(
         # DARWIN_USER, their client file), which must not be the robot's.
         robot, person = robot_identity(args), _identity()
         if robot and person == robot:
-            return Login(
-                role,
-                [],
-                (
-                    f"--tui would log in as the robot ({robot}): give the UI a login of its own "
-                    f"(DARWIN_USER/DARWIN_PASSWORD_FILE, ~/.config/darwin/client.toml, or user and "
-                    f"password_file in [adapters.{UI}] of --config)"
-                ),
-            )
+            return Login(role, [], (
+                f"--tui would log in as the robot ({robot}): give the UI a login of its own "
+                f"(DARWIN_USER/DARWIN_PASSWORD_FILE, ~/.config/darwin/client.toml, or user and "
+                f"password_file in [adapters.{UI}] of --config)"
+            ))
         return Login(role, [], isolated=False)
     person_args = credential_args(args)
     if person_args or internal is None:

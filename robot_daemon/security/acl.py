@@ -31,29 +31,17 @@ from schemas.query import answer
 from schemas.roles import LADDER, READ_OP_VERBS, READ_VERBS, SIM_CONTROL_ROLE, Role
 
 ALL_MESSAGES = [
-    "put",
-    "delete",
-    "declare_subscriber",
-    "query",
-    "reply",
-    "declare_queryable",
-    "liveliness_token",
-    "liveliness_query",
-    "declare_liveliness_subscriber",
+    "put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
+    "liveliness_token", "liveliness_query", "declare_liveliness_subscriber",
 ]
 INTERNAL_PROTOCOLS = ["unixsock-stream"]
 
 # role → ingress queries it adds over the role below it (key expressions).
 _QUERIES: dict[Role, list[str]] = {
     Role.OBSERVER: [f"{ROOT}/*/cmd/{v}" for v in sorted(READ_VERBS)]
-    + [f"{ROOT}/*/read/{v}" for v in READ_OP_VERBS]
-    + [f"{ROOT}/*/role/observer"],
-    Role.OPERATOR: [
-        f"{ROOT}/*/cmd/*",
-        f"{ROOT}/*/replay/control",
-        f"{ROOT}/*/record/control",
-        f"{ROOT}/*/role/operator",
-    ],
+    + [f"{ROOT}/*/read/{v}" for v in READ_OP_VERBS] + [f"{ROOT}/*/role/observer"],
+    Role.OPERATOR: [f"{ROOT}/*/cmd/*", f"{ROOT}/*/replay/control", f"{ROOT}/*/record/control",
+                    f"{ROOT}/*/role/operator"],
     Role.ADMIN: [f"{ROOT}/*/admin/*", f"{ROOT}/*/role/admin"],
 }
 _QUERIES[SIM_CONTROL_ROLE].append(f"{ROOT}/*/sim/control")
@@ -61,60 +49,28 @@ _QUERIES[SIM_CONTROL_ROLE].append(f"{ROOT}/*/sim/control")
 
 def _rules() -> list[dict[str, Any]]:
     def rule(rid: str, messages: list[str], flows: list[str], keys: list[str]) -> dict[str, Any]:
-        return {
-            "id": rid,
-            "messages": messages,
-            "flows": flows,
-            "permission": "allow",
-            "key_exprs": keys,
-        }
+        return {"id": rid, "messages": messages, "flows": flows, "permission": "allow",
+                "key_exprs": keys}
 
     rules = [
         # Everyone watches: subscribe, liveliness, and receives what it subscribed to.
-        rule(
-            "watch",
-            ["declare_subscriber", "liveliness_query", "declare_liveliness_subscriber"],
-            ["ingress"],
-            [f"{ROOT}/**"],
-        ),
+        rule("watch", ["declare_subscriber", "liveliness_query", "declare_liveliness_subscriber"],
+             ["ingress"], [f"{ROOT}/**"]),
         # A client's own liveliness token: the arbiter ends its lease when it goes.
         rule("present", ["liveliness_token"], ["ingress"], [f"{ROOT}/*/clients/*"]),
-        rule(
-            "deliver",
-            [
-                "put",
-                "delete",
-                "reply",
-                "liveliness_token",
-                "declare_subscriber",
-                "declare_queryable",
-                "declare_liveliness_subscriber",
-            ],
-            ["egress"],
-            [f"{ROOT}/**"],
-        ),
+        rule("deliver", ["put", "delete", "reply", "liveliness_token", "declare_subscriber",
+                         "declare_queryable", "declare_liveliness_subscriber"],
+             ["egress"], [f"{ROOT}/**"]),
         rule("everything", ALL_MESSAGES, ["ingress", "egress"], [f"{ROOT}/**"]),
         # The ROS 2 key space (``darwin ros2`` on this session, ROS nodes): everyone watches,
         # is delivered to and declares its nodes' tokens; only operators publish and call
         # services, since the adapter turns cmd_vel and service calls into commands.
-        rule(
-            "ros-watch",
-            [
-                "declare_subscriber",
-                "liveliness_query",
-                "declare_liveliness_subscriber",
-                "liveliness_token",
-            ],
-            ["ingress"],
-            ros_key_space(),
-        ),
+        rule("ros-watch", ["declare_subscriber", "liveliness_query",
+                           "declare_liveliness_subscriber", "liveliness_token"],
+             ["ingress"], ros_key_space()),
         rule("ros-deliver", ALL_MESSAGES, ["egress"], ros_key_space()),
-        rule(
-            "ros-drive",
-            ["put", "delete", "query", "reply", "declare_queryable"],
-            ["ingress"],
-            ros_key_space(),
-        ),
+        rule("ros-drive", ["put", "delete", "query", "reply", "declare_queryable"],
+             ["ingress"], ros_key_space()),
     ]
     rules += [rule(f"query-{r}", ["query"], ["ingress"], keys) for r, keys in _QUERIES.items()]
     # The policy stream's actions are publications (schemas/policy.py says why), by operators;
@@ -137,9 +93,8 @@ def access_control(
     users: dict[str, users_mod.User], router_zids: list[str] | None = None
 ) -> dict[str, Any]:
     subjects: list[dict[str, Any]] = [{"id": "internal", "link_protocols": INTERNAL_PROTOCOLS}]
-    policies: list[dict[str, Any]] = [
-        {"id": "internal", "rules": ["everything"], "subjects": ["internal"]}
-    ]
+    policies: list[dict[str, Any]] = [{"id": "internal", "rules": ["everything"],
+                                       "subjects": ["internal"]}]
     if router_zids:
         # The router this robot joined (``robot_daemon.engine.fleet_join``): it enforces the
         # roles of everyone behind it, and Zenoh gives the robot no user name for it to match.
@@ -150,15 +105,11 @@ def access_control(
         if not names:  # Zenoh refuses an empty subject list
             continue
         ids = [f"{role}-users", f"{role}-certs"]
-        subjects += [{"id": ids[0], "usernames": names}, {"id": ids[1], "cert_common_names": names}]
+        subjects += [{"id": ids[0], "usernames": names},
+                     {"id": ids[1], "cert_common_names": names}]
         policies.append({"id": str(role), "rules": rules_of(role), "subjects": ids})
-    return {
-        "enabled": True,
-        "default_permission": "deny",
-        "rules": _rules(),
-        "subjects": subjects,
-        "policies": policies,
-    }
+    return {"enabled": True, "default_permission": "deny", "rules": _rules(),
+            "subjects": subjects, "policies": policies}
 
 
 def default_certs_dir() -> Path:
@@ -180,18 +131,14 @@ class Security:
         """Everything needed is there (one clear error naming the command that creates it)."""
         users = users_mod.load(self.users_file)
         if not users:
-            raise ConfigError(
-                f"{self.users_file} lists nobody: add someone with `darwin users "
-                f"add NAME --role operator --password-file FILE --users "
-                f"{self.users_file}`"
-            )
+            raise ConfigError(f"{self.users_file} lists nobody: add someone with `darwin users "
+                              f"add NAME --role operator --password-file FILE --users "
+                              f"{self.users_file}`")
         if self.tls:
             for p in (ca_paths(self.certs_dir).cert, *vars(robot_paths(self.certs_dir)).values()):
                 if not Path(p).is_file():
-                    raise ConfigError(
-                        f"no {p}: create the certificates with `darwin certs --dir "
-                        f"{self.certs_dir} --host ADDRESS`"
-                    )
+                    raise ConfigError(f"no {p}: create the certificates with `darwin certs --dir "
+                                      f"{self.certs_dir} --host ADDRESS`")
         return users
 
     def apply(self, conf: zenoh.Config) -> None:
@@ -203,15 +150,15 @@ class Security:
             conf.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(dictionary)))
         if self.tls:
             robot = robot_paths(self.certs_dir)
-            conf.insert_json5(
-                "transport/link/tls/root_ca_certificate",
-                json.dumps(str(ca_paths(self.certs_dir).cert)),
-            )
+            conf.insert_json5("transport/link/tls/root_ca_certificate",
+                              json.dumps(str(ca_paths(self.certs_dir).cert)))
             conf.insert_json5("transport/link/tls/listen_certificate", json.dumps(str(robot.cert)))
             conf.insert_json5("transport/link/tls/listen_private_key", json.dumps(str(robot.key)))
             if self.mtls:
                 conf.insert_json5("transport/link/tls/enable_mtls", "true")
-        conf.insert_json5("access_control", json.dumps(access_control(users, self.router_zids)))
+        conf.insert_json5(
+            "access_control", json.dumps(access_control(users, self.router_zids))
+        )
 
     def close(self) -> None:
         if self.runtime is not None:
@@ -225,9 +172,8 @@ def check_listen(listen: list[str], security: Security | None) -> list[str]:
     for ep in listen:
         proto, _, rest = ep.partition("/")
         if security is not None and security.tls and proto != "tls":
-            raise ConfigError(
-                f"--secure listens on tls/ endpoints only, not {ep}: write tls/{rest}"
-            )
+            raise ConfigError(f"--secure listens on tls/ endpoints only, not {ep}: write "
+                              f"tls/{rest}")
         host = rest.rpartition(":")[0].strip("[]")
         if security is None and proto != "unixsock-stream" and not _loopback(host):
             warnings.append(

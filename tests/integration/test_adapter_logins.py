@@ -91,24 +91,16 @@ def test_a_watch_only_foxglove_reads_the_gait_parameters_but_cannot_set_them(
     from tests.foxglove_ws import FoxgloveClient
 
     listen = f"127.0.0.1:{free_tcp_port()}"
-    extra = [
-        "--auth",
-        str(users),
-        "--foxglove",
-        "--foxglove-listen",
-        listen,
-        "--adapter-role",
-        "foxglove=observer",
-    ]
+    extra = ["--auth", str(users), "--foxglove", "--foxglove-listen", listen,
+             "--adapter-role", "foxglove=observer"]
     with start_system(extra_args=extra, gateway=False) as system:
         line = system.wait_line(lambda x: x.startswith("foxglove: "))
         with FoxgloveClient.open(line.split(" ", 1)[1].strip()) as fc:
             params = {p["name"]: p["value"] for p in fc.get_parameters([], "all")}
             assert params["walk/period_time"] > 0  # darwin-foxglove, an observer, reads them
             old = params["walk/foot_height"]
-            reply = fc.set_parameters(
-                [{"name": "walk/foot_height", "value": old + 5, "type": "float64"}], "w1"
-            )
+            reply = fc.set_parameters([{"name": "walk/foot_height", "value": old + 5,
+                                        "type": "float64"}], "w1")
             assert reply[0]["value"] == old
             assert "operator" in fc.status_matching("walking parameters not changed")["message"]
 
@@ -121,13 +113,8 @@ def up_with_tui(args: list[str], env: dict[str, str]) -> Iterator[subprocess.Pop
     """`darwin up … --tui` on a pseudo-terminal (the UI needs one), drained by a thread."""
     master, slave = pty.openpty()
     proc = subprocess.Popen(
-        darwin_command("up", *args, "--tui"),
-        stdin=slave,
-        stdout=slave,
-        stderr=slave,
-        cwd=REPO,
-        env=env,
-        start_new_session=True,
+        darwin_command("up", *args, "--tui"), stdin=slave, stdout=slave, stderr=slave,
+        cwd=REPO, env=env, start_new_session=True,
     )
     os.close(slave)
 
@@ -186,17 +173,8 @@ def test_the_ui_of_up_auth_logs_in_as_an_operator_identity_of_its_own(
     tmp_path: Path, users: Path
 ) -> None:
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    args = [
-        "--auth",
-        str(users),
-        "--listen",
-        endpoint,
-        "--no-gateway",
-        "--camera",
-        "none",
-        "--robot",
-        "tuiauth",
-    ]
+    args = ["--auth", str(users), "--listen", endpoint, "--no-gateway", "--camera", "none",
+            "--robot", "tuiauth"]
     with up_with_tui(args, clean_env(tmp_path)) as up:
         argv = argv_of(tui_process(up))
         user, password_file = option(argv, "--user"), option(argv, "--password-file")
@@ -210,43 +188,22 @@ def test_the_ui_of_up_auth_logs_in_as_an_operator_identity_of_its_own(
 def test_the_ui_of_up_router_logs_in_as_the_person_not_the_robot(
     router: RunningRouter, users: Path, tmp_path: Path
 ) -> None:
-    person = clean_env(tmp_path, DARWIN_USER="op", DARWIN_PASSWORD_FILE=str(users.parent / "op.pw"))
-    args = [
-        "--router",
-        router.endpoint,
-        *robot_login(users),
-        "--no-gateway",
-        "--camera",
-        "none",
-        "--robot",
-        "tuirouter",
-    ]
+    person = clean_env(tmp_path, DARWIN_USER="op",
+                       DARWIN_PASSWORD_FILE=str(users.parent / "op.pw"))
+    args = ["--router", router.endpoint, *robot_login(users), "--no-gateway", "--camera", "none",
+            "--robot", "tuirouter"]
     with up_with_tui(args, person) as up:
         pid = tui_process(up)
         argv, env = argv_of(pid), environ_of(pid)
         assert option(argv, "--user") is None and "r3.pw" not in " ".join(argv), argv
         assert env.get("DARWIN_USER") == "op"  # the person's own login, from their environment
     # When the person's login is the robot's, the UI is not started as the robot.
-    robot_env = clean_env(
-        tmp_path, DARWIN_USER="r3", DARWIN_PASSWORD_FILE=str(users.parent / "r3.pw")
-    )
+    robot_env = clean_env(tmp_path, DARWIN_USER="r3",
+                          DARWIN_PASSWORD_FILE=str(users.parent / "r3.pw"))
     done = subprocess.run(
-        darwin_command(
-            "up",
-            "--router",
-            router.endpoint,
-            "--no-gateway",
-            "--camera",
-            "none",
-            "--robot",
-            "tuirobot",
-            "--tui",
-        ),
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        env=robot_env,
-        timeout=120,
+        darwin_command("up", "--router", router.endpoint, "--no-gateway", "--camera", "none",
+                       "--robot", "tuirobot", "--tui"),
+        capture_output=True, text=True, cwd=REPO, env=robot_env, timeout=120,
     )
     assert done.returncode == 2, done.stderr
     assert "--tui would log in as the robot (r3)" in done.stderr

@@ -67,9 +67,8 @@ def _commands(text: str) -> list[str]:
 
 
 def _documented() -> list[tuple[str, str]]:
-    return [
-        (str(page.relative_to(REPO)), cmd) for page in PAGES for cmd in _commands(page.read_text())
-    ]
+    return [(str(page.relative_to(REPO)), cmd) for page in PAGES
+            for cmd in _commands(page.read_text())]
 
 
 def test_the_pages_show_commands() -> None:
@@ -94,13 +93,8 @@ def test_documented_command_parses(page: str, command: str) -> None:
 
 
 def test_reference_pages_are_in_step_with_programs_and_spec() -> None:
-    run = subprocess.run(
-        [sys.executable, "scripts/reference.py", "--check"],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        env={**os.environ, "CI": "1"},
-    )
+    run = subprocess.run([sys.executable, "scripts/reference.py", "--check"], cwd=REPO,
+                         capture_output=True, text=True, env={**os.environ, "CI": "1"})
     assert run.returncode == 0, run.stderr
 
 
@@ -114,11 +108,7 @@ def test_readme_links_reach_pages() -> None:
 def test_site_builds_strict(tmp_path: Path) -> None:
     mkdocs = shutil.which("mkdocs", path=str(Path(sys.executable).parent))
     assert mkdocs, "mkdocs is part of the test extra"
-    run = subprocess.run(
-        [mkdocs, "build", "--strict", "--site-dir", str(tmp_path / "site")],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
-    )
+    run = subprocess.run([mkdocs, "build", "--strict", "--site-dir", str(tmp_path / "site")],
+                         cwd=REPO, capture_output=True, text=True,
+                         env={**os.environ, "NO_MKDOCS_2_WARNING": "1"})
     assert run.returncode == 0, run.stderr[-3000:]
