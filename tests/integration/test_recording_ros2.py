@@ -24,7 +24,7 @@ from ruamel.yaml import YAML
 from clients.recording import Recorder
 from clients.recording.scan import RecordScanner
 from clients.recording.segments import existing_segments
-from schemas.body import default_body
+from config.body import default_body
 from schemas.messages import Joints
 from schemas.session import free_tcp_port, open_client, open_server
 from schemas.urdf import body_from_config_reply
