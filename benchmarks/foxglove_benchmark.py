@@ -66,7 +66,11 @@ def start(args: list[str], prefix: str) -> tuple[subprocess.Popen[str], str]:
 def darwin_up() -> Iterator[tuple[str, str, int]]:
     robot = f"bench{uuid.uuid4().hex[:6]}"
     with start_system(robot=robot, camera="sim", gateway=False) as system:
-        yield system.endpoint, robot, find_child(system.process.pid, "robot_daemon.cli daemon")
+        yield (
+            system.endpoint,
+            robot,
+            find_child(system.process.pid, "robot_daemon.launch.cli daemon"),
+        )
 
 
 def pump(client: FoxgloveClient, stop_: threading.Event, counts: list[int], i: int) -> None:

@@ -93,7 +93,7 @@ def _stop(proc: subprocess.Popen[str]) -> None:
 @contextlib.contextmanager
 def emulator(ftdi_latency_ms: float) -> Iterator[str]:
     # Its serving thread real-time too (below the daemon's 40): replies on time on a busy machine.
-    args = [sys.executable, "-m", "robot_daemon.cli", "sim", "--realtime-priority=30"]
+    args = [sys.executable, "-m", "robot_daemon.launch.cli", "sim", "--realtime-priority=30"]
     if ftdi_latency_ms:
         args.append(f"--ftdi-latency-ms={ftdi_latency_ms}")
     proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, text=True)
@@ -143,7 +143,7 @@ def daemon_run(
         cfg.write("[daemon]\n" + ("realtime_priority = 0\n" if group else ""))
         cfg.write(f"servo_reads_per_tick = {servo_reads}\n" if servo_reads else "")
     env = {**os.environ, "PYTHONPATH": str(tree)}
-    args = [sys.executable, "-m", "robot_daemon.cli", "daemon", "--port", port]
+    args = [sys.executable, "-m", "robot_daemon.launch.cli", "daemon", "--port", port]
     args += ["--camera", "none", "--listen", endpoint, "--robot", "bench"]
     args += ["--config", cfg.name, "--reply-margin-ms", SIM_MARGIN_MS]
     proc = subprocess.Popen(

@@ -5,7 +5,7 @@ emulator as ``benchmarks/loop_cpu.py`` runs it, averaged over the ticks after a 
     python benchmarks/loop_phases.py [--seconds 12] [--ftdi-latency-ms 0]
 
 The daemon runs through this file (``--launch``), which wraps the phases with
-``time.thread_time`` before handing over to ``robot_daemon.cli``; the wrappers cost a little
+``time.thread_time`` before handing over to ``robot_daemon.launch.cli``; the wrappers cost a little
 themselves, so compare phases within a run, and whole-tick CPU with ``loop_benchmark.py``.
 """
 
@@ -32,7 +32,7 @@ PHASES = [
     ("robot_daemon.bus.robot_bus", "RobotBus", "frame"),
     ("robot_daemon.motion.manager", "MotionManager", "step"),
     ("robot_daemon.bus.robot_bus", "RobotBus", "write_targets"),
-    ("robot_daemon.daemon", "Daemon", "_publish"),
+    ("robot_daemon.engine.daemon", "Daemon", "_publish"),
 ]
 
 
@@ -57,7 +57,7 @@ def launch(out: str, argv: list[str]) -> None:
 
     for module, cls_name, name in PHASES:
         wrap(getattr(importlib.import_module(module), cls_name), name)
-    daemon_cls = importlib.import_module("robot_daemon.daemon").Daemon
+    daemon_cls = importlib.import_module("robot_daemon.engine.daemon").Daemon
     one_tick = daemon_cls._one_tick
     ticks = [0]
 
@@ -74,8 +74,8 @@ def launch(out: str, argv: list[str]) -> None:
         return result
 
     daemon_cls._one_tick = tick
-    sys.argv = ["robot_daemon.cli", *argv]
-    runpy.run_module("robot_daemon.cli", run_name="__main__", alter_sys=True)
+    sys.argv = ["robot_daemon.launch.cli", *argv]
+    runpy.run_module("robot_daemon.launch.cli", run_name="__main__", alter_sys=True)
 
 
 def main() -> None:

@@ -1,4 +1,4 @@
-"""The battery and heat policy's cost (robot_daemon/power_actions.py), against the status
+"""The battery and heat policy's cost (robot_daemon/engine/power_actions.py), against the status
 message the daemon encodes at the same 10 Hz, both measured here in this run.
 
     .venv/bin/python benchmarks/power_policy_benchmark.py --runs 20000
@@ -23,8 +23,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from config.loader import load_all, robot_from_dict
+from robot_daemon.engine.power_actions import PowerGuard
 from robot_daemon.motion.setup import build_manager
-from robot_daemon.power_actions import PowerGuard
 from schemas.messages import Status, encode
 
 

@@ -58,7 +58,7 @@ USERS = {**{r: "robot" for r in ROBOTS}, "obs": "observer", "op": "operator", "g
 
 
 def darwin(*args: str) -> list[str]:
-    return [sys.executable, "-m", "robot_daemon.cli", *args]
+    return [sys.executable, "-m", "robot_daemon.launch.cli", *args]
 
 
 def child(kind: str, where: str, robot: str, user: str, pw: Path) -> list[str]:

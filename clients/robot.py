@@ -300,8 +300,8 @@ class Robot(Commander, TeachMixin):
         Columns are flat: ``stamp``, ``tick``, then for joints ``<field>_<joint name>``
         (``position_r_knee``, ``load_l_hip_pitch``…), for vectors ``gyro_x``…, for maps
         ``<key>_<subkey>``. The index ``t`` is seconds since the first row's stamp. See
-        :func:`clients.notebook.frames.to_frame`."""
-        from clients.notebook.frames import to_frame
+        :func:`clients.dataframes.to_frame`."""
+        from clients.dataframes import to_frame
 
         return to_frame(topic, self.collect(topic, seconds, max_messages))
 
@@ -314,6 +314,6 @@ class Robot(Commander, TeachMixin):
                 f"no camera frame from {self.target.robot} within {timeout:.1f} s: is the "
                 "daemon's camera on (`darwin up --camera sim` or a real camera)?"
             )
-        from clients.notebook.frames import decode_jpeg
+        from clients.dataframes import decode_jpeg
 
         return decode_jpeg(frames[0].jpeg)  # type: ignore[attr-defined]

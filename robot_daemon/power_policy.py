@@ -6,7 +6,7 @@ current spikes pull the voltage down for tens of milliseconds: they never trip i
 when the value is back past the threshold by ``hysteresis`` for ``hold_s`` (no flapping). Each
 change of level is one event. The daemon evaluates it at the status rate (10 Hz), not per tick.
 
-What the daemon does on entering a level (``robot_daemon/power_actions.py``): warn → an event
+What the daemon does on entering a level (``robot_daemon/engine/power_actions.py``): warn → an event
 (every UI shows ``status.power``/``status.heat``) and the robot says it (``beep``); sit → stop
 the motion, play the sit-down page and limit the torque; off → torque off. The MX-28's own
 overheat shutdown (its Limit Temperature, 80 °C by default, ROBOTIS e-manual MX-28 address 11)

@@ -360,11 +360,3 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
         )
         frame(f"{p}_sole_joint", f"{p}_foot", f"{p}_sole", (0, 0, -kin.ANKLE_LENGTH))
     return Body(name, links, joints)
-
-
-def default_body() -> Body:
-    """The body for the shipped robot config."""
-    from config.loader import load_robot
-
-    robot = load_robot()
-    return build_body(limits_from_config(robot), robot.max_speed)

@@ -7,8 +7,8 @@ DarwinError
 │   ├── GLUnavailableError  no OpenGL for the MuJoCo camera (robot_daemon/sim/physics)
 │   └── V4L2Error           a V4L2 camera that cannot be opened or give MJPEG (vision/v4l2)
 ├── ChildError              a program `darwin up` started exited or never became ready
-├── ListenError             the daemon can't listen on its Zenoh endpoint (robot_daemon/zenoh_setup)
-├── RouterError             `darwin router` cannot listen (robot_daemon/router)
+├── ListenError             the daemon can't listen on Zenoh (robot_daemon/engine/zenoh_setup)
+├── RouterError             `darwin router` cannot listen (robot_daemon/launch/router)
 ├── MotionFileError         a motion file that cannot be read (robot_daemon/motion/action)
 ├── ReplaceRefused          a servo replacement that would be unsafe (robot_daemon/bus/replace)
 ├── ServiceError            the boot service cannot be installed, removed or read here

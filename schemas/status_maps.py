@@ -58,7 +58,7 @@ class LoopInfo(TypedDict, total=False):
     work_p99_ms: float
     overruns: int  # ticks whose work ran past the next deadline
     skipped: int  # deadlines given up after overruns
-    # The alarm: sustained overruns (robot_daemon/loop_stats.py says how they are judged);
+    # The alarm: sustained overruns (robot_daemon/engine/loop_stats.py says how they are judged);
     # every UI shows it. overrun_pct: share of the ticks that overran in the last window.
     overloaded: bool
     overrun_pct: float

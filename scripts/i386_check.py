@@ -236,7 +236,7 @@ def install(root: Path, blocks: list[str], built: bool, log: Path) -> None:
 
 def start_emulator(log: Path) -> tuple[subprocess.Popen[str], str]:
     proc = subprocess.Popen(
-        [sys.executable, "-m", "robot_daemon.cli", "sim"],
+        [sys.executable, "-m", "robot_daemon.launch.cli", "sim"],
         stdout=subprocess.PIPE, stderr=log.open("a"), text=True, cwd=REPO,
         start_new_session=True,
     )

@@ -43,7 +43,7 @@ def render() -> str:
     # Defaults under the user's home read as `~/…`, not as this machine's home directory.
     os.environ["XDG_CONFIG_HOME"] = "~/.config"
     sys.path.insert(0, str(REPO))
-    from robot_daemon.cli import COMMANDS, command_parser
+    from robot_daemon.launch.cli import COMMANDS, command_parser
 
     parts = [INTRO]
     parts += [f"| [`darwin {name}`](#darwin-{name}) | {text} |\n" for name, (_, text) in

@@ -31,7 +31,7 @@ def main(argv: list[str]) -> int:
             sys.exit(f"{name} was imported before the blocker")
     sys.meta_path.insert(0, _Absent())
     if argv[0] == "darwin":
-        from robot_daemon.cli import main as darwin
+        from robot_daemon.launch.cli import main as darwin
 
         return darwin(argv[1:])
     failed = 0

@@ -21,14 +21,14 @@ import ipywidgets as widgets
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from clients.notebook.frames import row
+from clients.dataframes import row
 from clients.robot import TOPICS, Robot, Subscription
 from schemas.messages import CameraFrame, Message
 
 
 def parse_signal(signal: str) -> tuple[str, str]:
     """``"imu.gyro_x"`` → (``"imu"``, ``"gyro_x"``); the column names are those of
-    :func:`clients.notebook.frames.row`."""
+    :func:`clients.dataframes.row`."""
     topic, sep, column = signal.partition(".")
     if not sep or topic not in TOPICS or not column:
         raise ValueError(

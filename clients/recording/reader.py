@@ -100,8 +100,8 @@ class Recording:
                     continue
 
     def frame(self, name: str) -> Any:
-        """One topic as a pandas DataFrame (the layout of :mod:`clients.notebook.frames`)."""
-        from clients.notebook.frames import to_frame
+        """One topic as a pandas DataFrame (the layout of :mod:`clients.dataframes`)."""
+        from clients.dataframes import to_frame
 
         return to_frame(name, self.decoded(name))
 

@@ -27,7 +27,8 @@ from typing import Any
 import zenoh
 
 from clients.recording.profile import DARWIN, ChannelSpec, SchemaSpec
-from schemas.body import Body, default_body
+from config.body import default_body
+from schemas.body import Body
 from schemas.errors import ClientError, DarwinError
 from schemas.keys import Keys
 from schemas.messages import CameraFrame, Imu, Joints, Status, World

@@ -24,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def tui_command(args: argparse.Namespace) -> str:
     """The shell command each tab runs: this interpreter's ``darwin tui``."""
-    cmd = [sys.executable, "-m", "robot_daemon.cli", "tui"]
+    cmd = [sys.executable, "-m", "robot_daemon.launch.cli", "tui"]
     for opt in ("connect", "robot", "lang", "user", "password_file", "cert", "key", "ca"):
         value = getattr(args, opt, None)
         if value:

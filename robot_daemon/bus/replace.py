@@ -19,8 +19,7 @@ from dataclasses import dataclass
 
 from robot_daemon.bus.dxl import DxlBus
 from robot_daemon.bus.scan import MODELS, identify
-from robot_daemon.bus.tables import CM730, CM730_ID, MX28, MX28_MODEL
-from robot_daemon.doctor.probe import STANDARD_BAUDS
+from robot_daemon.bus.tables import CM730, CM730_ID, MX28, MX28_MODEL, STANDARD_BAUDS
 from schemas import units
 from schemas.errors import BusError, DarwinError
 

@@ -193,3 +193,9 @@ IMU_ACCEL_AXES: tuple[tuple[CM730, int], ...] = (
     (CM730.ACCEL_X, -1),
     (CM730.ACCEL_Z, 1),
 )
+
+
+# The rates a Dynamixel is tried at when nothing answers at the configured one: the MX-28's
+# baud rate register values that a serial port sets without a custom divisor (the SDK's list):
+# 1 M, 57,600 as shipped, then the rest (115,200 is register 16, 117,647 bps, 2 % off).
+STANDARD_BAUDS = (1_000_000, 57_600, 115_200, 500_000, 2_000_000, 19_200, 9_600)

@@ -92,7 +92,7 @@ def port_holders(path: str, proc_root: Path = Path("/proc"), me: int | None = No
 
 
 def port_holder_check(path: str, holders: list[Holder], daemon_running: bool) -> Check:
-    ours = ("darwin", "robot_daemon")  # `darwin daemon`, `python -m robot_daemon.cli daemon`
+    ours = ("darwin", "robot_daemon")  # `darwin daemon`, `python -m robot_daemon.launch.cli daemon`
     others = [h for h in holders if not (daemon_running and any(w in h.command for w in ours))]
     if not others:
         who = "held by the daemon" if holders else "not held by another process"

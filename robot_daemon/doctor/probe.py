@@ -11,14 +11,9 @@ from typing import Any
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.scan import describe
-from robot_daemon.bus.tables import CM730, CM730_ID, MX28
+from robot_daemon.bus.tables import CM730, CM730_ID, MX28, STANDARD_BAUDS
 from robot_daemon.doctor.checks import ServoInfo
 from schemas.errors import BusError, DarwinError
-
-# The rates a Dynamixel is tried at when nothing answers at the configured one: the MX-28's
-# baud rate register values that a serial port sets without a custom divisor (the SDK's list):
-# 1 M, 57,600 as shipped, then the rest (115,200 is register 16, 117,647 bps, 2 % off).
-STANDARD_BAUDS = (1_000_000, 57_600, 115_200, 500_000, 2_000_000, 19_200, 9_600)
 
 
 @dataclass

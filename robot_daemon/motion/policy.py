@@ -11,7 +11,7 @@ periods the targets hold (a missed deadline, counted), after ``damp_after`` s th
 present pose held at the configured gains). A fall (gravity tilt past ``upright_min``), a joint
 measured past its limit, or a temperature or voltage alarm also ends it: the same terminations
 the simulator environment uses (clients/learn). Numpy only; the Zenoh side is
-robot_daemon/policy_link.py.
+robot_daemon/engine/policy_link.py.
 """
 
 from __future__ import annotations

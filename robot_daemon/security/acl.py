@@ -96,8 +96,8 @@ def access_control(
     policies: list[dict[str, Any]] = [{"id": "internal", "rules": ["everything"],
                                        "subjects": ["internal"]}]
     if router_zids:
-        # The router this robot joined (``robot_daemon.fleet_join``): it enforces the roles of
-        # everyone behind it, and Zenoh gives the robot no user name for it to match.
+        # The router this robot joined (``robot_daemon.engine.fleet_join``): it enforces the
+        # roles of everyone behind it, and Zenoh gives the robot no user name for it to match.
         subjects.append({"id": "router", "zids": list(router_zids)})
         policies.append({"id": "router", "rules": ["everything"], "subjects": ["router"]})
     for role in (*LADDER, Role.ROBOT):

@@ -1,6 +1,6 @@
 """Identities ``darwin up`` makes for its own adapters (gateway, ros2, foxglove, web, the UI) when
 it runs with ``--auth``/``--secure``: each logs in as ``darwin-<name>``, with the role it needs
-(``robot_daemon.adapter_logins``), and a random password (or,
+(``robot_daemon.launch.adapter_logins``), and a random password (or,
 with ``--mtls``, a client certificate from the installation's CA), written 0600 in a private
 directory that goes when ``darwin up`` stops. The daemon reads the people's identities plus
 these (a merged identities file in the same directory)."""

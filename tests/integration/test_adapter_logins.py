@@ -132,7 +132,8 @@ def up_with_tui(args: list[str], env: dict[str, str]) -> Iterator[subprocess.Pop
 
 
 def tui_process(up: subprocess.Popen[bytes]) -> int:
-    """The pid of the UI that `darwin up` started (its child running `robot_daemon.cli tui`)."""
+    """The pid of the UI that `darwin up` started (its child running
+    `robot_daemon.launch.cli tui`)."""
     deadline = time.monotonic() + DEADLINE_S
     while time.monotonic() < deadline:
         assert up.poll() is None, f"darwin up exited with {up.returncode}"
@@ -143,7 +144,7 @@ def tui_process(up: subprocess.Popen[bytes]) -> int:
                 stat = (entry / "stat").read_text()
                 ppid = int(stat.rsplit(")", 1)[1].split()[1])
                 argv = (entry / "cmdline").read_bytes().split(b"\0")
-                if ppid == up.pid and b"tui" in argv and b"robot_daemon.cli" in argv:
+                if ppid == up.pid and b"tui" in argv and b"robot_daemon.launch.cli" in argv:
                     return int(entry.name)
         time.sleep(0.1)  # a process appearing has no event to wait on
     raise AssertionError("darwin up --tui started no UI")

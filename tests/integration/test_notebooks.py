@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from nbclient import NotebookClient
 
+from clients.dataframes import joint_columns
 from clients.notebook import NOTEBOOKS, example_notebooks
-from clients.notebook.frames import joint_columns
 from clients.notebook.live import LiveCamera, LivePlot, parse_signal
 from clients.robot import Robot
 from config.loader import load_robot

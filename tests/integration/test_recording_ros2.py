@@ -24,7 +24,7 @@ from ruamel.yaml import YAML
 from clients.recording import Recorder
 from clients.recording.scan import RecordScanner
 from clients.recording.segments import existing_segments
-from schemas.body import default_body
+from config.body import default_body
 from schemas.messages import Joints
 from schemas.session import free_tcp_port, open_client, open_server
 from schemas.urdf import body_from_config_reply
@@ -39,7 +39,7 @@ def record(system: RunningSystem, path: Path, *extra: str) -> subprocess.Popen[s
         [
             sys.executable,
             "-m",
-            "robot_daemon.cli",
+            "robot_daemon.launch.cli",
             "record",
             "--ros2",
             "-o",
@@ -198,7 +198,16 @@ def test_ros2_segments_and_recover_stay_bags(robot_system: RunningSystem, tmp_pa
         proc.communicate(timeout=20)
     out = tmp_path / "cut.recovered.mcap"
     fix = subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", "record", "recover", str(cut), "-o", str(out)],
+        [
+            sys.executable,
+            "-m",
+            "robot_daemon.launch.cli",
+            "record",
+            "recover",
+            str(cut),
+            "-o",
+            str(out),
+        ],
         capture_output=True,
         text=True,
         timeout=60,
@@ -228,7 +237,7 @@ def test_notebook_recorder_takes_the_profile_by_name_and_falls_back_to_the_local
     assert all(j.name in description.data for j in default_body().servo_joints())
     # darwin replay sends the project's msgpack channels, which a bag has not: it says so.
     replay = subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", "replay", str(path)],
+        [sys.executable, "-m", "robot_daemon.launch.cli", "replay", str(path)],
         capture_output=True,
         text=True,
         timeout=60,

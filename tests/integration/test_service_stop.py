@@ -11,7 +11,7 @@ import threading
 from pathlib import Path
 
 from clients.robot import Robot
-from robot_daemon.service import STOP_TIMEOUT_S
+from robot_daemon.launch.service import STOP_TIMEOUT_S
 from robot_daemon.sim.control import SimControl
 from schemas.session import free_tcp_port, open_client
 from tests.fixtures.emulator import start_emulator_process

@@ -28,7 +28,7 @@ def test_the_page_commands_run_and_the_example_outlasts_the_hold() -> None:
     for cmd in commands:
         argv = shlex.split(cmd)[1:]
         res = subprocess.run(
-            [sys.executable, "-m", "robot_daemon.cli", *argv],
+            [sys.executable, "-m", "robot_daemon.launch.cli", *argv],
             capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL,
         )  # fmt: skip
         assert res.returncode == 0, res.stderr
@@ -44,7 +44,7 @@ def test_the_page_record_command_writes_a_dataset(
     monkeypatch.setenv("DARWIN_ENDPOINT", robot_system.endpoint)
     monkeypatch.setenv("DARWIN_ROBOT", robot_system.robot)
     res = subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", *shlex.split(command)[1:]],
+        [sys.executable, "-m", "robot_daemon.launch.cli", *shlex.split(command)[1:]],
         capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL, cwd=tmp_path,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr

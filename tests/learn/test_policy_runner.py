@@ -68,7 +68,7 @@ def test_an_onnx_policy_loads_and_runs(tmp_path: Path) -> None:
 
 def _darwin(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "robot_daemon.cli", *args],
+        [sys.executable, "-m", "robot_daemon.launch.cli", *args],
         capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL,
     )  # fmt: skip
 

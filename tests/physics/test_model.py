@@ -6,8 +6,8 @@ import mujoco
 import numpy as np
 import pytest
 
+from config.body import default_body
 from robot_daemon.sim.physics.model import CAMERA, ROOT, world_mjcf
-from schemas.body import default_body
 from schemas.kinematics import camera_pose, leg_fk
 
 

@@ -53,7 +53,7 @@ def test_missing_mujoco_is_one_line_naming_the_fix(tmp_path: Path) -> None:
     env = {"PYTHONPATH": f"{tmp_path}:{REPO}", "PATH": "/usr/bin:/bin"}
     for args in (["sim", "--physics", "mujoco"], ["up", "--physics", "mujoco", "--no-gateway"]):
         done = subprocess.run(
-            [sys.executable, "-m", "robot_daemon.cli", *args],
+            [sys.executable, "-m", "robot_daemon.launch.cli", *args],
             capture_output=True,
             text=True,
             env=env,

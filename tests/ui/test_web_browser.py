@@ -105,7 +105,7 @@ def tab_processes(robot: str) -> list[int]:
                 cmd = (entry / "cmdline").read_bytes().split(b"\0")
             except OSError:
                 continue
-            if b"tui" in cmd and robot.encode() in cmd and b"robot_daemon.cli" in cmd:
+            if b"tui" in cmd and robot.encode() in cmd and b"robot_daemon.launch.cli" in cmd:
                 found.append(int(entry.name))
     return found
 

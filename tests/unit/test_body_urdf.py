@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
+from config.body import default_body
 from config.loader import load_robot
 from schemas import kinematics as kin
-from schemas.body import default_body
 from schemas.urdf import to_urdf
 from tests.fixtures.emulator import darwin_command
 

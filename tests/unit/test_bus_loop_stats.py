@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from robot_daemon.loop_stats import LoopStats
+from robot_daemon.engine.loop_stats import LoopStats
 
 
 def test_periods_bus_time_and_overruns() -> None:

@@ -14,7 +14,7 @@ import zenoh
 from config.loader import load_all
 from robot_daemon.arbiter.registry import Request
 from robot_daemon.arbiter.verbs import ballplay
-from robot_daemon.camera import CameraThread
+from robot_daemon.engine.camera import CameraThread
 from robot_daemon.vision.sources import TestPatternSource, register_source
 from schemas.keys import Keys
 from schemas.messages import Message

@@ -21,7 +21,7 @@ import pytest
 import zenoh
 
 from config.loader import load_all
-from robot_daemon.camera import CameraThread
+from robot_daemon.engine.camera import CameraThread
 from robot_daemon.vision import v4l2
 from robot_daemon.vision.frames import JpegFrame
 from robot_daemon.vision.sources import register_source
@@ -172,7 +172,7 @@ sys.modules["cv2"] = None  # as on a robot without the vision extra
 from pathlib import Path
 import zenoh
 from config.loader import load_all
-from robot_daemon.camera import CameraThread
+from robot_daemon.engine.camera import CameraThread
 from schemas.extras import MissingExtraError
 from robot_daemon.vision.sources import register_source
 from robot_daemon.vision.v4l2 import V4L2Source

@@ -30,7 +30,7 @@ def no_extras(*args: str) -> subprocess.CompletedProcess[str]:
 def robot_side_modules() -> list[str]:
     """Every module of the packages the robot runs (the daemon, the gateway, the schemas, the
     config), plus the Robot client a script on the robot may use."""
-    out = ["clients", "clients.robot", "clients.notebook.frames"]
+    out = ["clients", "clients.robot", "clients.dataframes"]
     for package in ("robot_daemon", "schemas", "config", "gateway"):
         for path in sorted((REPO / package).rglob("*.py")):
             parts = path.relative_to(REPO).with_suffix("").parts
@@ -90,7 +90,7 @@ def test_a_laptop_command_without_its_extra_is_one_line(command: list[str], extr
             "(on the robot: apt-get install python3-opencv)",
         ),
         (
-            "from clients.notebook.frames import to_frame\nto_frame('joints', [])\n",
+            "from clients.dataframes import to_frame\nto_frame('joints', [])\n",
             "DataFrames: needs the 'notebook' extra: pip install 'darwin-zenoh[notebook]'",
         ),
     ],

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from robot_daemon.cli import COMMANDS, command_parser
+from robot_daemon.launch.cli import COMMANDS, command_parser
 
 REPO = Path(__file__).resolve().parents[2]
 PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]

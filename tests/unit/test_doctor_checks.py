@@ -39,7 +39,9 @@ def test_old_firmware_and_a_stranger_are_named() -> None:
 
 
 def test_the_daemon_may_hold_its_own_port() -> None:
-    daemon = [C.Holder(42, "/usr/bin/python3 -m robot_daemon.cli daemon --port /dev/ttyUSB0")]
+    daemon = [
+        C.Holder(42, "/usr/bin/python3 -m robot_daemon.launch.cli daemon --port /dev/ttyUSB0")
+    ]
     assert C.port_holder_check("/dev/ttyUSB0", daemon, daemon_running=True).status == C.OK
     line = C.port_holder_check("/dev/ttyUSB0", daemon, daemon_running=False)
     assert line.status == C.FAIL and "kill 42" in line.fix

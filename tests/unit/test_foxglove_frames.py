@@ -10,8 +10,8 @@ import pytest
 
 from clients.foxglove import frames
 from clients.foxglove.control import BadRequest, parse_json, twist_speeds
+from config.body import default_body
 from schemas import kinematics as K
-from schemas.body import default_body
 from schemas.messages import World
 from tests.transforms import compose, quat_matrix
 

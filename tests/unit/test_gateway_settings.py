@@ -9,7 +9,7 @@ import pytest
 
 from gateway.framing import BodyLimits
 from gateway.settings import GatewaySettings, check_settings, load_settings
-from robot_daemon.cli import main
+from robot_daemon.launch.cli import main
 from schemas.errors import ConfigError
 
 

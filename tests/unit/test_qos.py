@@ -8,7 +8,7 @@ import uuid
 import pytest
 import zenoh
 
-from robot_daemon.publishers import SLOT_TOPICS, Publishers
+from robot_daemon.engine.publishers import SLOT_TOPICS, Publishers
 from schemas import qos
 from schemas.keys import VERBS, Keys
 from schemas.session import free_tcp_port, server_config

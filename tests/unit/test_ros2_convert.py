@@ -9,7 +9,7 @@ import pytest
 
 from clients.ros2 import convert
 from clients.ros2.types import decode, encode, msg_class
-from schemas.body import default_body
+from config.body import default_body
 from schemas.messages import Imu, Joints
 
 

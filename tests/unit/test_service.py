@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from robot_daemon import cli
-from robot_daemon import service as svc
+from robot_daemon.launch import cli
+from robot_daemon.launch import service as svc
 from tests.fixtures.system import run_darwin
 
 

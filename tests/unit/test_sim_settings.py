@@ -92,7 +92,7 @@ def test_physics_sub_tables_fill_the_flat_settings_and_refuse_strangers() -> Non
         PhysicsSettings.from_config({"physics": {"timestpe": 0.001}})
 
 
-@pytest.mark.parametrize("command", ["robot_daemon.sim.cli", "robot_daemon.up"])
+@pytest.mark.parametrize("command", ["robot_daemon.sim.cli", "robot_daemon.launch.up"])
 def test_darwin_sim_and_up_take_the_same_physics_option(command: str) -> None:
     import argparse
     import importlib
@@ -105,7 +105,7 @@ def test_darwin_sim_and_up_take_the_same_physics_option(command: str) -> None:
         parser.parse_args(["--physics", "bullet"])
 
 
-@pytest.mark.parametrize("command", ["robot_daemon.daemon_cli", "robot_daemon.up"])
+@pytest.mark.parametrize("command", ["robot_daemon.launch.daemon_cli", "robot_daemon.launch.up"])
 def test_programs_starting_the_emulator_forward_the_same_options(command: str) -> None:
     import argparse
     import importlib

@@ -22,7 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from schemas.body import Body, Link, default_body
+from config.body import default_body
+from schemas.body import Body, Link
 
 ROOT = "torso"
 CAMERA = "head_camera"

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from config.body import default_body
 from robot_daemon.sim.physics.camera import WorldCamera
 from robot_daemon.sim.physics.model import (
     BALL,
@@ -42,7 +43,7 @@ from robot_daemon.sim.world.render import CameraPose
 from robot_daemon.sim.world.settings import WorldSettings
 from robot_daemon.sim.world.views import WorldViews
 from schemas import units
-from schemas.body import Body, default_body
+from schemas.body import Body
 from schemas.extras import message
 
 if TYPE_CHECKING:

@@ -1,4 +1,4 @@
-"""`darwin up`: emulator (unless `--port`), daemon and gateway in one command.
+"""`darwin up`: emulator (unless `--port`), daemon and adapters in one command.
 
 With ``--router ENDPOINT`` the robot joins a fleet: the daemon, the simulated world and the
 adapters connect to that router (``zenoh:`` is then the router's endpoint) and the servers take
@@ -9,9 +9,11 @@ Prints where each listens, one line each and flushed — ``zenoh: tcp/HOST:PORT`
 Ctrl-C or SIGTERM, which stop every child (none is left behind; if this process is killed
 outright, the children end themselves, see ``children.py``).
 
-The daemon is the robot; the gateway is an adapter. An adapter that dies is reported on one
-line and started again (with back-off); it never takes the robot down. If the daemon dies,
-everything stops.
+The daemon is the robot; the gateway, ros2, foxglove and web programs are adapters, which their
+packages declare (:class:`schemas.registry.Adapter`: each gets ``--NAME`` or, started by default,
+``--no-NAME``, and ``--NAME-listen`` when it serves a port); this module names none of them. An
+adapter that dies is reported on one line and started again (with back-off); it never takes the
+robot down. If the daemon dies, everything stops.
 """
 
 from __future__ import annotations
@@ -28,10 +30,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from config.loader import load_all
-from robot_daemon.adapter_logins import ADAPTERS, UI, adapter_login, roles, ui_login
-from robot_daemon.children import Child, ChildError, relay_to_stderr
-from robot_daemon.daemon_cli import _resolve_listen, router_of
-from robot_daemon.fleet_join import check_login_needs_router
+from robot_daemon.engine.fleet_join import check_login_needs_router
+from robot_daemon.launch.adapter_logins import adapter_login, names, roles, ui_login
+from robot_daemon.launch.children import Child, ChildError, relay_to_stderr
+from robot_daemon.launch.daemon_cli import _resolve_listen, router_of
 from robot_daemon.security.acl import check_listen
 from robot_daemon.security.internal import Internal
 from robot_daemon.security.options import (
@@ -41,6 +43,7 @@ from robot_daemon.security.options import (
 )
 from robot_daemon.security.paths import ca_paths
 from robot_daemon.sim.settings import add_forwarded_options, add_physics_option
+from schemas import registry
 from schemas.errors import ConfigError
 from schemas.roles import LADDER, Role
 from schemas.session import add_credential_arguments, credential_args
@@ -52,7 +55,7 @@ RESTART_BACKOFF_MAX = 30.0  # … up to this
 
 @dataclass
 class Adapter:
-    """A child that serves the robot to some kind of client (gateway; later ros2, web…)."""
+    """A child that serves the robot to some kind of client (gateway, ros2, web…)."""
 
     child: Child
     backoff: float = RESTART_BACKOFF_MIN
@@ -72,10 +75,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "daemon, world and adapters connect there, servers pick free ports unless told "
         "(config zenoh.router)",
     )
-    parser.add_argument(
-        "--gateway-listen", help="HOST:PORT of the legacy TCP gateway (config gateway.listen)"
-    )
-    parser.add_argument("--no-gateway", action="store_true", help="do not start the gateway")
     parser.add_argument("--port", help="a real robot's serial port instead of the emulator")
     parser.add_argument(
         "--camera",
@@ -92,37 +91,51 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", help="user config file (TOML), passed to every child")
     add_forwarded_options(parser)
     add_physics_option(parser, "the emulator's plant")
-    parser.add_argument(
-        "--tui", action="store_true", help="open the terminal UI here once everything runs"
-    )
-    parser.add_argument(
-        "--ros2", action="store_true", help="also run the ROS 2 adapter (`darwin ros2`)"
-    )
-    parser.add_argument(
-        "--foxglove", action="store_true", help="also start the Foxglove server (darwin foxglove)"
-    )
-    parser.add_argument("--foxglove-listen", metavar="HOST:PORT", help="where Foxglove connects")
-    parser.add_argument(
-        "--web", action="store_true", help="also serve the terminal UI to browsers (darwin web)"
-    )
-    parser.add_argument("--web-listen", metavar="HOST:PORT", help="where browsers connect")
+    for adapter in registry.adapters():
+        flag = f"--no-{adapter.name}" if adapter.default else f"--{adapter.name}"
+        parser.add_argument(flag, action="store_true", help=adapter.help)
+        if adapter.listen_help:
+            parser.add_argument(
+                f"--{adapter.name}-listen", metavar="HOST:PORT", help=adapter.listen_help
+            )
     add_security_arguments(parser)
     add_credential_arguments(parser)  # with --router: who this robot is (not its adapters)
     parser.add_argument(
         "--adapter-role",
         action="append",
         metavar="[NAME=]ROLE",
-        help=f"the role of the adapters started here ({', '.join((*ADAPTERS, UI))}; ROLE: "
+        help=f"the role of the adapters started here ({', '.join(names())}; ROLE: "
         f"{', '.join(LADDER)}): one for all, or NAME=ROLE for one, repeatable (default: "
         "[adapters.NAME] role, operator); with --auth/--secure each logs in as darwin-NAME",
     )
 
 
-def gateway_available() -> bool:
+def available(name: str) -> bool:
+    """Whether ``darwin NAME``'s module is in this build."""
+    module = registry_module(name)
     try:
-        return importlib.util.find_spec("gateway.cli") is not None
+        return module is not None and importlib.util.find_spec(module) is not None
     except ModuleNotFoundError:
         return False
+
+
+def registry_module(name: str) -> str | None:
+    return next((c.module for c in registry.commands() if c.name == name), None)
+
+
+def wanted(args: argparse.Namespace, adapter: registry.Adapter) -> bool:
+    """Whether this run starts it: --NAME, or (started by default) no --no-NAME."""
+    attr = adapter.name.replace("-", "_")
+    return not getattr(args, f"no_{attr}") if adapter.default else getattr(args, attr)
+
+
+def setting(settings: dict[str, Any], dotted: str | None) -> str | None:
+    """A config value by its ``section.key`` (None when absent or unnamed)."""
+    if dotted is None:
+        return None
+    section, _, key = dotted.rpartition(".")
+    value = settings.get(section, {}).get(key)
+    return str(value) if value else None
 
 
 def daemon_args(
@@ -211,12 +224,17 @@ def _run(
     internal: Internal | None,
     adapter_roles: dict[str, Role],
 ) -> int:
+    servers = [a for a in registry.adapters() if not a.ui]
+    ui_adapter = next((a for a in registry.adapters() if a.ui and wanted(args, a)), None)
     # Identities first: the daemon's merged identities file must list every adapter.
     logins = {
-        name: adapter_login(name, adapter_roles[name], settings, args, router, internal)
-        for name in ADAPTERS
+        a.name: adapter_login(a.name, adapter_roles[a.name], settings, args, router, internal)
+        for a in servers
     }
-    ui = ui_login(adapter_roles[UI], settings, args, router, internal) if args.tui else None
+    ui = None
+    if ui_adapter is not None:
+        name = ui_adapter.name
+        ui = ui_login(name, adapter_roles[name], settings, args, router, internal)
     if ui is not None and ui.refused:
         say(ui.refused)
         return 2
@@ -233,7 +251,7 @@ def _run(
     children: list[Child] = []
     adapters: list[Adapter] = []
     # With the UI in this terminal, the children's chatter would scribble over it.
-    relay = None if args.tui else relay_to_stderr
+    relay = None if ui is not None else relay_to_stderr
     try:
         daemon = Child("daemon", daemon_args(args, listen, router, internal), relay)
         children.append(daemon)
@@ -241,46 +259,38 @@ def _run(
         robot = daemon_robot(daemon, args.robot or settings["robot"].get("name", "op1"))
         print(f"zenoh: {endpoint}", flush=True)
         print(f"robot: {robot}", flush=True)
-        if args.no_gateway:
-            print("gateway: none (--no-gateway)", flush=True)
-        elif not gateway_available():
-            print("gateway: none (not in this build)", flush=True)
-        elif logins["gateway"].refused:
-            print(f"gateway: none ({logins['gateway'].refused})", flush=True)
-        else:
-            gw = ["gateway", "--connect", endpoint, "--robot", robot, *logins["gateway"].args]
-            gw += ["--role", str(logins["gateway"].role)]  # at most its role, whoever it is
-            gw_listen = args.gateway_listen or free or settings.get("gateway", {}).get("listen")
-            if gw_listen:
-                gw += ["--listen", gw_listen]
-            if args.config:
-                gw += ["--config", args.config]
-            gateway = Child("gateway", gw, relay, env=logins["gateway"].env())
-            children.append(gateway)
-            adapters.append(Adapter(gateway))
-            print(f"gateway: {gateway.wait_line('gateway:', START_TIMEOUT)}", flush=True)
-        for name, wanted, where in (
-            ("ros2", args.ros2, None),
-            ("foxglove", args.foxglove, args.foxglove_listen or free),
-            ("web", args.web, args.web_listen or free),
-        ):
-            if wanted and logins[name].refused:
-                print(f"{name}: none ({logins[name].refused})", flush=True)
-            elif wanted:
-                extra = ["--listen", where] if where else []
-                command = [name, "--connect", endpoint, "--robot", robot, *logins[name].args]
-                command += extra
-                child = Child(name, command, relay, env=logins[name].env())
-                children.append(child)
-                adapters.append(Adapter(child))
-                print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
+        for adapter in servers:
+            name, login = adapter.name, logins[adapter.name]
+            if not wanted(args, adapter):
+                if adapter.default:
+                    print(f"{name}: none (--no-{name})", flush=True)
+                continue
+            if not available(name):
+                print(f"{name}: none (not in this build)", flush=True)
+                continue
+            if login.refused:
+                print(f"{name}: none ({login.refused})", flush=True)
+                continue
+            command = [name, "--connect", endpoint, "--robot", robot, *login.args]
+            if adapter.pass_role:
+                command += ["--role", str(login.role)]  # at most its role, whoever it is
+            if adapter.listen_help:
+                where = getattr(args, f"{name.replace('-', '_')}_listen")
+                where = where or free or setting(settings, adapter.listen_setting)
+                command += ["--listen", where] if where else []
+            if adapter.pass_config and args.config:
+                command += ["--config", args.config]
+            child = Child(name, command, relay, env=login.env())
+            children.append(child)
+            adapters.append(Adapter(child))
+            print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
         if ui is not None:
             # The UI is a person (adapter_logins.ui_login), never the robot; under --secure it
             # trusts the installation's CA unless told otherwise.
             login = list(ui.args)
             if internal is not None and internal.security.tls and "--ca" not in login:
                 login += ["--ca", str(ca_paths(internal.security.certs_dir).cert)]
-            return run_tui(endpoint, robot, login, ui.env())
+            return run_tui(endpoint, robot, login, ui.env(), ui_adapter.name)
         # Run until a signal or the daemon's death; adapters that die are started again.
         while not stop.wait(0.5):
             if not daemon.running():
@@ -335,10 +345,23 @@ def daemon_robot(daemon: Child, default: str) -> str:
 
 
 def run_tui(
-    endpoint: str, robot: str, login: list[str] | None = None, env: dict[str, str] | None = None
+    endpoint: str,
+    robot: str,
+    login: list[str] | None = None,
+    env: dict[str, str] | None = None,
+    command: str = "tui",
 ) -> int:
-    """The terminal UI in the foreground; everything stops when it exits."""
-    cmd = [sys.executable, "-m", "robot_daemon.cli", "tui", "--connect", endpoint, "--robot", robot]
+    """The UI (``darwin COMMAND``) in the foreground; everything stops when it exits."""
+    cmd = [
+        sys.executable,
+        "-m",
+        "robot_daemon.launch.cli",
+        command,
+        "--connect",
+        endpoint,
+        "--robot",
+        robot,
+    ]
     cmd += login or []
     # The UI handles Ctrl-C itself; this process waits for it instead of dying first.
     signal.signal(signal.SIGINT, signal.SIG_IGN)

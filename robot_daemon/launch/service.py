@@ -1,6 +1,6 @@
 """The boot service: systemd units for the daemon (and optionally the gateway and a router) and a
 udev rule for the CM-730's USB serial adapter. Pure text and file placement here; the command
-(``darwin service``) is :mod:`robot_daemon.service_cli`.
+(``darwin service``) is :mod:`robot_daemon.launch.service_cli`.
 
 The CM-730 reaches the PC through an FTDI FT232R USB-UART, USB id 0403:6001 (the chip on the
 CM-730 board; ROBOTIS's Linux demos open it as ``LinuxCM730 linux_cm730("/dev/ttyUSB0")``, and

@@ -19,15 +19,15 @@ from typing import Any
 import zenoh
 
 from config.loader import load_all
-from robot_daemon.daemon_cli import _resolve_listen
-from robot_daemon.fleet_join import stable_router_id
+from robot_daemon.engine.fleet_join import stable_router_id
+from robot_daemon.engine.zenoh_setup import zenoh_reason
+from robot_daemon.launch.daemon_cli import _resolve_listen
 from robot_daemon.security.acl import Security, check_listen
 from robot_daemon.security.options import (
     add_security_arguments,
     secure_listen,
     security_from_args,
 )
-from robot_daemon.zenoh_setup import zenoh_reason
 from schemas.errors import ConfigError, DarwinError
 from schemas.session import server_config
 
@@ -73,7 +73,7 @@ def router_config(listen: list[str], settings: dict[str, Any]) -> zenoh.Config:
     lease = int(rcfg.get("link_lease_ms", zcfg.get("link_lease_ms", 3000)))
     conf = server_config(listen, lease, mode="router")
     # The same ID after a restart: robots that protect their own endpoint trust their router
-    # by it (``robot_daemon.fleet_join``), so a restarted router is let in again.
+    # by it (``robot_daemon.engine.fleet_join``), so a restarted router is let in again.
     conf.insert_json5("id", json.dumps(stable_router_id(listen)))
     return conf
 

@@ -1,5 +1,7 @@
 """The `darwin` command. Each subcommand lives in its own module exposing
-``add_arguments(parser)`` and ``run(args) -> int``; only the chosen one is imported."""
+``add_arguments(parser)`` and ``run(args) -> int``; only the chosen one is imported. The
+packages that bring commands declare them (:mod:`schemas.registry`): the robot's own in
+:mod:`robot_daemon.launch.commands`, the gateway's and the clients' in their packages."""
 
 from __future__ import annotations
 
@@ -11,38 +13,14 @@ import re
 import sys
 from types import ModuleType
 
-from robot_daemon.children import watch_parent
+from robot_daemon.launch.children import watch_parent
+from schemas import registry
 from schemas.errors import DarwinError
 from schemas.extras import explain
 
-# name → (module, one-line help). Keep in the order a newcomer meets them.
-COMMANDS: dict[str, tuple[str, str]] = {
-    "up": ("robot_daemon.up", "start emulator (or --port), daemon and gateway in one command"),
-    "daemon": (
-        "robot_daemon.daemon_cli",
-        "run the robot daemon (owns the bus, publishes, arbiter)",
-    ),
-    "router": ("robot_daemon.router", "a Zenoh router: the meeting point of a fleet of robots"),
-    "list": ("clients.fleet_cli", "list every live robot (name, endpoint, lease, battery…)"),
-    "sim": ("robot_daemon.sim.cli", "run the hardware emulator on a pseudo-terminal"),
-    "scan": ("robot_daemon.bus.scan", "list every device on a serial port (ID, model, firmware)"),
-    "doctor": ("robot_daemon.doctor.cli", "check the robot: port, bus, servos, power, loop, Zenoh"),
-    "calibrate": ("clients.calibrate_cli", "joint offsets: import ROBOTIS's config.ini offsets"),
-    "servo": ("robot_daemon.servo_cli", "servo maintenance: give a new servo its ID and settings"),
-    "gateway": ("gateway.cli", "serve the legacy TCP JSON protocol to any number of clients"),
-    "tui": ("clients.tui.cli", "the terminal UI (works over SSH)"),
-    "web": ("clients.web.cli", "serve the terminal UI to web browsers"),
-    "foxglove": ("clients.foxglove.cli", "a Foxglove WebSocket server: 3D robot, camera, plots"),
-    "motion": ("robot_daemon.motion.cli", "motion files: convert between .bin and text"),
-    "record": ("clients.recording.record_cli", "record the robot's publications to MCAP"),
-    "replay": ("clients.recording.replay_cli", "republish a recording on the key space"),
-    "ros2": ("clients.ros2.cli", "make the robot a ROS 2 node (rmw_zenoh, no ROS install needed)"),
-    "policy": ("clients.learn.runner", "run a policy (ONNX or Python) on the robot or simulator"),
-    "urdf": ("clients.ros2.urdf_cli", "print the robot's URDF (from the body description)"),
-    "users": ("robot_daemon.security.users_cli", "manage identities and roles (add/remove/list)"),
-    "certs": ("robot_daemon.security.certs_cli", "create TLS certificates: CA, robot, clients"),
-    "service": ("robot_daemon.service_cli", "start the daemon at boot: systemd units, udev rule"),
-}
+# name → (module, one-line help), by rank: every package declares its own commands
+# (schemas.registry); this launcher names none of them.
+COMMANDS: dict[str, tuple[str, str]] = {c.name: (c.module, c.help) for c in registry.commands()}
 
 
 def _usage() -> str:

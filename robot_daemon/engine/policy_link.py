@@ -17,8 +17,8 @@ import zenoh
 
 from robot_daemon.arbiter.lease import Lease
 from robot_daemon.bus.tables import ErrorBit
+from robot_daemon.engine.publishers import Publishers
 from robot_daemon.motion.policy import PolicyModule
-from robot_daemon.publishers import Publishers
 from schemas.errors import ProtocolError
 from schemas.joints import JOINT_IDS, JOINT_NAMES
 from schemas.keys import Keys

@@ -1,7 +1,7 @@
 """The messages the daemon broadcasts: joints and IMU each tick, status at its rate.
 
-Built from the bus state and the frame of a tick; :class:`~robot_daemon.publishers.Publishers`
-sends them off the motion thread.
+Built from the bus state and the frame of a tick;
+:class:`~robot_daemon.engine.publishers.Publishers` sends them off the motion thread.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from schemas.versions import package_version
 if TYPE_CHECKING:
     from config.loader import RobotConfig
     from robot_daemon.bus.robot_bus import RobotBus
-    from robot_daemon.daemon import Daemon
+    from robot_daemon.engine.daemon import Daemon
     from robot_daemon.frames import JointFrame
     from robot_daemon.motion.fall import FallMonitor
 

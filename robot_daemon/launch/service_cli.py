@@ -14,7 +14,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from robot_daemon import service as svc
+from robot_daemon.launch import service as svc
 from schemas.errors import ConfigError
 
 

@@ -1,7 +1,7 @@
-"""Who the programs ``darwin up`` starts next to the robot log in as: the adapters (gateway,
-ros2, foxglove, web) and the UI of ``--tui``. Never as the robot: the robot's identity (under
-``--router``) may do everything, an adapter gets the least role it needs (``[adapters.<name>]``
-in ``config/adapters.toml``, ``--adapter-role``).
+"""Who the programs ``darwin up`` starts next to the robot log in as: the adapters the packages
+declare (:mod:`schemas.registry`) and the UI of ``--tui``. Never as the robot: the robot's
+identity (under ``--router``) may do everything, an adapter gets the least role it needs
+(``[adapters.<name>]`` in ``config/adapters.toml``, ``--adapter-role``).
 
 - an identity configured for it (``user``/``password_file``/``cert``/``key``/``ca`` in
   ``[adapters.<name>]``) always wins;
@@ -23,6 +23,7 @@ from typing import Any
 
 from config.loader import refuse_unknown
 from robot_daemon.security.internal import Internal
+from schemas import registry
 from schemas.errors import ConfigError
 from schemas.roles import Role, parse_role
 from schemas.session import (
@@ -32,8 +33,6 @@ from schemas.session import (
     login_free_env,
 )
 
-ADAPTERS: tuple[str, ...] = ("gateway", "ros2", "foxglove", "web")
-UI = "tui"
 _LOGIN_KEYS = ("user", "password_file", "cert", "key", "ca")
 
 
@@ -57,7 +56,7 @@ def roles(settings: dict[str, Any], overrides: list[str] | None) -> dict[str, Ro
     and ``--adapter-role NAME=ROLE`` (one), in the order given."""
     table = settings.get("adapters", {})
     out: dict[str, Role] = {}
-    for name in (*ADAPTERS, UI):
+    for name in names():
         section = table.get(name, {})
         refuse_unknown(section, ("role", *_LOGIN_KEYS), f"adapters.{name}")
         out[name] = _role(str(section.get("role", Role.OPERATOR)), f"[adapters.{name}] role")
@@ -69,6 +68,11 @@ def roles(settings: dict[str, Any], overrides: list[str] | None) -> dict[str, Ro
         for each in [name] if sep else list(out):
             out[each] = _role(role, f"--adapter-role {item}")
     return out
+
+
+def names() -> tuple[str, ...]:
+    """Every adapter's name and the UI's: their sections ``[adapters.NAME]``, their logins."""
+    return tuple(adapter.name for adapter in registry.adapters())
 
 
 def _role(text: str, where: str) -> Role:
@@ -112,10 +116,10 @@ def adapter_login(
 
 
 def ui_login(
-    role: Role, settings: dict[str, Any], args: argparse.Namespace, router: str | None,
+    name: str, role: Role, settings: dict[str, Any], args: argparse.Namespace, router: str | None,
     internal: Internal | None,
 ) -> Login:
-    own = configured(settings, UI)
+    own = configured(settings, name)
     if own:
         return Login(role, own)
     if router:
@@ -126,7 +130,7 @@ def ui_login(
             return Login(role, [], (
                 f"--tui would log in as the robot ({robot}): give the UI a login of its own "
                 f"(DARWIN_USER/DARWIN_PASSWORD_FILE, ~/.config/darwin/client.toml, or user and "
-                f"password_file in [adapters.{UI}] of --config)"
+                f"password_file in [adapters.{name}] of --config)"
             ))
         return Login(role, [], isolated=False)
     person_args = credential_args(args)
@@ -134,7 +138,7 @@ def ui_login(
         return Login(role, person_args)  # the person at this terminal (none: an open robot)
     if _identity():
         return Login(role, [], isolated=False)  # the person's own environment or client file
-    return Login(role, internal.identity_args(UI, role))
+    return Login(role, internal.identity_args(name, role))
 
 
 def robot_identity(args: argparse.Namespace) -> str | None:

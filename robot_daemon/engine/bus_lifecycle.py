@@ -4,7 +4,7 @@ go at shutdown.
 Losing the port halts every motion module; until it is back, commands that need the bus are
 refused with ``unavailable`` while the rest (halt, lease, status) are still answered; the first
 tick with the port back holds the pose the robot is in. Mixed into
-:class:`~robot_daemon.daemon.Daemon`, whose state it shares.
+:class:`~robot_daemon.engine.daemon.Daemon`, whose state it shares.
 """
 
 from __future__ import annotations
@@ -25,13 +25,13 @@ if TYPE_CHECKING:
     from robot_daemon.arbiter.lease import Lease
     from robot_daemon.arbiter.registry import MotionContext
     from robot_daemon.bus.robot_bus import RobotBus
+    from robot_daemon.engine.power_actions import PowerGuard
+    from robot_daemon.engine.publishers import Publishers
     from robot_daemon.frames import JointFrame
     from robot_daemon.motion.manager import MotionManager
-    from robot_daemon.power_actions import PowerGuard
-    from robot_daemon.publishers import Publishers
 
 # The daemon's logger: these lines were always the daemon's, and logs are read by that name.
-log = logging.getLogger("robot_daemon.daemon")
+log = logging.getLogger("robot_daemon.engine.daemon")
 
 
 class BusLifecycle:

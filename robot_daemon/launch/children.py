@@ -104,7 +104,7 @@ class Child:
         watch_r, self._watch_w = os.pipe()  # our end stays open until we die
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", "robot_daemon.cli", *args],
+                [sys.executable, "-m", "robot_daemon.launch.cli", *args],
                 stdout=subprocess.PIPE,
                 stderr=subprocess.PIPE,
                 stdin=subprocess.DEVNULL,

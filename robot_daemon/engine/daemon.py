@@ -31,21 +31,21 @@ from robot_daemon.arbiter.core import Arbiter
 from robot_daemon.arbiter.lease import Holder, Lease
 from robot_daemon.arbiter.registry import MotionContext
 from robot_daemon.arbiter.throttle import ArbiterLimits
-from robot_daemon.broadcast import imu_message, joints_message, status_message
 from robot_daemon.bus.power_watch import check_dxl_power
 from robot_daemon.bus.robot_bus import RobotBus
-from robot_daemon.bus_lifecycle import BusLifecycle
+from robot_daemon.engine.broadcast import imu_message, joints_message, status_message
+from robot_daemon.engine.bus_lifecycle import BusLifecycle
+from robot_daemon.engine.loop_stats import LoopStats
+from robot_daemon.engine.policy_link import PolicyLink, link_policy
+from robot_daemon.engine.power_actions import PowerGuard
+from robot_daemon.engine.publishers import Publishers
+from robot_daemon.engine.zenoh_setup import open_session
 from robot_daemon.frames import JointFrame, Targets
-from robot_daemon.loop_stats import LoopStats
 from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.setup import build_manager
-from robot_daemon.policy_link import PolicyLink, link_policy
-from robot_daemon.power_actions import PowerGuard
-from robot_daemon.publishers import Publishers
 from robot_daemon.realtime import check_priority, current_policy, enter_realtime
 from robot_daemon.security.acl import Security, serve_roles
 from robot_daemon.services import DaemonInfo
-from robot_daemon.zenoh_setup import open_session
 from schemas.daemon_state import DaemonState
 from schemas.errors import BusError, PortError
 from schemas.keys import Keys
@@ -54,7 +54,7 @@ from schemas.session import Credentials
 from schemas.versions import announced_protocol, fmt, package_version
 
 if TYPE_CHECKING:
-    from robot_daemon.camera import CameraThread
+    from robot_daemon.engine.camera import CameraThread
 
 log = logging.getLogger(__name__)
 
@@ -180,7 +180,7 @@ class Daemon(BusLifecycle):
         self._roles = serve_roles(self.session, self.keys)
         self.policy_link = link_policy(self.session, self.keys, self.manager, self.pub, self)
         if self.options.camera != "none":
-            from robot_daemon.camera import CameraThread
+            from robot_daemon.engine.camera import CameraThread
 
             self.camera = CameraThread.from_settings(
                 self.session, self.keys, self.options.camera, self.settings

@@ -8,7 +8,7 @@ from typing import Any
 
 import zenoh
 
-from robot_daemon.fleet_join import ROUTER_CONNECT_TIMEOUT_MS, join_router
+from robot_daemon.engine.fleet_join import ROUTER_CONNECT_TIMEOUT_MS, join_router
 from robot_daemon.security.acl import Security
 from schemas.errors import DarwinError
 from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config
