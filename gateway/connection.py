@@ -9,6 +9,7 @@ import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from clients.adapter_core import Action, AdapterCore
 from clients.commander import Commander
 from gateway.framing import Frame, FrameDecoder, FramingError, encode_frame, parse_frame
 from gateway.limits import TokenBucket
@@ -58,7 +59,7 @@ class Connection:
         self.bucket = TokenBucket(self.settings.max_rate, self.settings.burst)
         self.outbox = Outbox(writer, self._monitor_bytes, self.settings.max_pending_replies)
         self.commander: Commander | None = None
-        self.has_lease = False
+        self.lease = AdapterCore(idle_release=self.settings.lease_idle_timeout)
         self._ticker: asyncio.Task[None] | None = None
         self._idle: asyncio.TimerHandle | None = None
         self._releasing: asyncio.Task[None] | None = None
@@ -338,20 +339,21 @@ class Connection:
         """Send one command, taking the lease first when it needs it. Returns the applied map,
         or None after answering the client an error (nothing was applied)."""
         commander = await self._commander()
+        now = asyncio.get_running_loop().time
         try:
-            if cmd.needs_lease and not self.has_lease:
+            if self.lease.before_command(now(), cmd.needs_lease):
                 await self._acquire(commander)
             try:
                 applied = await self.call(commander.command, cmd.verb, **cmd.fields)
             except NoLeaseError:
                 # The daemon dropped our lease (its own idle timeout): take it again, once.
-                self.has_lease = False
+                self.lease.lost()
                 if not cmd.needs_lease:
                     raise
                 await self._acquire(commander)
                 applied = await self.call(commander.command, cmd.verb, **cmd.fields)
         except LeaseBusyError as exc:
-            self.has_lease = False
+            self.lease.lost()
             self.error(
                 ErrorCode.BUSY,
                 f"{cmd.verb}: not applied, another client controls the robot ({exc.message})",
@@ -367,29 +369,40 @@ class Connection:
         self._touch()
         return applied
 
+    @property
+    def has_lease(self) -> bool:
+        return self.lease.holding
+
     async def _acquire(self, commander: Commander) -> None:
         await self.call(commander.acquire)
-        if not self.has_lease:
+        if self.lease.acquired(asyncio.get_running_loop().time()):
             log.info("%s took the control lease", self.peer)
-        self.has_lease = True
 
     def _touch(self) -> None:
-        if not self.has_lease:
-            return
+        """A command was applied: the idle release counts from now (see AdapterCore)."""
+        loop = asyncio.get_running_loop()
+        self.lease.active(loop.time())
+        self._arm_idle(loop)
+
+    def _arm_idle(self, loop: asyncio.AbstractEventLoop) -> None:
         if self._idle is not None:
             self._idle.cancel()
-        timeout = self.settings.lease_idle_timeout
-        if timeout > 0:
-            loop = asyncio.get_running_loop()
-            self._idle = loop.call_later(timeout, self._idle_expired)
+            self._idle = None
+        due = self.lease.next_due()
+        if due is not None:
+            self._idle = loop.call_at(due, self._idle_due)
 
-    def _idle_expired(self) -> None:
-        self._releasing = asyncio.create_task(self._release(), name=f"release {self.peer}")
+    def _idle_due(self) -> None:
+        self._idle = None
+        loop = asyncio.get_running_loop()
+        if Action.RELEASE in self.lease.tick(loop.time()):
+            self._releasing = asyncio.create_task(self._release(), name=f"release {self.peer}")
+        else:
+            self._arm_idle(loop)  # woken a little early, or activity since: look again then
 
     async def _release(self) -> None:
-        if not self.has_lease or self.commander is None:
+        if not self.lease.released() or self.commander is None:
             return
-        self.has_lease = False
         try:
             await self.call(self.commander.release)
             log.info(

@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from clients.adapter_core import Action, AdapterCore
 from clients.commander import Commander
 from clients.robot import Robot
 from schemas.errors import DarwinError, ProtocolError
@@ -212,7 +213,7 @@ class Teleop:
         self.commanders = commanders
         self.report = report
         self._lock = threading.Lock()
-        self._walking: dict[int, float] = {}  # client → monotonic time of its last message
+        self._cores: dict[int, AdapterCore] = {}  # client → its deadman (one per client)
         self._limits: tuple[float, float, float] | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._watch, name="teleop-watchdog", daemon=True)
@@ -230,32 +231,35 @@ class Teleop:
         try:
             if x == 0 and y == 0 and turn == 0:
                 with self._lock:
-                    was = self._walking.pop(client_id, None)
-                if was is not None:
+                    core = self._cores.get(client_id)
+                    was = core is not None and core.walk_stopped()
+                if was:
                     cmd.walk_stop()
                 return
             # A joystick asks for "as fast as it goes": clamp to the gait's limits rather than
             # refuse every message (the arbiter still checks what arrives).
             xm, ym, tm = self.limits(cmd)
             with self._lock:
-                self._walking[client_id] = time.monotonic()
+                core = self._cores.setdefault(client_id, AdapterCore(deadman=TELEOP_SILENCE))
+                core.walk(time.monotonic())
             cmd.walk(clamp(x, xm), clamp(y, ym), clamp(turn, tm))
         except DarwinError as exc:
-            with self._lock:
-                self._walking.pop(client_id, None)
+            self.forget(client_id)
             self.report(f"teleop: {exc}")
 
     def forget(self, client_id: int) -> None:
         with self._lock:
-            self._walking.pop(client_id, None)
+            self._cores.pop(client_id, None)
 
     def _watch(self) -> None:
         while not self._stop.wait(0.1):
             now = time.monotonic()
             with self._lock:
-                silent = [c for c, t in self._walking.items() if now - t > TELEOP_SILENCE]
+                silent = [
+                    c for c, core in self._cores.items() if Action.STOP_WALK in core.tick(now)
+                ]
                 for c in silent:
-                    del self._walking[c]
+                    self._cores[c].walk_stopped()
             for c in silent:
                 try:
                     self.commanders.get(c).walk_stop()
