@@ -19,7 +19,13 @@ from clients.ros2 import convert, graph
 from clients.ros2.node import RosNode
 from clients.ros2.types import msg_class
 from schemas import qos
-from schemas.errors import CommandError, DarwinError, LeaseBusyError, NoLeaseError
+from schemas.errors import (
+    AdapterInputError,
+    CommandError,
+    DarwinError,
+    LeaseBusyError,
+    NoLeaseError,
+)
 from schemas.messages import Event, encode
 
 if TYPE_CHECKING:
@@ -121,7 +127,7 @@ class RosCommands:
         self.core.active(time.monotonic())
         try:
             walk = convert.walk_from_twist(ros_type, msg)
-        except convert.CommandRejected as exc:
+        except AdapterInputError as exc:
             self._reject(str(exc))
             return
         self.core.walk_seen(time.monotonic())
@@ -150,7 +156,7 @@ class RosCommands:
         self.core.active(time.monotonic())
         try:
             joints, points = convert.trajectory_command(msg, self.limits)
-        except convert.CommandRejected as exc:
+        except AdapterInputError as exc:
             self._reject(str(exc))
             return
         took = not self.core.holding
