@@ -27,9 +27,8 @@ from robot_daemon.security.options import (
     secure_listen,
     security_from_args,
 )
-from robot_daemon.zenoh_setup import zenoh_reason
 from schemas.errors import ConfigError, DarwinError
-from schemas.session import server_config
+from schemas.session import server_config, zenoh_reason
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 
