@@ -369,10 +369,6 @@ class Connection:
         self._touch()
         return applied
 
-    @property
-    def has_lease(self) -> bool:
-        return self.lease.holding
-
     async def _acquire(self, commander: Commander) -> None:
         await self.call(commander.acquire)
         if self.lease.acquired(asyncio.get_running_loop().time()):
