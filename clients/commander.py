@@ -36,7 +36,7 @@ from schemas.messages import command_payload
 from schemas.query import ask
 from schemas.roles import LADDER, Role, command_key, discover_role, parse_role, required_role
 from schemas.roles import check as check_role
-from schemas.session import Credentials, Target, login_hint, open_client, resolve
+from schemas.session import CONNECT_HINT, Credentials, Target, connect, login_hint, resolve
 from schemas.session import credentials as make_credentials
 
 
@@ -70,14 +70,9 @@ class Commander:
         self.name = name or f"python-{self.client_id[:6]}"
         self.timeout = timeout
         self._own_session = session is None
-        try:
-            self.session = session or open_client(self.target)
-        except zenoh.ZError as exc:
-            raise RobotUnreachableError(
-                f"cannot open a Zenoh session to {self.target.endpoint}: {exc}. "
-                f"Is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT"
-                f"{login_hint(self.target.credentials)}"
-            ) from exc
+        self.session = session or connect(
+            self.target, hint=CONNECT_HINT + login_hint(self.target.credentials)
+        )
         # The role is what the robot's access control grants us, learnt from it on first need
         # (``role``); ``role`` given caps it (a gateway running with --role observer).
         self._role: Role | None = None

@@ -18,10 +18,10 @@ from typing import Any
 
 import zenoh
 
-from schemas.errors import IncompatibleProtocolError, ProtocolError, RobotUnreachableError
+from schemas.errors import IncompatibleProtocolError, ProtocolError
 from schemas.keys import every_robot, robot_of
 from schemas.messages import AlarmInfo, Status, decode, decode_dict
-from schemas.session import Credentials, open_client
+from schemas.session import Credentials, connect
 from schemas.versions import announcement, check_daemon, fmt
 
 # How long discovery waits for each live robot's status (it arrives at ~10 Hz).
@@ -162,13 +162,13 @@ def discover_at(
 ) -> list[RobotRecord]:
     """:func:`discover` through a session of its own to ``endpoint`` (a router, or a robot),
     logged in as ``creds`` (None: the environment's or the client file's)."""
-    try:
-        session = open_client(endpoint, creds=creds)
-    except zenoh.ZError:
-        raise RobotUnreachableError(
-            f"nothing answers at {endpoint}: is `darwin router` (or `darwin up`) running there? "
-            "Pass the address it printed with --connect"
-        ) from None
+    session = connect(
+        endpoint,
+        f"nothing answers at {endpoint}",
+        "is `darwin router` (or `darwin up`) running there? Pass the address it printed with "
+        "--connect",
+        creds=creds,
+    )
     try:
         return discover(session, timeout, pattern)
     finally:

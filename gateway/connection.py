@@ -9,8 +9,10 @@ import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from clients.adapter_core import AdapterCore
 from clients.commander import Commander
 from gateway.framing import Frame, FrameDecoder, FramingError, encode_frame, parse_frame
+from gateway.lease_use import LeaseUse
 from gateway.limits import TokenBucket
 from gateway.messages import (
     MessageError,
@@ -42,7 +44,7 @@ log = logging.getLogger(__name__)
 READ_CHUNK = 65536
 
 
-class Connection:
+class Connection(LeaseUse):
     def __init__(
         self, gateway: Gateway, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
     ) -> None:
@@ -58,7 +60,7 @@ class Connection:
         self.bucket = TokenBucket(self.settings.max_rate, self.settings.burst)
         self.outbox = Outbox(writer, self._monitor_bytes, self.settings.max_pending_replies)
         self.commander: Commander | None = None
-        self.has_lease = False
+        self.lease = AdapterCore(idle_release=self.settings.lease_idle_timeout)
         self._ticker: asyncio.Task[None] | None = None
         self._idle: asyncio.TimerHandle | None = None
         self._releasing: asyncio.Task[None] | None = None
@@ -338,20 +340,21 @@ class Connection:
         """Send one command, taking the lease first when it needs it. Returns the applied map,
         or None after answering the client an error (nothing was applied)."""
         commander = await self._commander()
+        now = asyncio.get_running_loop().time
         try:
-            if cmd.needs_lease and not self.has_lease:
+            if self.lease.before_command(now(), cmd.needs_lease):
                 await self._acquire(commander)
             try:
                 applied = await self.call(commander.command, cmd.verb, **cmd.fields)
             except NoLeaseError:
                 # The daemon dropped our lease (its own idle timeout): take it again, once.
-                self.has_lease = False
+                self.lease.lost()
                 if not cmd.needs_lease:
                     raise
                 await self._acquire(commander)
                 applied = await self.call(commander.command, cmd.verb, **cmd.fields)
         except LeaseBusyError as exc:
-            self.has_lease = False
+            self.lease.lost()
             self.error(
                 ErrorCode.BUSY,
                 f"{cmd.verb}: not applied, another client controls the robot ({exc.message})",
@@ -366,34 +369,3 @@ class Connection:
             return None
         self._touch()
         return applied
-
-    async def _acquire(self, commander: Commander) -> None:
-        await self.call(commander.acquire)
-        if not self.has_lease:
-            log.info("%s took the control lease", self.peer)
-        self.has_lease = True
-
-    def _touch(self) -> None:
-        if not self.has_lease:
-            return
-        if self._idle is not None:
-            self._idle.cancel()
-        timeout = self.settings.lease_idle_timeout
-        if timeout > 0:
-            loop = asyncio.get_running_loop()
-            self._idle = loop.call_later(timeout, self._idle_expired)
-
-    def _idle_expired(self) -> None:
-        self._releasing = asyncio.create_task(self._release(), name=f"release {self.peer}")
-
-    async def _release(self) -> None:
-        if not self.has_lease or self.commander is None:
-            return
-        self.has_lease = False
-        try:
-            await self.call(self.commander.release)
-            log.info(
-                "%s was idle for %g s: lease released", self.peer, self.settings.lease_idle_timeout
-            )
-        except DarwinError as exc:
-            log.warning("%s: releasing the lease failed: %s", self.peer, exc)

@@ -24,9 +24,9 @@ from gateway.limits import RateLimitedLog
 from gateway.messages import error_message
 from gateway.orchestrate import Orchestrator
 from gateway.settings import GatewaySettings
-from schemas.errors import ErrorCode, RobotUnreachableError
+from schemas.errors import ErrorCode
 from schemas.roles import Role
-from schemas.session import Target, open_client
+from schemas.session import Target, connect
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -55,13 +55,8 @@ class Gateway:
     async def start(self) -> tuple[str, int]:
         """Open the Zenoh session and listen; returns the real (host, port)."""
         loop = asyncio.get_running_loop()
-        try:
-            self.session = await self.blocking(lambda: open_client(self.target))
-        except zenoh.ZError as exc:
-            raise RobotUnreachableError(
-                f"gateway cannot open a Zenoh session to {self.target.endpoint}: {exc}. Is the "
-                "daemon running (`darwin up`)? Check --connect / DARWIN_ENDPOINT."
-            ) from exc
+        failed = f"gateway cannot open a Zenoh session to {self.target.endpoint}"
+        self.session = await self.blocking(lambda: connect(self.target, failed))
         session = self.session
         self._hub_robot = await self.blocking(
             lambda: Robot(

@@ -28,10 +28,9 @@ DarwinError
 │   ├── LegacyError         the legacy protocol's errors (gateway/messages.py)
 │   │   ├── FramingError    the byte stream cannot be framed: closed after the error reply
 │   │   └── MessageError    a well-framed message that cannot be applied: answered, kept
-│   ├── BadRequest          a Foxglove request refused before the arbiter (clients/foxglove)
+│   ├── AdapterInputError   a request an adapter (ROS 2, Foxglove) refuses before the arbiter
 │   ├── CdrError            a ROS 2 message whose CDR bytes do not decode (clients/ros2)
-│   ├── AttachmentError     an rmw_zenoh attachment that does not decode (clients/ros2)
-│   └── CommandRejected     a ROS 2 command that must not reach the arbiter (clients/ros2)
+│   └── AttachmentError     an rmw_zenoh attachment that does not decode (clients/ros2)
 ├── RecordingError          a recording cannot be read or recovered (clients/recording)
 │   ├── NotMcapError        the file holds no MCAP data at all
 │   └── RecoverError        nothing could be recovered, or the output is not allowed
@@ -148,6 +147,11 @@ class PacketError(BusError):
 class ProtocolError(DarwinError):
     """Malformed input on a wire: legacy framing, JSON, msgpack or a payload of the wrong shape
     or schema version."""
+
+
+class AdapterInputError(ProtocolError, ValueError):
+    """A request an adapter (ROS 2, Foxglove) refuses before it reaches the arbiter: not JSON,
+    a field of the wrong type, a speed that is not finite, a joint the robot does not have."""
 
 
 class RecordingError(DarwinError):

@@ -15,6 +15,7 @@ import json
 import os
 import random
 import socket
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,6 +32,7 @@ from schemas.credentials import credential_args as credential_args
 from schemas.credentials import credential_env as credential_env
 from schemas.credentials import login_free_env as login_free_env
 from schemas.credentials import login_hint as login_hint
+from schemas.errors import DarwinError, RobotUnreachableError
 from schemas.keys import DEFAULT_ROBOT, check_robot_name
 
 DEFAULT_PORT = 7447
@@ -74,7 +76,8 @@ def resolve(
 def resolve_args(args: argparse.Namespace, robot: str | None = None) -> Target:
     """:func:`resolve` for a program with :func:`add_target_arguments`."""
     return resolve(
-        getattr(args, "connect", None), robot or getattr(args, "robot", None),
+        getattr(args, "connect", None),
+        robot or getattr(args, "robot", None),
         credentials_from_args(args),
     )
 
@@ -196,6 +199,53 @@ def open_client(
     if isinstance(endpoint, Target):
         endpoint, creds = endpoint.endpoint, creds or endpoint.credentials
     return zenoh.open(client_config(endpoint, lease_ms, creds))
+
+
+# The fix a client prints when the robot's endpoint does not answer.
+CONNECT_HINT = "is the daemon running there (`darwin up`)? Check --connect / DARWIN_ENDPOINT"
+
+
+def zenoh_reason(exc: BaseException) -> str:
+    """Zenoh's error in one line, without its Rust source paths."""
+    text = str(exc).strip()
+    if "already in use" in text.lower():
+        return "the address is already in use"
+    text = text.splitlines()[0] if text else type(exc).__name__
+    return text.split(" at /", 1)[0][:160].rstrip()
+
+
+def open_session(
+    conf: zenoh.Config,
+    failed: str,
+    hint: str | Callable[[str], str],
+    error: type[DarwinError] = RobotUnreachableError,
+) -> zenoh.Session:
+    """Open a Zenoh session, or raise ``error`` (:class:`RobotUnreachableError` unless told)
+    with one line for the user: ``"{failed}: {reason}; {hint}"``, i.e. what could not be
+    opened, Zenoh's reason (:func:`zenoh_reason`) and the fix, e.g. "pass e.g. --connect
+    tcp/127.0.0.1:7447". ``hint`` may be a function of the reason when the fix depends on it.
+    Every program opens its sessions through here (or :func:`connect`)."""
+    try:
+        return zenoh.open(conf)
+    except zenoh.ZError as exc:
+        reason = zenoh_reason(exc)
+        fix = hint(reason) if callable(hint) else hint
+        raise error(f"{failed}: {reason}; {fix}") from exc
+
+
+def connect(
+    endpoint: str | Target,
+    failed: str | None = None,
+    hint: str = CONNECT_HINT,
+    creds: Credentials | None = None,
+    lease_ms: int | None = 3000,
+) -> zenoh.Session:
+    """:func:`open_client` whose failure is a :class:`RobotUnreachableError` saying so in one
+    line (``failed``, default "cannot open a Zenoh session to ENDPOINT"; the reason; ``hint``)."""
+    if isinstance(endpoint, Target):
+        endpoint, creds = endpoint.endpoint, creds or endpoint.credentials
+    conf = client_config(endpoint, lease_ms, creds)
+    return open_session(conf, failed or f"cannot open a Zenoh session to {endpoint}", hint)
 
 
 def free_tcp_port(host: str = "127.0.0.1") -> int:

@@ -39,11 +39,12 @@ from foxglove.websocket import (
 )
 
 from clients.foxglove import convert, frames
-from clients.foxglove.control import SERVICES, BadRequest, Commanders, Teleop, call_service
+from clients.foxglove.control import SERVICES, Commanders, Teleop, call_service
 from clients.foxglove.params import WalkParameters
 from clients.foxglove.presence import Presence
 from clients.foxglove.urdf import robot_body
 from clients.robot import Robot, Subscription
+from schemas.errors import AdapterInputError
 from schemas.messages import BallDetection, CameraFrame, Event, Imu, Joints, Status, World
 from schemas.urdf import to_urdf
 
@@ -178,7 +179,7 @@ class Bridge:
         def handler(req: ServiceRequest) -> bytes:
             try:
                 return call_service(self.commanders, name, req.client_id, req.payload)
-            except BadRequest as exc:
+            except AdapterInputError as exc:
                 raise ValueError(str(exc)) from None
 
         return Service(name, schema=schema, handler=handler)

@@ -16,9 +16,10 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from clients.adapter_core import Action, AdapterCore
 from clients.commander import Commander
 from clients.robot import Robot
-from schemas.errors import DarwinError, ProtocolError
+from schemas.errors import AdapterInputError, DarwinError
 
 log = logging.getLogger(__name__)
 
@@ -26,21 +27,17 @@ TELEOP_SILENCE = 0.5  # s without a Teleop message stops a walk it started
 MAX_REQUEST = 64 * 1024  # bytes of a service request or client message we decode at most
 
 
-class BadRequest(ProtocolError, ValueError):
-    """A request Foxglove sent that we refuse before it reaches the arbiter."""
-
-
 def parse_json(data: bytes, what: str) -> dict[str, Any]:
     if len(data) > MAX_REQUEST:
-        raise BadRequest(f"{what}: {len(data)} bytes is more than the {MAX_REQUEST} allowed")
+        raise AdapterInputError(f"{what}: {len(data)} bytes is more than the {MAX_REQUEST} allowed")
     if not data.strip():
         return {}
     try:
         value = json.loads(data)
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise BadRequest(f"{what}: not JSON ({exc})") from None
+        raise AdapterInputError(f"{what}: not JSON ({exc})") from None
     if not isinstance(value, dict):
-        raise BadRequest(f"{what}: expected a JSON object, got {type(value).__name__}")
+        raise AdapterInputError(f"{what}: expected a JSON object, got {type(value).__name__}")
     return value
 
 
@@ -92,7 +89,7 @@ def _lease(cmd: Commander, req: dict[str, Any]) -> dict[str, Any]:
     _only(req, {"op"})
     op = req.get("op", "acquire")
     if op not in ("acquire", "release"):
-        raise BadRequest(f"lease: op must be 'acquire' or 'release', not {op!r}")
+        raise AdapterInputError(f"lease: op must be 'acquire' or 'release', not {op!r}")
     return cmd.acquire() if op == "acquire" else cmd.release()
 
 
@@ -102,7 +99,7 @@ def _action(cmd: Commander, req: dict[str, Any]) -> dict[str, Any]:
         return cmd.action_stop(brake=req["op"] == "brake")
     page = req.get("page", req.get("name"))
     if isinstance(page, bool) or not isinstance(page, int | str):
-        raise BadRequest("action: give page (a number) or name (e.g. 'sit down')")
+        raise AdapterInputError("action: give page (a number) or name (e.g. 'sit down')")
     return cmd.action(page)
 
 
@@ -112,10 +109,10 @@ def _behaviour(cmd: Commander, req: dict[str, Any]) -> dict[str, Any]:
     if "items" in req:
         _only(req, {"items"})
         if not isinstance(req["items"], list):
-            raise BadRequest("behaviour: items must be a list of {behaviour: id, …}")
+            raise AdapterInputError("behaviour: items must be a list of {behaviour: id, …}")
         return cmd.choreography(req["items"])
     if "behaviour" not in req:
-        raise BadRequest("behaviour: give behaviour (an id or name) or items, or op=stop")
+        raise AdapterInputError("behaviour: give behaviour (an id or name) or items, or op=stop")
     return cmd.choreography([req])
 
 
@@ -123,17 +120,17 @@ def _torque(cmd: Commander, req: dict[str, Any]) -> dict[str, Any]:
     _only(req, {"enable", "ids"})
     enable = req.get("enable")
     if not isinstance(enable, bool):
-        raise BadRequest("torque: enable must be true or false")
+        raise AdapterInputError("torque: enable must be true or false")
     ids = req.get("ids")
     if ids is not None and not isinstance(ids, list):
-        raise BadRequest("torque: ids must be a list of joint ids or names")
+        raise AdapterInputError("torque: ids must be a list of joint ids or names")
     return cmd.torque(enable, ids)
 
 
 def _only(req: dict[str, Any], allowed: set[str]) -> None:
     unknown = sorted(set(req) - allowed)
     if unknown:
-        raise BadRequest(
+        raise AdapterInputError(
             f"unknown field {unknown[0]!r}; allowed: {', '.join(sorted(allowed)) or 'none'}"
         )
 
@@ -191,12 +188,12 @@ def twist_speeds(msg: dict[str, Any]) -> tuple[float, float, float]:
     """(x, y, turn) from a Twist-like map ``{linear: {x, y}, angular: {z}}``."""
     lin, ang = msg.get("linear", {}), msg.get("angular", {})
     if not isinstance(lin, dict) or not isinstance(ang, dict):
-        raise BadRequest("teleop: expected {linear: {x, y, z}, angular: {x, y, z}}")
+        raise AdapterInputError("teleop: expected {linear: {x, y, z}, angular: {x, y, z}}")
     out = []
     for part, key in ((lin, "x"), (lin, "y"), (ang, "z")):
         v = part.get(key, 0.0)
         if isinstance(v, bool) or not isinstance(v, int | float):
-            raise BadRequest(f"teleop: {key} must be a number, not {v!r}")
+            raise AdapterInputError(f"teleop: {key} must be a number, not {v!r}")
         out.append(float(v))
     return out[0], out[1], out[2]
 
@@ -212,7 +209,7 @@ class Teleop:
         self.commanders = commanders
         self.report = report
         self._lock = threading.Lock()
-        self._walking: dict[int, float] = {}  # client → monotonic time of its last message
+        self._cores: dict[int, AdapterCore] = {}  # client → its deadman (one per client)
         self._limits: tuple[float, float, float] | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._watch, name="teleop-watchdog", daemon=True)
@@ -230,32 +227,35 @@ class Teleop:
         try:
             if x == 0 and y == 0 and turn == 0:
                 with self._lock:
-                    was = self._walking.pop(client_id, None)
-                if was is not None:
+                    core = self._cores.get(client_id)
+                    was = core is not None and core.walk_stopped()
+                if was:
                     cmd.walk_stop()
                 return
             # A joystick asks for "as fast as it goes": clamp to the gait's limits rather than
             # refuse every message (the arbiter still checks what arrives).
             xm, ym, tm = self.limits(cmd)
             with self._lock:
-                self._walking[client_id] = time.monotonic()
+                core = self._cores.setdefault(client_id, AdapterCore(deadman=TELEOP_SILENCE))
+                core.walk(time.monotonic())
             cmd.walk(clamp(x, xm), clamp(y, ym), clamp(turn, tm))
         except DarwinError as exc:
-            with self._lock:
-                self._walking.pop(client_id, None)
+            self.forget(client_id)
             self.report(f"teleop: {exc}")
 
     def forget(self, client_id: int) -> None:
         with self._lock:
-            self._walking.pop(client_id, None)
+            self._cores.pop(client_id, None)
 
     def _watch(self) -> None:
         while not self._stop.wait(0.1):
             now = time.monotonic()
             with self._lock:
-                silent = [c for c, t in self._walking.items() if now - t > TELEOP_SILENCE]
+                silent = [
+                    c for c, core in self._cores.items() if Action.STOP_WALK in core.tick(now)
+                ]
                 for c in silent:
-                    del self._walking[c]
+                    self._cores[c].walk_stopped()
             for c in silent:
                 try:
                     self.commanders.get(c).walk_stop()

@@ -33,9 +33,9 @@ from clients.recording.recorder import (
     check_topics,
 )
 from clients.robot import TOPICS
-from schemas.errors import ClientError, IncompatibleProtocolError, RobotUnreachableError
+from schemas.errors import ClientError, IncompatibleProtocolError
 from schemas.keys import Keys
-from schemas.session import add_target_arguments, credentials_from_args, open_client, resolve
+from schemas.session import add_target_arguments, connect, credentials_from_args, resolve
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -213,13 +213,7 @@ def run_record(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
-    try:
-        session = open_client(target)
-    except zenoh.ZError as exc:
-        raise RobotUnreachableError(
-            f"cannot open a Zenoh session to {target.endpoint}: {exc}. "
-            "Is the daemon running (`darwin up`)? Check --connect / DARWIN_ENDPOINT."
-        ) from exc
+    session = connect(target)
     try:
         try:
             skew = check_at(session, Keys(target.robot), "darwin record", 3.0)

@@ -10,13 +10,18 @@ import sys
 import threading
 from types import FrameType
 
-import zenoh
-
 from clients.recording.reader import read_session
 from clients.recording.replay import Replayer, default_robot_name
 from clients.robot import TOPICS
-from schemas.errors import ProtocolError, RobotUnreachableError
-from schemas.session import DEFAULT_ENDPOINT, ENV_ENDPOINT, open_client, open_server, resolve
+from schemas.errors import ProtocolError
+from schemas.session import (
+    DEFAULT_ENDPOINT,
+    ENV_ENDPOINT,
+    client_config,
+    open_session,
+    resolve,
+    server_config,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -93,19 +98,18 @@ def run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
-    try:
-        if args.listen:
-            session = open_server([args.listen])
-            where = f"listening on {args.listen}"
-        else:
-            endpoint = resolve(args.connect, robot).endpoint
-            session = open_client(endpoint)
-            where = f"connected to {endpoint}"
-    except zenoh.ZError as exc:
-        raise RobotUnreachableError(
-            f"cannot open the Zenoh session for the replay: {exc}. "
-            "Use --listen ENDPOINT to be reachable yourself, or --connect to a running peer."
-        ) from exc
+    if args.listen:
+        conf = server_config([args.listen])
+        where = f"listening on {args.listen}"
+    else:
+        endpoint = resolve(args.connect, robot).endpoint
+        conf = client_config(endpoint)
+        where = f"connected to {endpoint}"
+    session = open_session(
+        conf,
+        "cannot open the Zenoh session for the replay",
+        "use --listen ENDPOINT to be reachable yourself, or --connect to a running peer",
+    )
     try:
         replayer = Replayer(rec, session, robot, rate=args.rate, loop=args.loop, topics=topics)
         if args.start:

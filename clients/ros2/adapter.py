@@ -181,7 +181,7 @@ class Adapter(RosCommands):
         if self._stop.is_set():
             return
         self._stop.set()
-        if self._holding:
+        if self.core.holding:
             self._release("the adapter stops")
         with self._cond:
             self._cond.notify_all()

@@ -83,13 +83,11 @@ def ros_credentials(
 
 
 def run(args: argparse.Namespace) -> int:
-    import zenoh
-
     from clients.robot import Robot
     from clients.ros2.adapter import Adapter, Options
     from clients.ros2.graph import check_namespace
-    from schemas.errors import DarwinError
-    from schemas.session import check_endpoint, client_config, login_hint
+    from schemas.errors import DarwinError, RobotUnreachableError
+    from schemas.session import check_endpoint, client_config, login_hint, open_session
 
     domain = _domain(args.domain)
     creds = credentials_from_args(args)
@@ -125,17 +123,18 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as exc:
             print(f"darwin ros2: the ROS side's login: {exc}", file=sys.stderr)
             return 2
+        failed = f"cannot open the ROS session at {ros_endpoint}"
+        hint = login_hint(ros_creds, "--ros-user/--ros-password-file or --ros-cert/--ros-key")
+        fix = f"is rmw_zenohd (or zenohd, or `darwin up`) running there{hint}"
         try:
             conf = client_config(check_endpoint(ros_endpoint), creds=ros_creds)
             conf.insert_json5("timestamping/enabled", "true")
-            ros_session = zenoh.open(conf)
-        except (ValueError, zenoh.ZError) as exc:
-            hint = login_hint(ros_creds, "--ros-user/--ros-password-file or --ros-cert/--ros-key")
-            print(
-                f"darwin ros2: cannot open the ROS session at {ros_endpoint}: {exc}; "
-                f"is rmw_zenohd (or zenohd, or `darwin up`) running there{hint}",
-                file=sys.stderr,
-            )
+            ros_session = open_session(conf, failed, fix)
+        except ValueError as exc:
+            print(f"darwin ros2: {failed}: {exc}; {fix}", file=sys.stderr)
+            return 1
+        except RobotUnreachableError as exc:
+            print(f"darwin ros2: {exc}", file=sys.stderr)
             return 1
         options = Options(domain, namespace, args.node_name, args.joint_rate, args.lease_idle)
         adapter = Adapter(robot, ros_session, options)

@@ -13,12 +13,19 @@ import threading
 import time
 from typing import TYPE_CHECKING, Any
 
+from clients.adapter_core import Action, AdapterCore
 from clients.robot import Robot
 from clients.ros2 import convert, graph
 from clients.ros2.node import RosNode
 from clients.ros2.types import msg_class
 from schemas import qos
-from schemas.errors import CommandError, DarwinError, LeaseBusyError, NoLeaseError
+from schemas.errors import (
+    AdapterInputError,
+    CommandError,
+    DarwinError,
+    LeaseBusyError,
+    NoLeaseError,
+)
 from schemas.messages import Event, encode
 
 if TYPE_CHECKING:
@@ -44,12 +51,7 @@ class RosCommands:
     def _init_commands(self) -> None:
         """The command queue and the lease's bookkeeping (before the adapter's threads start)."""
         self._cmds: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize=64)
-        self._lease_auto = False
-        self._holding = False
-        self._last_cmd = 0.0
-        self._walking = False
-        self._last_twist = 0.0
-        self._refused_burst = False
+        self.core = AdapterCore(idle_release=self.options.lease_idle, deadman=CMD_VEL_TIMEOUT)
 
     def _make_ros_inputs(self) -> None:
         n = self.node
@@ -98,96 +100,91 @@ class RosCommands:
 
     def _take_lease(self) -> bool:
         """The lease for ROS commands: taken when free, as the gateway does for its clients."""
-        if self._holding:
+        if not self.core.before_command(time.monotonic()):
             return True
         try:
             self.robot.acquire()
         except LeaseBusyError as exc:
             self._refused(exc)
             return False
-        self._holding = True
-        self._lease_auto = True
+        self.core.acquired(time.monotonic())
         self._say("ros2_lease", "the ROS adapter took the control lease")
         return True
 
     def _refused(self, exc: Exception) -> None:
         """Someone else holds the lease: say so once per burst of ROS commands."""
-        if not self._refused_burst:
-            self._refused_burst = True
+        if self.core.refused(time.monotonic()):
             self._say("ros2_refused", f"ROS command ignored: {exc}")
 
     def _command(self, fn: Any, *args: Any, **kw: Any) -> Any:
         try:
             return fn(*args, **kw)
         except (NoLeaseError, LeaseBusyError):
-            self._holding = False  # lost it (idle timeout…): take it again next time
+            self.core.lost()  # lost it (idle timeout…): take it again next time
             raise
 
     def _on_twist(self, ros_type: str, msg: Any) -> None:
-        self._last_cmd = time.monotonic()
+        self.core.active(time.monotonic())
         try:
             walk = convert.walk_from_twist(ros_type, msg)
-        except convert.CommandRejected as exc:
+        except AdapterInputError as exc:
             self._reject(str(exc))
             return
-        self._last_twist = time.monotonic()
+        self.core.walk_seen(time.monotonic())
         if walk.zero:
-            if self._walking:
+            if self.core.walking:
                 self._stop_walk()
             return
         if not self._take_lease():
             return
         try:
             self._command(self.robot.walk, walk.x, walk.y, walk.turn)
-            self._walking = True
+            self.core.walk(time.monotonic())
         except LeaseBusyError as exc:
             self._refused(exc)
         except CommandError as exc:
             self._reject(f"cmd_vel refused by the arbiter: {exc}")
 
     def _stop_walk(self) -> None:
-        self._walking = False
+        self.core.walk_stopped()
         with contextlib.suppress(DarwinError):
             self._command(self.robot.walk_stop)
 
     def _on_trajectory(self, msg: Any) -> None:
         """The whole trajectory goes to the daemon once and plays in its loop (as a ros2_control
         controller would), never point by point across the network."""
-        self._last_cmd = time.monotonic()
+        self.core.active(time.monotonic())
         try:
             joints, points = convert.trajectory_command(msg, self.limits)
-        except convert.CommandRejected as exc:
+        except AdapterInputError as exc:
             self._reject(str(exc))
             return
-        took = not self._holding
+        took = not self.core.holding
         if not self._take_lease():
             return
         try:
             applied = self._command(self.robot.trajectory, joints, points)
         except CommandError as exc:
             self._reject(f"joint_trajectory refused by the arbiter: {exc}")
-            if took and self._holding:
+            if took and self.core.holding:
                 self._release("its only command was refused")  # keep no lease for nothing
             return
         # Playing counts as activity: the lease is not given back while the robot follows it.
-        self._last_cmd = time.monotonic() + float(applied.get("duration", 0.0))
+        now = time.monotonic()
+        self.core.active(now, until=now + float(applied.get("duration", 0.0)))
 
     def _on_tick(self) -> None:
-        now = time.monotonic()
-        if self._walking and now - self._last_twist > CMD_VEL_TIMEOUT:
+        actions = self.core.tick(time.monotonic())
+        if Action.STOP_WALK in actions:
             log.info("no cmd_vel for %.1f s: stopping the walk", CMD_VEL_TIMEOUT)
             self._stop_walk()
-        if now - self._last_cmd > CMD_VEL_TIMEOUT:
-            self._refused_burst = False  # the next refused command is a new burst
-        if self._holding and self._lease_auto and now - self._last_cmd > self.options.lease_idle:
+        if Action.RELEASE in actions:
             self._release("ROS went quiet")
 
     def _release(self, why: str) -> None:
-        if self._walking:
+        if self.core.walking:
             self._stop_walk()  # the arbiter stops it too when the lease ends; do not rely on it
-        self._walking = False
-        self._holding = False
-        self._lease_auto = False
+        self.core.released()
         # The arbiter brings whatever the lease started to a safe stop when it ends.
         with contextlib.suppress(DarwinError):
             self.robot.release()
@@ -201,7 +198,7 @@ class RosCommands:
         return msg_class("std_srvs/srv/SetBool_Response")(success=ok, message=message)
 
     def _srv_halt(self, _req: Any) -> Any:
-        self._walking = False
+        self.core.walk_stopped()
         try:
             self.robot.halt()
         except DarwinError as exc:
@@ -209,7 +206,6 @@ class RosCommands:
         return self._trigger_response(True, "halted: walking and behaviours stopped, pose held")
 
     def _srv_torque(self, req: Any) -> Any:
-        self._last_cmd = time.monotonic()
         if not self._take_lease():
             return self._setbool_response(False, "the control lease is held by someone else")
         try:
@@ -219,15 +215,15 @@ class RosCommands:
         return self._setbool_response(True, f"torque {'on' if req.data else 'off'}")
 
     def _srv_lease(self, req: Any) -> Any:
-        self._last_cmd = time.monotonic()
+        self.core.active(time.monotonic())
         if req.data:
             try:
                 self.robot.acquire()
             except DarwinError as exc:
                 return self._setbool_response(False, str(exc))
-            self._holding, self._lease_auto = True, False
+            self.core.acquired(time.monotonic(), auto=False)
             return self._setbool_response(True, "the ROS adapter holds the control lease")
-        if not self._holding:
+        if not self.core.holding:
             return self._setbool_response(True, "the ROS adapter did not hold the lease")
         self._release("lease service called with false")
         return self._setbool_response(True, "lease released; motion brought to a safe stop")

@@ -15,7 +15,7 @@ import numpy as np
 
 from schemas.body import MX28_STALL_TORQUE, Body
 from schemas.daemon_state import DaemonState
-from schemas.errors import ProtocolError
+from schemas.errors import AdapterInputError
 from schemas.kinematics import quaternion
 from schemas.messages import Imu, Joints, Status, World
 
@@ -23,10 +23,6 @@ from .types import msg_class
 
 STALL_VOLTAGE = 12.0
 YAW_UNKNOWN_VARIANCE = 1.0e6  # rad²: no magnetometer, the yaw is not observed at all
-
-
-class CommandRejected(ProtocolError, ValueError):
-    """A ROS command that must not reach the arbiter (the message says why)."""
 
 
 def stamp(t: float) -> Any:
@@ -230,7 +226,7 @@ def walk_from_twist(ros_type: str, msg: Any) -> Walk:
     }
     for name, v in values.items():
         if not math.isfinite(v):
-            raise CommandRejected(f"cmd_vel {name} is {v}: only finite speeds are accepted")
+            raise AdapterInputError(f"cmd_vel {name} is {v}: only finite speeds are accepted")
     return Walk(float(twist.linear.x), float(twist.linear.y), float(twist.angular.z))
 
 
@@ -250,7 +246,7 @@ def trajectory_command(
     names = list(msg.joint_names)
     unknown = [n for n in names if n not in limits]
     if unknown:
-        raise CommandRejected(
+        raise AdapterInputError(
             f"joint_trajectory names unknown joints {unknown}; joints are {sorted(limits)}"
         )
     points = [

@@ -24,21 +24,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def check_reachable(endpoint: str, creds: Credentials | None = None) -> None:
     """Raise ``RobotUnreachableError`` (one line: cause and fix) if nothing listens there."""
-    import zenoh
-
-    from schemas.session import check_endpoint, client_config
+    from schemas.session import check_endpoint, client_config, open_session
 
     try:
         check_endpoint(endpoint)
     except ValueError as exc:
         raise RobotUnreachableError(f"{exc}; pass e.g. --connect tcp/127.0.0.1:7447") from None
-    try:
-        session = zenoh.open(client_config(endpoint, creds=creds))
-    except zenoh.ZError:
-        raise RobotUnreachableError(
-            f"no daemon at {endpoint}: nothing answers there. Is `darwin up` running? Start it, "
-            "or pass the address it printed (`zenoh: …`) with --connect"
-        ) from None
+    session = open_session(
+        client_config(endpoint, creds=creds),
+        f"no daemon at {endpoint}: nothing answers there",
+        "is `darwin up` running? Start it, or pass the address it printed (`zenoh: …`) "
+        "with --connect",
+    )
     session.close()
 
 

@@ -11,7 +11,7 @@ import zenoh
 from robot_daemon.engine.fleet_join import ROUTER_CONNECT_TIMEOUT_MS, join_router
 from robot_daemon.security.acl import Security
 from schemas.errors import DarwinError
-from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config
+from schemas.session import MAX_MESSAGE_BYTES, Credentials, server_config, zenoh_reason
 
 
 class ListenError(DarwinError):
@@ -62,12 +62,3 @@ def open_session(
         if security is not None:
             # Zenoh read the plaintext dictionary while opening: it need not stay on disk.
             security.close()
-
-
-def zenoh_reason(exc: Exception) -> str:
-    """Zenoh's error without its Rust source paths."""
-    text = str(exc).strip()
-    if "already in use" in text.lower():
-        return "the address is already in use"
-    text = text.splitlines()[0] if text else type(exc).__name__
-    return text.split(" at /", 1)[0][:160]

@@ -20,7 +20,6 @@ import zenoh
 
 from config.loader import load_all
 from robot_daemon.engine.fleet_join import stable_router_id
-from robot_daemon.engine.zenoh_setup import zenoh_reason
 from robot_daemon.launch.daemon_cli import _resolve_listen
 from robot_daemon.security.acl import Security, check_listen
 from robot_daemon.security.options import (
@@ -29,7 +28,7 @@ from robot_daemon.security.options import (
     security_from_args,
 )
 from schemas.errors import ConfigError, DarwinError
-from schemas.session import server_config
+from schemas.session import server_config, zenoh_reason
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from clients.foxglove import frames
-from clients.foxglove.control import BadRequest, parse_json, twist_speeds
+from clients.foxglove.control import parse_json, twist_speeds
 from config.body import default_body
 from schemas import kinematics as K
+from schemas.errors import AdapterInputError
 from schemas.messages import World
 from tests.transforms import compose, quat_matrix
 
@@ -60,13 +61,12 @@ def test_world_pose_and_ball() -> None:
 def test_teleop_and_request_parsing_refuse_bad_input() -> None:
     assert twist_speeds({"linear": {"x": 0.1}, "angular": {"z": -0.2}}) == (0.1, 0.0, -0.2)
     for bad in ({"linear": {"x": True}}, {"linear": [1]}, {"angular": {"z": "left"}}):
-        with pytest.raises(BadRequest):
+        with pytest.raises(AdapterInputError):
             twist_speeds(bad)
     for raw in (b"[1]", b"{nope", b"\xff", b"x" * 70000):
-        with pytest.raises(BadRequest):
+        with pytest.raises(AdapterInputError):
             parse_json(raw, "t")
     assert parse_json(b"", "t") == {}
-
 
 
 def decoded(msg: object) -> object:

@@ -10,6 +10,7 @@ import pytest
 from clients.ros2 import convert
 from clients.ros2.types import decode, encode, msg_class
 from config.body import default_body
+from schemas.errors import AdapterInputError
 from schemas.messages import Imu, Joints
 
 
@@ -67,7 +68,7 @@ def test_twist_checks():
     bad = msg_class("geometry_msgs/msg/Twist")(
         linear=v3(x=math.inf, y=0, z=0), angular=v3(x=0, y=0, z=0)
     )
-    with pytest.raises(convert.CommandRejected, match=r"linear\.x is inf"):
+    with pytest.raises(AdapterInputError, match=r"linear\.x is inf"):
         convert.walk_from_twist("geometry_msgs/msg/Twist", bad)
 
 
@@ -108,7 +109,7 @@ def test_a_trajectory_becomes_the_verbs_servo_ids_and_timed_points(limits):
 
 def test_a_trajectory_naming_joints_ros_does_not_know_is_refused(limits):
     """Names are ROS's own (the URDF's); every other check is the daemon's (test_trajectory)."""
-    with pytest.raises(convert.CommandRejected, match="unknown joints"):
+    with pytest.raises(AdapterInputError, match="unknown joints"):
         convert.trajectory_command(_traj(["j_nose"], [(1.0, [0.0])]), limits)
 
 
