@@ -24,7 +24,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "router": ("robot_daemon.router", "a Zenoh router: the meeting point of a fleet of robots"),
     "list": ("clients.fleet_cli", "list every live robot (name, endpoint, lease, battery…)"),
-    "sim": ("robot_daemon.sim.cli", "run the hardware emulator on a pseudo-terminal"),
+    "sim": ("robot_daemon.plant.sim_cli", "run the hardware emulator on a pseudo-terminal"),
     "scan": ("robot_daemon.bus.scan", "list every device on a serial port (ID, model, firmware)"),
     "doctor": ("robot_daemon.doctor.cli", "check the robot: port, bus, servos, power, loop, Zenoh"),
     "calibrate": ("clients.calibrate_cli", "joint offsets: import ROBOTIS's config.ini offsets"),

@@ -20,6 +20,7 @@ from typing import Any
 from config.loader import load_all, robot_from_dict
 from robot_daemon.children import Child, relay_to_stderr
 from robot_daemon.daemon import Daemon, DaemonOptions
+from robot_daemon.emulator.settings import add_forwarded_options
 from robot_daemon.fleet_join import RouterWatch, check_login_needs_router
 from robot_daemon.security.options import (
     add_security_arguments,
@@ -27,7 +28,6 @@ from robot_daemon.security.options import (
     secure_listen,
     security_from_args,
 )
-from robot_daemon.sim.settings import add_forwarded_options
 from robot_daemon.vision.sources import check_spec
 from schemas.errors import ConfigError
 from schemas.keys import check_robot_name

@@ -31,6 +31,7 @@ from config.loader import load_all
 from robot_daemon.adapter_logins import ADAPTERS, UI, adapter_login, roles, ui_login
 from robot_daemon.children import Child, ChildError, relay_to_stderr
 from robot_daemon.daemon_cli import _resolve_listen, router_of
+from robot_daemon.emulator.settings import add_forwarded_options, add_physics_option
 from robot_daemon.fleet_join import check_login_needs_router
 from robot_daemon.security.acl import check_listen
 from robot_daemon.security.internal import Internal
@@ -40,7 +41,6 @@ from robot_daemon.security.options import (
     security_from_args,
 )
 from robot_daemon.security.paths import ca_paths
-from robot_daemon.sim.settings import add_forwarded_options, add_physics_option
 from schemas.errors import ConfigError
 from schemas.roles import LADDER, Role
 from schemas.session import add_credential_arguments, credential_args
@@ -166,7 +166,7 @@ def _physics_problem(args: argparse.Namespace) -> str | None:
     if args.port:
         return "--physics chooses the emulator's plant; it does not apply with --port"
     if args.physics == "mujoco":
-        from robot_daemon.sim.physics.world import import_mujoco
+        from robot_daemon.plant.physics.mujoco_world import import_mujoco
 
         try:
             import_mujoco()

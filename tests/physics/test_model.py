@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from robot_daemon.sim.physics.model import CAMERA, ROOT, world_mjcf
+from robot_daemon.plant.physics.mjcf_model import CAMERA, ROOT, world_mjcf
 from schemas.body import default_body
 from schemas.kinematics import camera_pose, leg_fk
 
