@@ -28,7 +28,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from config.loader import load_all
-from robot_daemon.sim.world.rig import SimRig
+from tests.fixtures.sim_rig import SimRig
 
 PLANTS = ("kinematic", "mujoco")
 SLICE_S = 0.008
@@ -92,7 +92,7 @@ def stack(plant: str, seconds: float) -> dict[str, float]:
 
 
 def camera_fps(frames: int) -> dict[str, float]:
-    from robot_daemon.sim.physics.camera import GLUnavailableError, MujocoCamera
+    from robot_daemon.plant.physics.mujoco_camera import GLUnavailableError, MujocoCamera
 
     world = rig("mujoco").world
     cam_model = world.settings.render.camera

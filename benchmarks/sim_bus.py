@@ -27,8 +27,8 @@ from robot_daemon.bus.dxl import DxlBus, ReplyBudget
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.tables import CM730, CM730_ID, SERVO_IDS, sensor_blocks
 from robot_daemon.bus.transport import Transport
-from robot_daemon.sim import Emulator, EmulatorSettings
-from robot_daemon.sim.link import EmulatorLink
+from robot_daemon.emulator import Emulator, EmulatorSettings
+from robot_daemon.emulator.inprocess_link import EmulatorLink
 from schemas import units
 from tests.fixtures.emulator import darwin_command, start_emulator_process
 

@@ -4,7 +4,7 @@ DarwinError
 ├── ConfigError             a config file or value is wrong
 ├── StateError              an object used in the wrong state (closed, already running)
 ├── CameraError             a camera source gives no frames or cannot encode them
-│   ├── GLUnavailableError  no OpenGL for the MuJoCo camera (robot_daemon/sim/physics)
+│   ├── GLUnavailableError  no OpenGL for the MuJoCo camera (robot_daemon/plant/physics)
 │   └── V4L2Error           a V4L2 camera that cannot be opened or give MJPEG (vision/v4l2)
 ├── ChildError              a program `darwin up` started exited or never became ready
 ├── ListenError             the daemon can't listen on Zenoh (robot_daemon/engine/zenoh_setup)

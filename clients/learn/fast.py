@@ -20,9 +20,9 @@ import numpy as np
 from config.loader import load_all, load_robot
 from robot_daemon.motion.attitude import GravityFilter
 from robot_daemon.motion.policy import PolicySettings
-from robot_daemon.sim.physics.model import IMU_SITE, PhysicsSettings
-from robot_daemon.sim.physics.world import MujocoWorld
-from robot_daemon.sim.world.settings import WorldSettings
+from robot_daemon.plant.physics.mjcf_model import IMU_SITE, PhysicsSettings
+from robot_daemon.plant.physics.mujoco_world import MujocoWorld
+from robot_daemon.plant.world_settings import WorldSettings
 from schemas import units
 from schemas.joints import JOINT_IDS, JOINT_NAMES
 from schemas.policy import ACTION_BOUND, DEFAULT_POSE, PolicyObservation

@@ -22,7 +22,7 @@ WAIT = 10.0
 
 class StackBackend:
     def __init__(self, robot: Any, rate_hz: float = 50.0) -> None:
-        from robot_daemon.sim.control import SimControl
+        from schemas.sim_control import SimControl
 
         self.robot = robot
         self.rate_hz = rate_hz

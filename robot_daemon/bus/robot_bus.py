@@ -52,7 +52,7 @@ class RobotBus(SensorRead):
 
     ``transport`` makes the transport at each :meth:`open`: by default the serial port
     ``port_name`` (:class:`BlockingPortHandler`); the simulated rig passes an in-process link to
-    the emulator (:class:`robot_daemon.sim.link.EmulatorLink`)."""
+    the emulator (:class:`robot_daemon.emulator.inprocess_link.EmulatorLink`)."""
 
     def __init__(
         self,

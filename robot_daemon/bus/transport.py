@@ -4,8 +4,9 @@ A :class:`Transport` is a dynamixel-sdk ``PortHandler`` (the SDK's ``Protocol1Pa
 drives it: ``writePort``, ``readPort``, ``clearPort``, the packet timeout) plus what the bus
 layer needs around it: open/close, byte counters, a clock the waits are measured on, and a
 pause. Two exist: the serial port (:class:`robot_daemon.bus.port.BlockingPortHandler`) and an
-in-process link to the emulator (:class:`robot_daemon.sim.link.EmulatorLink`); the protocol
-code above them (:mod:`robot_daemon.bus.dxl`, :mod:`robot_daemon.bus.robot_bus`) is the same.
+in-process link to the emulator (:class:`robot_daemon.emulator.inprocess_link.EmulatorLink`);
+the protocol code above them (:mod:`robot_daemon.bus.dxl`, :mod:`robot_daemon.bus.robot_bus`) is
+the same.
 """
 
 from __future__ import annotations

@@ -27,7 +27,6 @@ from robot_daemon.security.options import (
     secure_listen,
     security_from_args,
 )
-from robot_daemon.sim.settings import add_forwarded_options
 from robot_daemon.vision.sources import check_spec
 from schemas.errors import ConfigError
 from schemas.keys import check_robot_name

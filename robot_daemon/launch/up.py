@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from config.loader import load_all
+from robot_daemon.emulator.settings import add_forwarded_options, add_physics_option
 from robot_daemon.engine.fleet_join import check_login_needs_router
 from robot_daemon.launch.adapter_logins import adapter_login, names, roles, ui_login
 from robot_daemon.launch.children import Child, ChildError, relay_to_stderr
@@ -42,7 +43,6 @@ from robot_daemon.security.options import (
     security_from_args,
 )
 from robot_daemon.security.paths import ca_paths
-from robot_daemon.sim.settings import add_forwarded_options, add_physics_option
 from schemas import registry
 from schemas.errors import ConfigError
 from schemas.roles import LADDER, Role
@@ -179,7 +179,7 @@ def _physics_problem(args: argparse.Namespace) -> str | None:
     if args.port:
         return "--physics chooses the emulator's plant; it does not apply with --port"
     if args.physics == "mujoco":
-        from robot_daemon.sim.physics.world import import_mujoco
+        from robot_daemon.plant.physics.mujoco_world import import_mujoco
 
         try:
             import_mujoco()

@@ -30,7 +30,7 @@ from schemas.errors import DarwinError
 log = logging.getLogger(__name__)
 
 # Modules imported on first use so they can register their sources (missing ones are skipped).
-PLUGIN_MODULES = ("robot_daemon.sim.world.camera_source",)
+PLUGIN_MODULES = ("robot_daemon.plant.camera_source",)
 
 
 class CameraSource(Protocol):

@@ -13,7 +13,6 @@ import pytest
 import zenoh
 
 from clients.robot import Commander, Robot
-from robot_daemon.sim.control import SimControl
 from schemas import SCHEMA_VERSION
 from schemas.errors import (
     LeaseBusyError,
@@ -25,6 +24,7 @@ from schemas.errors import (
 from schemas.keys import Keys
 from schemas.messages import Event, Joints
 from schemas.session import open_client
+from schemas.sim_control import SimControl
 from tests.fixtures.system import EventLog, RunningSystem, start_system
 
 WAIT = 20.0

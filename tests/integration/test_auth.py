@@ -11,11 +11,11 @@ from pathlib import Path
 import pytest
 
 from clients.robot import Robot
-from robot_daemon.sim.control import SimControl
 from schemas.errors import ForbiddenError, RefusedError, RobotUnreachableError
 from schemas.keys import Keys
 from schemas.messages import command_payload, decode_dict
 from schemas.roles import Role
+from schemas.sim_control import SimControl
 from tests.fixtures.emulator import darwin_command
 from tests.fixtures.system import RunningSystem, run_darwin, start_system
 from tests.legacy_client import LegacyClient

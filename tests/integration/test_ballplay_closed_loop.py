@@ -14,7 +14,7 @@ import math
 import pytest
 
 from config.loader import load_all
-from robot_daemon.sim.world.rig import SimRig
+from tests.fixtures.sim_rig import SimRig
 from tests.shared_data import STOCK_MOTIONS
 
 LIBRARIES = [

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from robot_daemon.bus.tables import CM730, MX28
-from robot_daemon.sim import Emulator
+from robot_daemon.emulator import Emulator
 from tests.fixtures.system import REPO, darwin_command
 from tests.integration.test_cli_failures import failure_line
 

@@ -3,7 +3,7 @@ get-up page, and the bulk read asks the CM-730 first once it answers."""
 
 from __future__ import annotations
 
-from robot_daemon.sim.control import SimControl
+from schemas.sim_control import SimControl
 from tests.fixtures.system import start_system
 from tests.integration.test_motion_system import Events
 

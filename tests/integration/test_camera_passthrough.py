@@ -7,8 +7,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from robot_daemon.sim.control import SimControl
 from schemas.messages import CameraFrame
+from schemas.sim_control import SimControl
 
 
 def test_viewers_get_the_worlds_jpeg_passed_through(system_factory) -> None:

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from robot_daemon.bus.port import PortLock
-from robot_daemon.sim import Emulator
+from robot_daemon.emulator import Emulator
 from schemas.session import free_tcp_port
 from tests.fixtures.system import REPO, darwin_command
 

@@ -12,9 +12,9 @@ from collections.abc import Iterator
 import pytest
 
 from clients.robot import Robot
-from robot_daemon.sim.control import SimControl
 from schemas.errors import CommandError
 from schemas.messages import CameraFrame
+from schemas.sim_control import SimControl
 from tests.fixtures.system import EventLog, RunningSystem, darwin_command, start_system
 
 HEAD_PAN = 19

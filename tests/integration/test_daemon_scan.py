@@ -8,7 +8,7 @@ import subprocess
 from collections.abc import Callable
 
 from robot_daemon.bus.port import BlockingPortHandler
-from robot_daemon.sim import Emulator
+from robot_daemon.emulator import Emulator
 from tests.fixtures.system import run_darwin
 
 

@@ -12,10 +12,10 @@ import threading
 import pytest
 
 from clients.robot import Robot
-from robot_daemon.sim.control import SimControl
 from schemas.errors import CommandError, InvalidCommandError, LeaseBusyError, NoLeaseError
 from schemas.messages import Joints, Status
 from schemas.session import open_client
+from schemas.sim_control import SimControl
 from tests.fixtures.system import EventLog, RunningSystem
 
 HEAD_PAN = 19

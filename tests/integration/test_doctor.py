@@ -13,7 +13,7 @@ from typing import Any
 
 from robot_daemon.bus.tables import MX28
 from robot_daemon.doctor import checks as C
-from robot_daemon.sim import Emulator
+from robot_daemon.emulator import Emulator
 from schemas.session import free_tcp_port
 from tests.fixtures.system import REPO, darwin_command, start_system
 

@@ -256,7 +256,7 @@ def test_the_urdf_served_is_the_robots_body_with_the_daemons_joint_limits(
 def test_the_ball_play_detections_become_image_annotations(
     fox: tuple[RunningSystem, str],
 ) -> None:
-    from robot_daemon.sim.control import SimControl
+    from schemas.sim_control import SimControl
 
     system, url = fox
     with system.robot_client(name="player") as robot, FoxgloveClient.open(url) as fc:

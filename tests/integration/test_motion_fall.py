@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from robot_daemon.sim.control import SimControl
 from schemas.messages import Event
+from schemas.sim_control import SimControl
 from tests.fixtures.system import RunningSystem
 from tests.integration.test_motion_system import WAIT, Events
 

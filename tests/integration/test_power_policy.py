@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from robot_daemon.sim.control import SimControl
 from schemas.errors import UnavailableError
+from schemas.sim_control import SimControl
 from tests.fixtures.system import EventLog, run_darwin, start_system
 
 

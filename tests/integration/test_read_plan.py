@@ -8,7 +8,7 @@ import copy
 from config.loader import load_all
 from robot_daemon.bus.read_plan import servos_to_read
 from robot_daemon.bus.tables import CM730_ID, SERVO_IDS
-from robot_daemon.sim.world.rig import SimRig
+from tests.fixtures.sim_rig import SimRig
 
 
 def test_every_servo_by_default_and_a_share_in_turn() -> None:

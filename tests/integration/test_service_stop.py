@@ -12,8 +12,8 @@ from pathlib import Path
 
 from clients.robot import Robot
 from robot_daemon.launch.service import STOP_TIMEOUT_S
-from robot_daemon.sim.control import SimControl
 from schemas.session import free_tcp_port, open_client
+from schemas.sim_control import SimControl
 from tests.fixtures.emulator import start_emulator_process
 from tests.fixtures.system import EventLog, spawn_darwin, stop_group
 

@@ -8,7 +8,7 @@ import subprocess
 from collections.abc import Callable
 
 from robot_daemon.bus.tables import MX28, SERVO_IDS
-from robot_daemon.sim import Emulator
+from robot_daemon.emulator import Emulator
 from tests.fixtures.emulator import open_sdk
 from tests.fixtures.system import REPO, darwin_command
 

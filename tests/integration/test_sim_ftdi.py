@@ -14,9 +14,9 @@ from robot_daemon.bus.dxl import DxlBus, ReplyBudget
 from robot_daemon.bus.packet import status_packet
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.tables import CM730, CM730_ID, SERVO_IDS, sensor_blocks
-from robot_daemon.sim import Emulator
-from robot_daemon.sim.ftdi import USB_PACKET_BYTES, FtdiChip
-from robot_daemon.sim.settings import EmulatorSettings
+from robot_daemon.emulator import Emulator
+from robot_daemon.emulator.ftdi import USB_PACKET_BYTES, FtdiChip
+from robot_daemon.emulator.settings import EmulatorSettings
 from schemas.errors import ConfigError
 from tests.fixtures.emulator import darwin_command
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from hypothesis import HealthCheck, given, settings
 
 from robot_daemon.bus.tables import CM730_ID, CM730_MODEL, MX28_MODEL
-from robot_daemon.sim import Emulator
+from robot_daemon.emulator import Emulator
 from tests.fixtures.emulator import open_sdk
 from tests.unit.test_sim_fuzz import line_noise
 

@@ -19,7 +19,7 @@ from robot_daemon.bus.tables import (
     SERVO_IDS,
 )
 from robot_daemon.frames import JointFrame
-from robot_daemon.sim.world.rig import TICK_S, SimRig
+from tests.fixtures.sim_rig import TICK_S, SimRig
 
 FRAME_FIELDS = (
     "position",

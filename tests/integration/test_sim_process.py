@@ -13,9 +13,9 @@ import serial
 from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS
 
 from robot_daemon.bus.tables import CM730, CM730_ID, CM730_MODEL, MX28, MX28_MODEL, SERVO_IDS
-from robot_daemon.sim.control import SimControl
 from schemas.errors import CommandError, InvalidCommandError
 from schemas.session import open_client
+from schemas.sim_control import SimControl
 from tests.fixtures.emulator import (
     SimProcess,
     open_sdk,

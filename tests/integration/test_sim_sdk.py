@@ -32,7 +32,7 @@ from robot_daemon.bus.tables import (
     ErrorBit,
     Instruction,
 )
-from robot_daemon.sim import Emulator
+from robot_daemon.emulator import Emulator
 from schemas import units
 from tests.fixtures.emulator import open_sdk, wait_until
 

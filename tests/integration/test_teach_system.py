@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from clients.pages import joints_of
-from robot_daemon.sim.control import SimControl
 from schemas.errors import ClientError, InvalidCommandError, NoLeaseError
+from schemas.sim_control import SimControl
 from tests.fixtures.system import EventLog, RunningSystem, start_system
 
 # Right arm moved "by hand": ids 1, 3, 5 (rad, inside the configured limits).

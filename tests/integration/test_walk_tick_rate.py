@@ -10,7 +10,7 @@ import functools
 import pytest
 
 from config.loader import load_all
-from robot_daemon.sim.world.rig import SimRig
+from tests.fixtures.sim_rig import SimRig
 
 SECONDS = 4.8  # eight gait periods of 600 ms
 

@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 from config.loader import load_all
-from robot_daemon.sim.world.rig import SimRig
+from tests.fixtures.sim_rig import SimRig
 from tests.physics.parallel import tries
 
 RUNS = 20

@@ -26,7 +26,7 @@ mujoco = pytest.importorskip(
 )
 cv2 = pytest.importorskip("cv2")
 
-from robot_daemon.sim.physics.camera import (  # noqa: E402
+from robot_daemon.plant.physics.mujoco_camera import (  # noqa: E402
     GLUnavailableError,
     MujocoCamera,
     WorldCamera,
@@ -188,7 +188,7 @@ def test_without_a_gl_backend_it_says_so_in_one_line() -> None:
     OSMesa looks like to the camera. The world catches this error and draws with OpenCV."""
     code = (
         "import mujoco\n"
-        "from robot_daemon.sim.physics.camera import GLUnavailableError, MujocoCamera\n"
+        "from robot_daemon.plant.physics.mujoco_camera import GLUnavailableError, MujocoCamera\n"
         f"m = mujoco.MjModel.from_xml_string({SCENE!r})\n"
         "try:\n"
         "    MujocoCamera(m, 32, 24)\n"
@@ -219,7 +219,7 @@ def test_a_camera_still_open_at_exit_ends_its_thread_before_the_interpreter_fina
         "    print('alive at exit:', alive, flush=True)\n"
         "atexit.register(last)\n"
         "import mujoco\n"
-        "from robot_daemon.sim.physics.camera import MujocoCamera\n"
+        "from robot_daemon.plant.physics.mujoco_camera import MujocoCamera\n"
         f"m = mujoco.MjModel.from_xml_string({SCENE!r})\n"
         "cam = MujocoCamera(m, 32, 24)\n"
         "cam.render(mujoco.MjData(m))\n"

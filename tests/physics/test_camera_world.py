@@ -11,8 +11,8 @@ import cv2
 import numpy as np
 import pytest
 
-from robot_daemon.sim.world.rig import SimRig
 from robot_daemon.vision.ball_finder import BallFinder, FinderSettings
+from tests.fixtures.sim_rig import SimRig
 
 BALLS = [(0.5, 0.1), (0.35, -0.2), (0.9, 0.3)]
 

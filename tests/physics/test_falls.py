@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from robot_daemon.sim.world.rig import SimRig
+from tests.fixtures.sim_rig import SimRig
 from tests.physics import parallel
 
 TRIES = 10

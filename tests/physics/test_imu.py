@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 from robot_daemon.bus.tables import CM730
+from robot_daemon.emulator.emulator import Emulator
 from robot_daemon.frames import Targets
-from robot_daemon.sim.emulator import Emulator
-from robot_daemon.sim.physics.world import MujocoWorld
-from robot_daemon.sim.world.rig import SimRig
-from robot_daemon.sim.world.world import SimWorld
+from robot_daemon.plant.physics.mujoco_world import MujocoWorld
+from robot_daemon.plant.world import SimWorld
 from schemas.units import IMU_CENTER
+from tests.fixtures.sim_rig import SimRig
 
 CM = 200
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from config.body import default_body
-from robot_daemon.sim.physics.model import CAMERA, ROOT, world_mjcf
+from robot_daemon.plant.physics.mjcf_model import CAMERA, ROOT, world_mjcf
 from schemas.kinematics import camera_pose, leg_fk
 
 

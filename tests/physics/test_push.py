@@ -6,14 +6,14 @@ from __future__ import annotations
 
 import pytest
 
-from robot_daemon.sim.control import run_op
-from robot_daemon.sim.world import control
-from robot_daemon.sim.world.rig import SimRig
+from robot_daemon.emulator.control_service import run_op
+from robot_daemon.plant import world_ops
+from tests.fixtures.sim_rig import SimRig
 
 
 @pytest.fixture(autouse=True)
 def _world_ops() -> None:
-    control.install()  # what the sim plugin does when it attaches a world
+    world_ops.install()  # what `darwin sim` does when it attaches a world
 
 
 @pytest.mark.parametrize(

@@ -9,7 +9,7 @@ import pytest
 
 from robot_daemon.bus.tables import MX28
 from robot_daemon.frames import Targets
-from robot_daemon.sim.world.rig import TICK_S, SimRig
+from tests.fixtures.sim_rig import TICK_S, SimRig
 
 PAN = 19
 

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from robot_daemon.sim.world.rig import SimRig
+from tests.fixtures.sim_rig import SimRig
 
 
 @pytest.fixture(scope="module")

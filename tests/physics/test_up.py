@@ -8,8 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from robot_daemon.sim.control import SimControl
 from schemas.messages import Event
+from schemas.sim_control import SimControl
 from tests.fixtures.system import start_system
 from tests.integration.test_motion_system import WAIT, Events
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from robot_daemon.sim.world.rig import SimRig
+from tests.fixtures.sim_rig import SimRig
 
 WALK_S = 10.0
 
@@ -81,7 +81,7 @@ def test_with_the_opposite_gyro_signs_the_balance_feedback_throws_it_over(monkey
     counts growing the other way (the project's old map) is positive feedback."""
     from robot_daemon.bus import state
     from robot_daemon.bus.tables import CM730
-    from robot_daemon.sim import devices
+    from robot_daemon.emulator import devices
 
     wrong = ((CM730.GYRO_X, 1), (CM730.GYRO_Y, 1), (CM730.GYRO_Z, 1))
     monkeypatch.setattr(devices, "IMU_GYRO_AXES", wrong)

@@ -7,16 +7,16 @@ import math
 import pytest
 
 from robot_daemon.bus.tables import MX28, ErrorBit
+from robot_daemon.emulator.control_service import run_op
 from robot_daemon.frames import Targets
-from robot_daemon.sim.control import run_op
-from robot_daemon.sim.world import control
-from robot_daemon.sim.world.rig import TICK_S, SimRig
+from robot_daemon.plant import world_ops
 from schemas.messages import World, decode, encode
+from tests.fixtures.sim_rig import TICK_S, SimRig
 
 
 @pytest.fixture
 def rig() -> SimRig:
-    control.install()
+    world_ops.install()
     r = SimRig(seed=4, physics="mujoco", vision_fps=1.0)
     r.emulator.world = r.world  # type: ignore[attr-defined]  # as the sim plugin does
     return r

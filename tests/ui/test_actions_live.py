@@ -14,7 +14,7 @@ from textual.widgets import DataTable
 
 from clients.pages import joints_of
 from clients.tui.tabs.actions import ActionsTab, ConfirmScreen
-from robot_daemon.sim.control import SimControl
+from schemas.sim_control import SimControl
 from tests.fixtures.system import RunningSystem, start_system
 from tests.ui.live import connected, live_app, show_tab, toggle_lease, until
 

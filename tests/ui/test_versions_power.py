@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from clients.tui.messages import LinkState
-from robot_daemon.sim.control import SimControl
+from schemas.sim_control import SimControl
 from schemas.versions import ENV_ANNOUNCE, PROTOCOL_VERSION
 from tests.fixtures.system import start_system
 from tests.ui.live import connected, live_app, until

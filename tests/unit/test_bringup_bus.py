@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from robot_daemon.bus.packet import BadChecksum
 from robot_daemon.bus.tables import BROADCAST_ID, CM730_ID, Instruction
-from robot_daemon.sim import Emulator
+from robot_daemon.emulator import Emulator
 from tests.unit.test_bus_robot import make_bus
 
 

@@ -8,8 +8,8 @@ from collections.abc import Callable
 from config.loader import load_all, load_robot
 from robot_daemon.bus.robot_bus import RobotBus
 from robot_daemon.bus.tables import MX28
+from robot_daemon.emulator import Emulator
 from robot_daemon.motion.setup import build_manager
-from robot_daemon.sim import Emulator
 from tests.unit.motion_rig import PerfectServos
 from tests.unit.test_bus_robot import make_bus
 

@@ -16,8 +16,8 @@ from config.loader import load_all, robot_from_dict
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.robot_bus import RobotBus
+from robot_daemon.emulator import Emulator
 from robot_daemon.frames import Targets
-from robot_daemon.sim import Emulator
 from schemas.errors import NoReplyError, PortError, PortInUseError
 
 

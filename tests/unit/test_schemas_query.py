@@ -87,8 +87,8 @@ def test_every_project_exception_is_in_the_one_tree() -> None:
     assert not undrawn, f"exceptions missing from the tree drawn in schemas/errors.py: {undrawn}"
     from gateway.outbox import SlowReaderError
     from robot_daemon.arbiter.registry import Reject as RegistryReject
+    from robot_daemon.emulator.op_table import FieldError
     from robot_daemon.motion.behaviours import BehaviourError
-    from robot_daemon.sim.control import FieldError
 
     for cls in (SlowReaderError, RegistryReject, BehaviourError, FieldError):
         assert issubclass(cls, DarwinError), cls

@@ -7,8 +7,8 @@ import pytest
 
 from robot_daemon.bus.packet import Packet, PacketParser, instruction_packet
 from robot_daemon.bus.tables import CM730_ID, MX28, ErrorBit, Instruction
-from robot_daemon.sim import Emulator, EmulatorSettings
-from robot_daemon.sim.bus import Bus
+from robot_daemon.emulator import Emulator, EmulatorSettings
+from robot_daemon.emulator.servo_chain import Bus
 from schemas import units
 
 

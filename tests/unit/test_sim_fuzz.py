@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from robot_daemon.bus.packet import PacketParser, instruction_packet, status_packet
 from robot_daemon.bus.tables import CM730_MODEL, Instruction
-from robot_daemon.sim.bus import Bus
+from robot_daemon.emulator.servo_chain import Bus
 
 INSTRUCTIONS = [int(i) for i in Instruction] + [0x00, 0x07, 0x55, 0xFF]
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from robot_daemon.sim import EmulatorSettings
+from robot_daemon.emulator import EmulatorSettings
 from schemas.errors import ConfigError
 
 
@@ -31,7 +31,7 @@ def test_unknown_settings_are_named(tmp_path: Path) -> None:
 
 
 def test_physics_plant_is_checked() -> None:
-    from robot_daemon.sim.settings import EmulatorSettings
+    from robot_daemon.emulator.settings import EmulatorSettings
     from schemas.errors import ConfigError
 
     assert EmulatorSettings.from_dict({}).physics == "kinematic"
@@ -49,7 +49,7 @@ def test_shipped_world_config_reads_in_radians_and_splits_the_camera_table() -> 
     import math
 
     from config.loader import load_all
-    from robot_daemon.sim.world.settings import WorldSettings
+    from robot_daemon.plant.world_settings import WorldSettings
 
     s = WorldSettings.from_config(load_all()["world"])
     assert s.robot_start == (-1.0, 0.0, 0.0) and s.ball_start == (-0.4, 0.0)
@@ -73,7 +73,7 @@ def test_shipped_world_config_reads_in_radians_and_splits_the_camera_table() -> 
     ],
 )
 def test_world_config_mistakes_are_named(world: dict, named: str) -> None:
-    from robot_daemon.sim.world.settings import WorldSettings
+    from robot_daemon.plant.world_settings import WorldSettings
 
     with pytest.raises(ConfigError, match=named):
         WorldSettings.from_config(world)
@@ -81,7 +81,7 @@ def test_world_config_mistakes_are_named(world: dict, named: str) -> None:
 
 def test_physics_sub_tables_fill_the_flat_settings_and_refuse_strangers() -> None:
     from config.loader import load_all
-    from robot_daemon.sim.physics.model import PhysicsSettings
+    from robot_daemon.plant.physics.mjcf_model import PhysicsSettings
 
     s = PhysicsSettings.from_config(load_all())
     assert (s.timestep, s.stall_torque, s.foot_condim, s.fall_tilt_deg) == (0.001, 2.5, 3, 60.0)
@@ -92,7 +92,7 @@ def test_physics_sub_tables_fill_the_flat_settings_and_refuse_strangers() -> Non
         PhysicsSettings.from_config({"physics": {"timestpe": 0.001}})
 
 
-@pytest.mark.parametrize("command", ["robot_daemon.sim.cli", "robot_daemon.launch.up"])
+@pytest.mark.parametrize("command", ["robot_daemon.plant.sim_cli", "robot_daemon.launch.up"])
 def test_darwin_sim_and_up_take_the_same_physics_option(command: str) -> None:
     import argparse
     import importlib

@@ -9,8 +9,8 @@ import pytest
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
 
 from robot_daemon.bus.tables import MX28, SERVO_IDS
-from robot_daemon.sim import Emulator
-from robot_daemon.sim.control import handle_request
+from robot_daemon.emulator import Emulator
+from robot_daemon.emulator.control_service import handle_request
 from tests.fixtures.emulator import WaitingPortHandler, open_sdk
 
 WaitingPortHandler.reply_margin_ms = 150.0

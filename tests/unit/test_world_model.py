@@ -9,12 +9,12 @@ import msgpack
 import numpy as np
 import pytest
 
+from robot_daemon.emulator.control_service import handle_request
 from robot_daemon.motion.walking.ik import leg_ik
-from robot_daemon.sim.control import handle_request
-from robot_daemon.sim.world import control
-from robot_daemon.sim.world.ball import Ball
-from robot_daemon.sim.world.settings import BallSettings, FeetSettings, WorldSettings
-from robot_daemon.sim.world.world import SimWorld
+from robot_daemon.plant import world_ops
+from robot_daemon.plant.ball import Ball
+from robot_daemon.plant.world import SimWorld
+from robot_daemon.plant.world_settings import BallSettings, FeetSettings, WorldSettings
 from schemas import units
 from schemas.kinematics import leg_angles_to_servo
 from schemas.messages import World, decode, encode
@@ -174,7 +174,7 @@ class _Emu:
 
 
 def call(emu: _Emu, **request) -> tuple[bool, dict]:
-    control.install()
+    world_ops.install()
     ok, payload = handle_request(emu, request)  # type: ignore[arg-type]
     return ok, msgpack.unpackb(payload)
 

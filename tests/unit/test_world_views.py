@@ -7,10 +7,10 @@ import threading
 
 import numpy as np
 
-from robot_daemon.sim.world.ball import BallState
-from robot_daemon.sim.world.render import CameraPose
-from robot_daemon.sim.world.settings import WorldSettings
-from robot_daemon.sim.world.views import WorldViews
+from robot_daemon.plant.ball import BallState
+from robot_daemon.plant.render import CameraPose
+from robot_daemon.plant.views import WorldViews
+from robot_daemon.plant.world_settings import WorldSettings
 
 
 class _Plant(WorldViews):

@@ -322,7 +322,7 @@ class PageEditView(TabView):
         rad = math.radians(now + sign * HAND_STEP_DEG)
 
         def push() -> None:
-            from robot_daemon.sim.control import SimControl
+            from schemas.sim_control import SimControl
 
             try:
                 SimControl(robot.session, robot.target.robot, timeout=2.0).call(

@@ -1,41 +1,31 @@
-"""``darwin sim``: the hardware emulator on a pseudo-terminal until SIGINT/SIGTERM.
+"""``darwin sim``: the hardware emulator on a pseudo-terminal, with its world, until SIGINT/SIGTERM.
 
 Prints one line ``port: <path>`` on stdout once the port accepts clients. With
 ``--control-listen ENDPOINT`` it also serves the control ops (faults, state, body motion…) on
 ``darwin/<robot>/sim/control``.
 
-Extensions (the simulated world): if ``robot_daemon.sim.world.plugin`` exists it is imported;
-its ``add_arguments(parser)`` adds options here and ``attach(emulator, args, session)`` is
-called once the emulator runs (``session`` is the control session or None) and may return a
-function called at shutdown.
+This module composes the two halves: the emulator (:mod:`robot_daemon.emulator`, which never
+imports the plant) and the simulated world (:mod:`robot_daemon.plant.world_link`: its
+``add_arguments(parser)`` adds options here and ``attach(emulator, args, session)`` is called
+once the emulator runs, ``session`` being the control session or None, and returns a function
+called at shutdown, or None with ``--no-world``).
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib
 import logging
 import signal
 import sys
 import threading
-from types import ModuleType
 from typing import Any
 
-from robot_daemon.sim.emulator import Emulator
-from robot_daemon.sim.settings import EmulatorSettings, add_physics_option
+from robot_daemon.emulator.emulator import Emulator
+from robot_daemon.emulator.settings import EmulatorSettings, add_physics_option
+from robot_daemon.plant import world_link
 
 log = logging.getLogger(__name__)
-PLUGIN = "robot_daemon.sim.world.plugin"
-
-
-def _plugin() -> ModuleType | None:
-    try:
-        return importlib.import_module(PLUGIN)
-    except ModuleNotFoundError as exc:
-        if exc.name and PLUGIN.startswith(exc.name):
-            return None
-        raise
 
 
 def _ids(text: str) -> list[int]:
@@ -140,9 +130,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--robot", metavar="NAME", help="robot name in the control key (default op1)"
     )
-    plugin = _plugin()
-    if plugin is not None:
-        plugin.add_arguments(parser)
+    world_link.add_arguments(parser)
 
 
 def settings_from_args(args: argparse.Namespace) -> EmulatorSettings:
@@ -153,7 +141,7 @@ def settings_from_args(args: argparse.Namespace) -> EmulatorSettings:
 def run(args: argparse.Namespace) -> int:
     settings = settings_from_args(args)
     if settings.physics == "mujoco":
-        from robot_daemon.sim.physics.world import import_mujoco
+        from robot_daemon.plant.physics.mujoco_world import import_mujoco
 
         try:
             import_mujoco()
@@ -180,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
             return 2
         session = None
         if args.control_listen:
-            from robot_daemon.sim.control import serve_control
+            from robot_daemon.emulator.control_service import serve_control
             from schemas.session import open_server, resolve
 
             target = resolve(args.control_listen, args.robot)
@@ -189,11 +177,9 @@ def run(args: argparse.Namespace) -> int:
             queryable = serve_control(session, target.robot, emulator)
             stack.callback(queryable.undeclare)
             log.info("sim control on %s (robot %s)", target.endpoint, target.robot)
-        plugin = _plugin()
-        if plugin is not None:
-            closer = plugin.attach(emulator, args, session)
-            if closer is not None:
-                closers.append(closer)
+        closer = world_link.attach(emulator, args, session)
+        if closer is not None:
+            closers.append(closer)
         print(f"port: {emulator.port}", flush=True)
         print(f"seed {emulator.seed} on {emulator.port}", file=sys.stderr, flush=True)
         # With a timeout: a signal the kernel hands to another thread (one arriving while an

@@ -8,7 +8,7 @@ each off by default so tests turn on the one they reproduce:
 * ``sag_units``: the steady-state error of a P-only position loop under load, in position
   units at full external load with P = 32 (scaled by 32 / P): a loaded joint stands below its
   goal, so re-commanding the present position makes it sink by that much each time;
-* ``cm730_late_reads`` (in :mod:`robot_daemon.sim.bus`): a CM-730 that answers late;
+* ``cm730_late_reads`` (in :mod:`robot_daemon.emulator.servo_chain`): a CM-730 that answers late;
 * DXL power lost: the ``dxl_power_loss`` control op (the CM-730's reset button, a glitch):
   DXL_POWER reads 0 and the servos go silent until the host powers them again.
 """
@@ -20,8 +20,8 @@ from typing import TYPE_CHECKING
 from robot_daemon.bus.tables import CM730, MX28
 
 if TYPE_CHECKING:
-    from robot_daemon.sim.bus import Bus
-    from robot_daemon.sim.settings import EmulatorSettings
+    from robot_daemon.emulator.servo_chain import Bus
+    from robot_daemon.emulator.settings import EmulatorSettings
 
 OLD_FIRMWARE = 26
 LEFTOVER_SPEED = 40  # ~4.6 rpm: a pose that takes seconds to reach

@@ -23,15 +23,15 @@ from typing import TYPE_CHECKING, Any
 import zenoh
 
 from config.loader import load_all
-from robot_daemon.sim.world import control
-from robot_daemon.sim.world.settings import WorldSettings
-from robot_daemon.sim.world.world import SimWorld, make_world
+from robot_daemon.plant import world_ops
+from robot_daemon.plant.world import SimWorld, make_world
+from robot_daemon.plant.world_settings import WorldSettings
 from schemas import qos
 from schemas.keys import Keys
 from schemas.messages import encode
 
 if TYPE_CHECKING:
-    from robot_daemon.sim.emulator import Emulator
+    from robot_daemon.emulator.emulator import Emulator
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +84,7 @@ def attach(
     world = world_from_args(args, emulator.settings.physics)
     world.attach(emulator)
     emulator.world = world  # type: ignore[attr-defined]  # the control ops find it here
-    control.install()
+    world_ops.install()
     robot = getattr(args, "robot", None) or "op1"
     link = WorldLink(emulator, world, robot, session, getattr(args, "world_connect", None))
     link.start()
@@ -118,7 +118,7 @@ class WorldLink:
         self._thread.start()
 
     def _open(self) -> zenoh.Session | None:
-        from robot_daemon.sim.control import serve_control
+        from robot_daemon.emulator.control_service import serve_control
         from schemas.session import open_client
 
         delay = 0.05

@@ -2,7 +2,7 @@
 with the servos brought to "now" before every packet and a physics thread running the hooks
 every ``idle_step_s`` in a quiet moment of the bus.
 
-A mixin of :class:`~robot_daemon.sim.emulator.Emulator` (which provides ``lock``, ``bus``,
+A mixin of :class:`~robot_daemon.emulator.emulator.Emulator` (which provides ``lock``, ``bus``,
 ``settings`` and the serving thread's events); kept apart so the serving loop stays readable.
 """
 
@@ -15,12 +15,12 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from robot_daemon.sim.bus import Bus
-    from robot_daemon.sim.emulator import Emulator
-    from robot_daemon.sim.settings import EmulatorSettings
+    from robot_daemon.emulator.emulator import Emulator
+    from robot_daemon.emulator.servo_chain import Bus
+    from robot_daemon.emulator.settings import EmulatorSettings
 
 # Logged as the emulator: its lines keep the name they are filtered and read by.
-log = logging.getLogger("robot_daemon.sim.emulator")
+log = logging.getLogger("robot_daemon.emulator.emulator")
 
 PhysicsHook = Callable[[float, "Emulator"], None]
 _MAX_CATCH_UP_S = 0.1

@@ -17,7 +17,7 @@ and what a servo straight out of its box looks like.
 from __future__ import annotations
 
 from robot_daemon.bus.tables import MX28
-from robot_daemon.sim.devices import Device, Servo
+from robot_daemon.emulator.devices import Device, Servo
 from schemas import units
 
 # A UART still frames bytes whose rate is this close to its own (the MX-28's 57,142 bps for

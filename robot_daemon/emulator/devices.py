@@ -8,7 +8,7 @@ Modelling choices (documented, not firmware-exact):
 * The plant: by default (kinematic) a servo with torque on moves its present position toward the
   goal at the moving speed (0 = the MX-28's maximum, 55 rpm at 12 V, scaled with the supply
   voltage); torque off leaves it where it is (the world may move it with
-  :meth:`Servo.set_position`). Under a physics plant (``robot_daemon/sim/physics``) the plant
+  :meth:`Servo.set_position`). Under a physics plant (``robot_daemon/plant/physics``) the plant
   reads the registers (goal, gains, torque limit, torque enable) and reports the joint back
   through :meth:`Servo.plant_update`: position, speed and the motor's torque.
 * Present load is the external load the world applies plus a share for accelerating the horn
@@ -41,7 +41,7 @@ from robot_daemon.bus.tables import (
     MX28_TABLE_SIZE,
     ErrorBit,
 )
-from robot_daemon.sim.table import ControlTable
+from robot_daemon.emulator.control_table import ControlTable
 from schemas import units
 
 # The overheating alarm, once raised, lasts until the servo is this much below its limit.
@@ -136,7 +136,7 @@ class Servo(Device):
         # Set by a physics plant (plant_update): the motor's torque (N·m); None = kinematic plant.
         self.plant_torque: float | None = None
         self.saturated_s = 0.0  # how long the physics motor has been held at its limit
-        # Options of robot_daemon/sim/bringup.py: firmware version, RAM left by a previous
+        # Options of robot_daemon/emulator/bringup.py: firmware version, RAM left by a previous
         # program (set again at every power-on), steady-state error under load.
         self.firmware: int | None = None
         self.leftover: dict = {}

@@ -54,7 +54,7 @@ class EmulatorSettings:
     idle_step_s: float = 0.02
     packet_timeout_s: float = 0.01
     # > 0: deliver replies as an FTDI USB chip does (62-byte USB packets, the rest when this
-    # latency timer fires; robot_daemon/sim/ftdi.py); 0: each reply when its last byte is in.
+    # latency timer fires; robot_daemon/emulator/ftdi.py); 0: each reply when its last byte is in.
     ftdi_latency_ms: float = ranged(0.0, 0.0, 255.0)
     drop: float = 0.0
     corrupt: float = 0.0
@@ -63,7 +63,7 @@ class EmulatorSettings:
     silent_ids: list[int] = field(default_factory=list)
     # The CM-730 ignores this many READ/BULK_READ instructions first (a late CM-730).
     cm730_late_reads: int = 0
-    # First-session behaviours of real servos (robot_daemon/sim/bringup.py).
+    # First-session behaviours of real servos (robot_daemon/emulator/bringup.py).
     old_firmware_ids: list[int] = field(default_factory=list)
     leftover_ram_ids: list[int] = field(default_factory=list)
     sag_units: float = 0.0

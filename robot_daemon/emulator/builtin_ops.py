@@ -1,4 +1,4 @@
-"""The emulator's built-in control ops (see :mod:`robot_daemon.sim.control`).
+"""The emulator's built-in control ops (served by :mod:`robot_daemon.emulator.control_service`).
 
 | op | fields | does |
 |---|---|---|
@@ -26,8 +26,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from robot_daemon.sim import bringup
-from robot_daemon.sim.control import control_op, control_ops, field
+from robot_daemon.emulator import bringup
+from robot_daemon.emulator.op_table import control_op, control_ops, field
 from schemas.units import GRAVITY
 
 Request = dict[str, Any]

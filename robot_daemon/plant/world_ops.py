@@ -25,13 +25,13 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any
 
-from robot_daemon.sim.control import field, register_control_op
+from robot_daemon.emulator.op_table import field, register_control_op
 from robot_daemon.vision.opencv import encode_jpeg
 from schemas.errors import FieldError, brief
 
 if TYPE_CHECKING:
-    from robot_daemon.sim.emulator import Emulator
-    from robot_daemon.sim.world.world import SimWorld
+    from robot_daemon.emulator.emulator import Emulator
+    from robot_daemon.plant.world import SimWorld
 
 RENDER_FORMATS = ("bgr", "jpeg")
 # Anything placed farther than this from the field centre is a typo, not a test (m).

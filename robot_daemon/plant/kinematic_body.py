@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_daemon.sim.world.settings import FallSettings, FeetSettings, ImuSettings
+from robot_daemon.plant.world_settings import FallSettings, FeetSettings, ImuSettings
 from schemas import units
 from schemas.kinematics import SIDES, Positions, Side, leg_fk, matrix_rpy, rot_y, rot_z, transform
 

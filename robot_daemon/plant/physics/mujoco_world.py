@@ -1,9 +1,9 @@
 """The MuJoCo plant: the robot, a field and a ball in rigid-body physics, under the emulator.
 
-:class:`MujocoWorld` has the kinematic :class:`~robot_daemon.sim.world.world.SimWorld`'s
+:class:`MujocoWorld` has the kinematic :class:`~robot_daemon.plant.world.SimWorld`'s
 interface (place robot and ball, snapshot, camera view, render, ``attach``), so the control ops,
 the World publication, the camera source and the rig work unchanged. Attached to an
-:class:`~robot_daemon.sim.emulator.Emulator`, every physics step of the emulator
+:class:`~robot_daemon.emulator.emulator.Emulator`, every physics step of the emulator
 
 1. reads each servo's registers under the emulator's lock: goal (approached at the moving speed
    register's rate, 0 = at once), torque enable and power, P gain
@@ -29,8 +29,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from config.body import default_body
-from robot_daemon.sim.physics.camera import WorldCamera
-from robot_daemon.sim.physics.model import (
+from robot_daemon.plant.ball import BallState
+from robot_daemon.plant.physics.mjcf_model import (
     BALL,
     CAMERA,
     MJ_CAMERA_IN_CAMERA,
@@ -38,16 +38,16 @@ from robot_daemon.sim.physics.model import (
     PhysicsSettings,
     world_mjcf,
 )
-from robot_daemon.sim.world.ball import BallState
-from robot_daemon.sim.world.render import CameraPose
-from robot_daemon.sim.world.settings import WorldSettings
-from robot_daemon.sim.world.views import WorldViews
+from robot_daemon.plant.physics.mujoco_camera import WorldCamera
+from robot_daemon.plant.render import CameraPose
+from robot_daemon.plant.views import WorldViews
+from robot_daemon.plant.world_settings import WorldSettings
 from schemas import units
 from schemas.body import Body
 from schemas.extras import message
 
 if TYPE_CHECKING:
-    from robot_daemon.sim.emulator import Emulator
+    from robot_daemon.emulator.emulator import Emulator
 
 MISSING = message("physics", "the MuJoCo plant")
 # Where a removed ball waits, out of the field (m).

@@ -4,14 +4,14 @@
         port = PortHandler(emu.port)        # dynamixel-sdk, exactly as on the robot
 
 One thread blocks in ``select`` on the pty (and a wake-up pipe), parses what arrives, lets the
-:class:`~robot_daemon.sim.bus.Bus` answer, and writes the replies when a 1 Mbps wire would have
-delivered them. Time (``sim/clock.py``): with ``realtime`` the servos advance to "now" before
-every packet, and a physics thread runs the physics hooks every ``idle_step_s`` (only while
-there are hooks), in a quiet moment of the bus when a host is polling it; without it, only
-:meth:`advance` moves time (a simulated clock can then run faster than real time). Every public
-method is thread-safe.
+:class:`~robot_daemon.emulator.servo_chain.Bus` answer, and writes the replies when a 1 Mbps
+wire would have delivered them. Time (``emulator/clock.py``): with ``realtime`` the servos
+advance to "now" before every packet, and a physics thread runs the physics hooks every
+``idle_step_s`` (only while there are hooks), in a quiet moment of the bus when a host is
+polling it; without it, only :meth:`advance` moves time (a simulated clock can then run faster
+than real time). Every public method is thread-safe.
 
-The seam for the simulated world (``robot_daemon/sim/world``): :meth:`add_physics_hook` gets
+The seam for the simulated world (``robot_daemon/plant``): :meth:`add_physics_hook` gets
 ``fn(dt, emulator)`` after every physics step (at most ``max_step_s`` long), and inside it the
 world reads :meth:`present_positions` / :meth:`goal_positions` and feeds back
 :meth:`set_body_motion` (and :meth:`set_present_position` for limp joints). Hooks run without
@@ -33,16 +33,16 @@ import numpy as np
 
 from robot_daemon.bus.packet import PACKET_OVERHEAD, BadChecksum, Frame, PacketParser
 from robot_daemon.bus.tables import Instruction
+from robot_daemon.emulator import bringup
+from robot_daemon.emulator.api import EmulatorApi
+from robot_daemon.emulator.clock import EmulatorClock, PhysicsHook
+from robot_daemon.emulator.devices import Environment
+from robot_daemon.emulator.faults import Faults
+from robot_daemon.emulator.ftdi import FtdiChip
+from robot_daemon.emulator.pty_link import PtyLink
+from robot_daemon.emulator.servo_chain import Bus
+from robot_daemon.emulator.settings import EmulatorSettings
 from robot_daemon.realtime import check_priority, enter_realtime
-from robot_daemon.sim import bringup
-from robot_daemon.sim.bus import Bus
-from robot_daemon.sim.clock import EmulatorClock, PhysicsHook
-from robot_daemon.sim.devices import Environment
-from robot_daemon.sim.faults import Faults
-from robot_daemon.sim.ftdi import FtdiChip
-from robot_daemon.sim.pty_link import PtyLink
-from robot_daemon.sim.settings import EmulatorSettings
-from robot_daemon.sim.state import EmulatorApi
 
 log = logging.getLogger(__name__)
 
@@ -298,10 +298,11 @@ class Emulator(EmulatorClock, EmulatorApi):
     def exchange(
         self, parser: PacketParser, data: bytes, t: float
     ) -> tuple[list[tuple[float, bytes]], float]:
-        """The in-process link's way in (:class:`robot_daemon.sim.link.EmulatorLink`): bytes a
-        host puts on the wire at ``t`` (the link's clock, s), framed by the link's own
-        ``parser``; returns the replies, each with the time a 1 Mbps wire would have delivered
-        it, and the time the wire is free again."""
+        """The in-process link's way in
+        (:class:`robot_daemon.emulator.inprocess_link.EmulatorLink`): bytes a host puts on the
+        wire at ``t`` (the link's clock, s), framed by the link's own ``parser``; returns the
+        replies, each with the time a 1 Mbps wire would have delivered it, and the time the wire
+        is free again."""
         with self.lock:
             self.stats["rx_bytes"] += len(data)
             return self._answer(parser.feed(data), t, wire_timing=True)

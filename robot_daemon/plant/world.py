@@ -3,7 +3,7 @@
 One :class:`SimWorld` lives where the emulator lives. :meth:`step` takes the servos' present
 positions (servo angles, rad, by id) and a time step, moves the body (support-foot odometry,
 falls), rolls the ball and kicks it when a foot sweeps through it, and returns what the IMU
-feels. :meth:`attach` hooks it to an :class:`~robot_daemon.sim.emulator.Emulator`, so every
+feels. :meth:`attach` hooks it to an :class:`~robot_daemon.emulator.emulator.Emulator`, so every
 physics step of the servos is a step of the world and the CM-730 reports the body's motion.
 
 Every public method is thread-safe: the emulator's thread steps the world while the control
@@ -20,16 +20,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from config.loader import load_all
-from robot_daemon.sim.settings import PLANTS
-from robot_daemon.sim.world.ball import Ball, BallState
-from robot_daemon.sim.world.body import Body
-from robot_daemon.sim.world.render import CameraPose
-from robot_daemon.sim.world.settings import WorldSettings
-from robot_daemon.sim.world.views import WorldViews
+from robot_daemon.emulator.settings import PLANTS
+from robot_daemon.plant.ball import Ball, BallState
+from robot_daemon.plant.kinematic_body import Body
+from robot_daemon.plant.render import CameraPose
+from robot_daemon.plant.views import WorldViews
+from robot_daemon.plant.world_settings import WorldSettings
 from schemas.kinematics import SIDES, camera_pose
 
 if TYPE_CHECKING:
-    from robot_daemon.sim.emulator import Emulator
+    from robot_daemon.emulator.emulator import Emulator
 
 
 def make_world(
@@ -44,8 +44,8 @@ def make_world(
     if plant == "kinematic":
         return SimWorld(settings, seed=seed)
     if plant == "mujoco":
-        from robot_daemon.sim.physics.model import PhysicsSettings
-        from robot_daemon.sim.physics.world import MujocoWorld, import_mujoco
+        from robot_daemon.plant.physics.mjcf_model import PhysicsSettings
+        from robot_daemon.plant.physics.mujoco_world import MujocoWorld, import_mujoco
 
         import_mujoco()
         physics = PhysicsSettings.from_config(config if config is not None else load_all())

@@ -15,9 +15,9 @@ endpoint the daemon connects to).
 
 from __future__ import annotations
 
-from robot_daemon.sim.control import SimControl
 from robot_daemon.vision.frames import JpegFrame
 from robot_daemon.vision.sources import SourceContext, register_source
+from schemas.sim_control import SimControl
 
 # A frame request that takes longer than this means the world is gone (s).
 RENDER_TIMEOUT = 2.0

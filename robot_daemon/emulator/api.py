@@ -1,6 +1,6 @@
 """The emulator's run-time API: the world's seam, faults on demand, and a snapshot of its state.
 
-A mixin of :class:`~robot_daemon.sim.emulator.Emulator` (which provides ``lock``, ``bus``,
+A mixin of :class:`~robot_daemon.emulator.emulator.Emulator` (which provides ``lock``, ``bus``,
 ``env``, ``faults``); kept apart so the serving loop stays readable. Angles are servo angles in
 rad (raw 2048 = 0), as :mod:`schemas.units` converts them.
 """
@@ -15,9 +15,9 @@ from robot_daemon.bus.tables import CM730, MX28
 from schemas import units
 
 if TYPE_CHECKING:
-    from robot_daemon.sim.bus import Bus
-    from robot_daemon.sim.devices import Environment
-    from robot_daemon.sim.faults import Faults
+    from robot_daemon.emulator.devices import Environment
+    from robot_daemon.emulator.faults import Faults
+    from robot_daemon.emulator.servo_chain import Bus
 
 BUTTONS = {"mode": 0x01, "start": 0x02}
 

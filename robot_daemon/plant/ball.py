@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_daemon.sim.world.settings import BallSettings, FeetSettings
+from robot_daemon.plant.world_settings import BallSettings, FeetSettings
 
 
 @dataclass

@@ -1,8 +1,8 @@
 """What every simulated plant shows the same way: the World message, the camera's view, the image.
 
-The kinematic :class:`~robot_daemon.sim.world.world.SimWorld` and the MuJoCo
-:class:`~robot_daemon.sim.physics.world.MujocoWorld` differ in how the body and ball move; what
-they publish and render from that state is one piece of code, here. A plant subclasses
+The kinematic :class:`~robot_daemon.plant.world.SimWorld` and the MuJoCo
+:class:`~robot_daemon.plant.physics.mujoco_world.MujocoWorld` differ in how the body and ball
+move; what they publish and render from that state is one piece of code, here. A plant subclasses
 :class:`WorldViews`, calls :meth:`_start_camera` in its constructor and says where things are
 (:meth:`_robot`, :meth:`_ball_now`, :meth:`_camera_pose`).
 """
@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from robot_daemon.sim.world.ball import BallState
-from robot_daemon.sim.world.render import BallView, CameraPose, Renderer
-from robot_daemon.sim.world.settings import WorldSettings
+from robot_daemon.plant.ball import BallState
+from robot_daemon.plant.render import BallView, CameraPose, Renderer
+from robot_daemon.plant.world_settings import WorldSettings
 from schemas.messages import World
 
 

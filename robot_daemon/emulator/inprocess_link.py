@@ -20,7 +20,7 @@ from collections import deque
 
 from robot_daemon.bus.packet import PacketParser
 from robot_daemon.bus.transport import Transport
-from robot_daemon.sim.emulator import Emulator
+from robot_daemon.emulator.emulator import Emulator
 
 # A wait ends just past its deadline: the SDK's timeout test is "elapsed > timeout".
 _PAST_MS = 1e-6

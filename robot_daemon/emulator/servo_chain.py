@@ -22,7 +22,7 @@ Which instructions answer (as the firmware does):
 * servos behind the CM-730 are silent and inert while DXL_POWER is 0 and for
   ``power_on_delay_s`` after it becomes 1; a ``silent`` ID never answers but still obeys;
 * only devices at the line's baud rate hear a frame, and servos behind a broken cable hear
-  nothing (:mod:`robot_daemon.sim.wiring`).
+  nothing (:mod:`robot_daemon.emulator.wiring`).
 """
 
 from __future__ import annotations
@@ -43,8 +43,8 @@ from robot_daemon.bus.tables import (
     ErrorBit,
     Instruction,
 )
-from robot_daemon.sim.devices import CM730Device, Device, Environment, Servo
-from robot_daemon.sim.wiring import hears, make_factory_fresh
+from robot_daemon.emulator.devices import CM730Device, Device, Environment, Servo
+from robot_daemon.emulator.wiring import hears, make_factory_fresh
 from schemas import units
 
 _MAX_READ = 250 - 6  # a status packet must fit the SDK's 250-byte receive buffer
