@@ -24,7 +24,9 @@ COMMANDS = (
         "a Zenoh router: the meeting point of a fleet of robots",
         30,
     ),
-    Command("sim", "robot_daemon.plant.sim_cli", "run the hardware emulator on a pseudo-terminal", 50),
+    Command(
+        "sim", "robot_daemon.plant.sim_cli", "run the hardware emulator on a pseudo-terminal", 50
+    ),
     Command(
         "scan",
         "robot_daemon.bus.scan",

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from config.loader import load_all, robot_from_dict
+from robot_daemon.emulator.settings import add_forwarded_options
 from robot_daemon.engine.daemon import Daemon, DaemonOptions
 from robot_daemon.engine.fleet_join import RouterWatch, check_login_needs_router
 from robot_daemon.launch.children import Child, relay_to_stderr
