@@ -6,7 +6,7 @@ and which channels (topic, message encoding, schema name/encoding/data, metadata
 sample is written to. ``darwin`` (the default) writes a JSON channel with a JSON Schema and the
 raw msgpack channel per topic; ``ros2`` (:mod:`clients.recording.ros2_profile`) a ROS 2 bag
 (``cdr`` messages, ``ros2msg`` schemas, MCAP header profile ``ros2``). Another plugs in by adding
-a :class:`Profile` to :data:`PROFILES`; nothing else changes.
+a :class:`Profile` to :data:`clients.recording.profiles.PROFILES`; nothing else changes.
 """
 
 from __future__ import annotations
@@ -137,23 +137,6 @@ class DarwinProfile:
 
 
 DARWIN = DarwinProfile()
-PROFILES: dict[str, Profile] = {DARWIN.name: DARWIN}
-
-# After DARWIN: the ROS 2 profile builds on it.
-from clients.recording.ros2_profile import ROS2  # noqa: E402
-
-PROFILES[ROS2.name] = ROS2
-
-
-def get_profile(name: str | Profile) -> Profile:
-    if not isinstance(name, str):
-        return name
-    try:
-        return PROFILES[name]
-    except KeyError:
-        raise ValueError(
-            f"unknown recording profile {name!r}; choose among {', '.join(PROFILES)}"
-        ) from None
 
 
 def check_topics(topics: Iterable[str] | None, profile: Profile = DARWIN) -> list[str]:

@@ -23,7 +23,7 @@ import zenoh
 
 from clients.protocol_watch import check_at
 from clients.recording.mcap_sink import CHUNK_BYTES
-from clients.recording.profile import PROFILES, get_profile
+from clients.recording.profiles import PROFILES, get_profile
 from clients.recording.recorder import (
     DEFAULT_TOPICS,
     FORMATS,

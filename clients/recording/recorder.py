@@ -32,7 +32,8 @@ import zenoh
 
 from clients.commander import Commander
 from clients.recording.mcap_sink import CHUNK_BYTES, McapSink
-from clients.recording.profile import DARWIN, Profile, check_topics, get_profile
+from clients.recording.profile import DARWIN, Profile, check_topics
+from clients.recording.profiles import get_profile
 from clients.recording.segments import (
     Sample,
     SegmentedSink,
