@@ -10,7 +10,7 @@ it what to do, does it with its own Commander or Robot, and tells it what happen
 
     if core.before_command(now):        # the lease is needed and not held: take it
         robot.acquire(); core.acquired(now)
-    robot.walk(x, y, turn); core.walking(now)
+    robot.walk(x, y, turn); core.walk(now)
     ...
     for action in core.tick(now):       # from a timer: STOP_WALK and/or RELEASE
         ...
@@ -50,6 +50,7 @@ class AdapterCore:
         self._last_cmd = float("-inf")
         self._last_walk = float("-inf")
         self._refused_burst = False
+        self._last_refusal = float("-inf")
         if self.burst_gap is None:
             self.burst_gap = self.deadman if self.deadman is not None else 0.5
 
@@ -78,6 +79,9 @@ class AdapterCore:
     def refused(self, now: float) -> bool:
         """Someone else holds the lease: True for the first refusal of a burst (report it)."""
         self.lost()
+        if self.burst_gap is not None and now - self._last_refusal > self.burst_gap:
+            self._refused_burst = False  # a quiet gap ended the last burst, ticked or not
+        self._last_refusal = now
         self.active(now)
         if self._refused_burst:
             return False

@@ -107,3 +107,10 @@ def test_the_burst_gap_is_its_own_setting_when_given() -> None:
     assert core.refused(1.5) is False
     core.tick(3.6)
     assert core.refused(3.6) is True
+
+
+def test_a_quiet_gap_ends_a_burst_even_without_a_timer() -> None:
+    core = AdapterCore(deadman=0.5)  # an adapter that ticks only while it walks
+    assert core.before_command(0.0) and core.refused(0.0) is True
+    assert core.before_command(0.3) and core.refused(0.3) is False  # the same burst
+    assert core.before_command(2.0) and core.refused(2.0) is True  # a new one, no tick between
