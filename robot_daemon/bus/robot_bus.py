@@ -226,7 +226,7 @@ class RobotBus(SensorRead):
         for jid in self.ids:
             if not (st.online[jid] and st.torque[jid]):
                 st.goal[jid] = st.position[jid]
-        rows = {j: self._sync_row(j, int(st.goal[j]), None) for j in online}
+        rows = {j: self._sync_row(j, int(st.goal[j])) for j in online}
         if rows:
             self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
         if self.torque_on_start:
@@ -235,9 +235,9 @@ class RobotBus(SensorRead):
         self._bus().budget.margin_ms = self.reply_margin_ms  # from now on the loop is timed
 
     # -- per tick ----------------------------------------------------------------------------
-    def _sync_row(self, jid: int, goal_raw: int, pid: tuple[int, int, int] | None) -> bytes:
-        j = self.robot.by_id[jid]
-        p, i, d = pid if pid is not None else (j.p, j.i, j.d)
+    def _sync_row(self, jid: int, goal_raw: int) -> bytes:
+        """A joint's sync-write row with its configured gains (writes outside the tick)."""
+        d, i, p = self._gain_rows[jid]
         return bytes((d, i, p, 0, goal_raw & 0xFF, goal_raw >> 8))
 
     def write_targets(self, targets: Targets) -> None:
@@ -325,7 +325,7 @@ class RobotBus(SensorRead):
         if enable and off:
             # Hold where the servo is now, so enabling torque never makes it jump (one already
             # on keeps its goal).
-            rows = {j: self._sync_row(j, int(self.state.position[j]), None) for j in off}
+            rows = {j: self._sync_row(j, int(self.state.position[j])) for j in off}
             bus.sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
             for j in off:
                 self.state.goal[j] = self.state.position[j]

@@ -33,6 +33,10 @@ if TYPE_CHECKING:
 # Round-robin slow block: torque enable (24) … present temperature (43).
 SLOW_START = MX28.TORQUE_ENABLE.reg.address
 SLOW_LENGTH = MX28.PRESENT_TEMPERATURE.reg.address + 1 - SLOW_START
+# Which word of the per-tick block (SERVO_BULK_START…) each present value is.
+_FAST_POSITION = (MX28.PRESENT_POSITION.reg.address - SERVO_BULK_START) // 2
+_FAST_SPEED = (MX28.PRESENT_SPEED.reg.address - SERVO_BULK_START) // 2
+_FAST_LOAD = (MX28.PRESENT_LOAD.reg.address - SERVO_BULK_START) // 2
 # Where each register is in the slow block.
 _TORQUE = MX28.TORQUE_ENABLE.reg.address - SLOW_START
 _GOAL = MX28.GOAL_POSITION.reg.address - SLOW_START
@@ -123,11 +127,12 @@ class SensorRead:
             else:
                 fast.append(jid)
         if fast:
-            words = np.frombuffer(b"".join([res.data[j] for j in fast]), "<u2").reshape(-1, 3)
+            words = np.frombuffer(b"".join([res.data[j] for j in fast]), "<u2")
+            words = words.reshape(-1, SERVO_BULK_LENGTH // 2)
             at = np.fromiter(fast, np.intp, len(fast))  # one index array for the five uses
-            st.position[at] = words[:, 0]
-            st.speed[at] = words[:, 1]
-            st.load[at] = words[:, 2]
+            st.position[at] = words[:, _FAST_POSITION]
+            st.speed[at] = words[:, _FAST_SPEED]
+            st.load[at] = words[:, _FAST_LOAD]
             st.misses[at] = 0
             if res.errors or st.alarm[at].any():
                 for jid in fast:

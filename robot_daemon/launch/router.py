@@ -28,7 +28,7 @@ from robot_daemon.security.options import (
     security_from_args,
 )
 from schemas.errors import ConfigError, DarwinError
-from schemas.session import server_config, zenoh_reason
+from schemas.session import open_session, server_config
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 
@@ -78,18 +78,15 @@ def router_config(listen: list[str], settings: dict[str, Any]) -> zenoh.Config:
 
 
 def open_router(listen: list[str], conf: zenoh.Config) -> zenoh.Session:
-    try:
-        return zenoh.open(conf)
-    except zenoh.ZError as exc:
-        reason = zenoh_reason(exc)
+    def fix(reason: str) -> str:
         if "in use" in reason:
-            fix = (
+            return (
                 "is another router or `darwin up` using it? Stop it, or pass --listen "
                 "tcp/127.0.0.1:0 for any free port"
             )
-        else:
-            fix = "pass an address of this machine (tcp/0.0.0.0:7447 for all its interfaces)"
-        raise RouterError(f"cannot listen on {', '.join(listen)}: {reason}; {fix}") from None
+        return "pass an address of this machine (tcp/0.0.0.0:7447 for all its interfaces)"
+
+    return open_session(conf, f"cannot listen on {', '.join(listen)}", fix, RouterError)
 
 
 def run(args: argparse.Namespace) -> int:

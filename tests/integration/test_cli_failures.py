@@ -52,6 +52,12 @@ def test_zenoh_port_in_use(busy_port: int) -> None:
     assert "--listen tcp/127.0.0.1:0" in line  # the fix
 
 
+def test_router_port_in_use(busy_port: int) -> None:
+    line = failure_line("router", "--listen", f"tcp/127.0.0.1:{busy_port}")
+    assert f"cannot listen on tcp/127.0.0.1:{busy_port}" in line and "already in use" in line
+    assert "another router" in line and "--listen tcp/127.0.0.1:0" in line  # the fix
+
+
 def test_gateway_port_in_use(busy_port: int) -> None:
     line = failure_line(
         "up", "--listen", "tcp/127.0.0.1:0", "--gateway-listen", f"127.0.0.1:{busy_port}"
