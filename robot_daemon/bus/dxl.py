@@ -56,11 +56,14 @@ class ReplyBudget:
         self.delays_ms[dxl_id] = units.return_delay_s(raw) * 1000.0
         self.version += 1
 
-    def reply_ms(self, byte_ms: float, dxl_id: int, reply_bytes: int) -> float:
+    def reply_ms(
+        self, byte_ms: float, dxl_id: int, reply_bytes: int, margin_ms: float | None = None
+    ) -> float:
         """The wait for one reply of ``reply_bytes`` from ``dxl_id``, counted from the moment
-        the line is free for it (the instruction sent, or the reply before it received)."""
+        the line is free for it (the instruction sent, or the reply before it received);
+        ``margin_ms`` in place of the budget's own margin."""
         delay = self.delays_ms.get(dxl_id, UNKNOWN_RETURN_DELAY_MS)
-        return byte_ms * reply_bytes + delay + self.margin_ms
+        return byte_ms * reply_bytes + delay + (self.margin_ms if margin_ms is None else margin_ms)
 
 
 def error_names(bits: int) -> list[str]:
@@ -122,12 +125,20 @@ class DxlBus:
         return self._wire_free
 
     def _transact(
-        self, dxl_id: int, instruction: int, params: Iterable[int], length: int, what: str
+        self,
+        dxl_id: int,
+        instruction: int,
+        params: Iterable[int],
+        length: int,
+        what: str,
+        margin_ms: float | None = None,
     ) -> tuple[bytes, int]:
         """One instruction and its status packet (``length`` data bytes): (data, error bits)."""
         sent = self._send(dxl_id, instruction, params)
         port = self.port
-        wait = self.budget.reply_ms(port.tx_time_per_byte, dxl_id, length + PACKET_OVERHEAD)
+        wait = self.budget.reply_ms(
+            port.tx_time_per_byte, dxl_id, length + PACKET_OVERHEAD, margin_ms
+        )
         port.setPacketTimeoutMillis(sent - port.getCurrentTime() + wait)
         port.is_using = True
         # The SDK takes any packet from that ID; a late reply to an earlier transaction (a bulk
@@ -149,21 +160,42 @@ class DxlBus:
             return False
         return True
 
-    def read(self, dxl_id: int, address: int, length: int, tries: int = 1) -> tuple[bytes, int]:
+    def read(
+        self,
+        dxl_id: int,
+        address: int,
+        length: int,
+        tries: int = 1,
+        retry_margin_ms: float | None = None,
+    ) -> tuple[bytes, int]:
         """Read ``length`` bytes; returns (data, error bits) or raises ``BusError``. A missing or
-        corrupt reply is asked for again, ``tries`` times in all; a lost port is not."""
+        corrupt reply is asked for again, ``tries`` times in all; a lost port is not. The retries
+        wait with ``retry_margin_ms`` when given: a reply that missed the loop's tight margin
+        (a busy host, an emulator's pace) gets the patience of bring-up the second time."""
         what = f"READ {address}+{length}"
+        params = (address, length)
         return _retry(
-            tries, lambda: self._transact(dxl_id, Instruction.READ, (address, length), length, what)
+            tries,
+            lambda margin: self._transact(dxl_id, Instruction.READ, params, length, what, margin),
+            retry_margin_ms,
         )
 
-    def write(self, dxl_id: int, address: int, data: bytes, tries: int = 1) -> int:
+    def write(
+        self,
+        dxl_id: int,
+        address: int,
+        data: bytes,
+        tries: int = 1,
+        retry_margin_ms: float | None = None,
+    ) -> int:
         """WRITE and wait for the status packet; returns its error bits. Retried like
         :meth:`read` (writing the same value again is harmless)."""
         what = f"WRITE {address}+{len(data)}"
         params = (address, *data)
         return _retry(
-            tries, lambda: self._transact(dxl_id, Instruction.WRITE, params, 0, what)[1]
+            tries,
+            lambda margin: self._transact(dxl_id, Instruction.WRITE, params, 0, what, margin)[1],
+            retry_margin_ms,
         )
 
     def write_unanswered(self, dxl_id: int, address: int, data: bytes) -> None:
@@ -257,10 +289,12 @@ class DxlBus:
         return got.missing, got.heard
 
 
-def _retry(tries: int, once: Callable[[], T]) -> T:
+def _retry(
+    tries: int, once: Callable[[float | None], T], retry_margin_ms: float | None = None
+) -> T:
     for attempt in range(max(1, tries)):
         try:
-            return once()
+            return once(None if attempt == 0 else retry_margin_ms)
         except PortError:
             raise
         except BusError:

@@ -190,12 +190,18 @@ class RobotBus(SensorRead):
         return found
 
     def _write_retry(self, dxl_id: int, address: int, data: bytes) -> None:
-        self._bus().write(dxl_id, address, data, tries=SCAN_TRIES)
+        # The first try at the loop's margin; a status that missed it (a busy host, an
+        # emulator's pace) is waited for with bring-up's patience, since a command that fails
+        # for want of 4 ms is worse than a loop that runs late once.
+        self._bus().write(
+            dxl_id, address, data, tries=SCAN_TRIES, retry_margin_ms=self.start_margin_ms
+        )
 
-    @staticmethod
-    def _read_retry(bus: DxlBus, dxl_id: int, address: int, length: int) -> bytes | None:
+    def _read_retry(self, bus: DxlBus, dxl_id: int, address: int, length: int) -> bytes | None:
         try:
-            return bus.read(dxl_id, address, length, tries=SCAN_TRIES)[0]
+            return bus.read(
+                dxl_id, address, length, tries=SCAN_TRIES, retry_margin_ms=self.start_margin_ms
+            )[0]
         except PortError:
             raise
         except BusError:
@@ -335,16 +341,10 @@ class RobotBus(SensorRead):
             self.state.torque[j] = enable
 
     def read_registers(self, dxl_id: int, address: int, length: int) -> bytes:
-        bus = self._bus()
-        for attempt in range(SCAN_TRIES):  # a read has no side effect: ask again
-            try:
-                return bus.read(dxl_id, address, length)[0]
-            except PortError:
-                raise
-            except BusError:
-                if attempt == SCAN_TRIES - 1:
-                    raise
-        raise AssertionError("unreachable")
+        # A read has no side effect: asked again, patiently, like a write (_write_retry).
+        return self._bus().read(
+            dxl_id, address, length, tries=SCAN_TRIES, retry_margin_ms=self.start_margin_ms
+        )[0]
 
     def write_registers(self, dxl_id: int, address: int, data: bytes) -> None:
         # Writing the same bytes again is harmless, so a lost status packet is retried.

@@ -16,6 +16,7 @@ from config.loader import load_all, robot_from_dict
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.robot_bus import RobotBus
+from robot_daemon.bus.tables import CM730
 from robot_daemon.emulator import Emulator
 from robot_daemon.frames import Targets
 from schemas.errors import NoReplyError, PortError, PortInUseError
@@ -67,6 +68,24 @@ def test_waiting_for_a_silent_device_does_not_spin(emulator: Emulator) -> None:
         assert wall >= 0.3
         assert cpu < wall / 4
     finally:
+        handler.close()
+
+
+def test_a_late_status_is_waited_for_patiently_on_the_retry(emulator: Emulator) -> None:
+    # Every reply leaves 60 ms late: past the loop's margin, inside bring-up's. Seen on a busy
+    # CI machine, where an LED command failed three times at the emulator's 4 ms margin.
+    emulator.set_faults(delay=1.0, delay_ms=60)
+    handler = BlockingPortHandler(emulator.port)
+    handler.open(1_000_000)
+    try:
+        bus = DxlBus(handler, ReplyBudget(margin_ms=5.0))
+        led = CM730.LED_PANEL.reg.address
+        with pytest.raises(NoReplyError, match="device 200"):
+            bus.write(200, led, b"\x01", tries=2)  # at the loop's margin every try misses
+        assert bus.write(200, led, b"\x02", tries=2, retry_margin_ms=1000.0) == 0
+        assert bus.read(200, led, 1, tries=2, retry_margin_ms=1000.0)[0] == b"\x02"
+    finally:
+        emulator.set_faults(delay=0.0)
         handler.close()
 
 
