@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from schemas import qos
 from schemas.errors import DarwinError
 from schemas.policy import N_JOINTS, OBSERVATION_SIZE, PolicyAction
 
@@ -157,8 +158,11 @@ def run_robot(args: argparse.Namespace, policy: Policy, rate: float) -> int:
     stream = PolicyStream(robot)
     estop = EStop()
     sent = 0
+    dry_key = robot.keys.policy("dry_run")
     dry_pub = (
-        robot.session.declare_publisher(robot.keys.policy("dry_run")) if args.dry_run else None
+        robot.session.declare_publisher(dry_key, **qos.for_key(dry_key).kwargs())
+        if args.dry_run
+        else None
     )
     try:
         if not args.dry_run:

@@ -16,6 +16,7 @@ from collections import deque
 from collections.abc import Sequence
 from typing import Any
 
+from schemas import qos
 from schemas.errors import ProtocolError
 from schemas.messages import decode, encode
 from schemas.policy import PolicyAction, PolicyApplied, PolicyObservation, PolicyStatus
@@ -34,7 +35,8 @@ class PolicyStream:
         self.applied: deque[PolicyApplied] = deque(maxlen=10000)
         self.status: PolicyStatus | None = None
         s = robot.session
-        self._pub = s.declare_publisher(self.keys.policy("action"))
+        action = self.keys.policy("action")
+        self._pub = s.declare_publisher(action, **qos.for_key(action).kwargs())
         self._subs = [
             s.declare_subscriber(self.keys.policy("obs"), self._on_obs),
             s.declare_subscriber(self.keys.policy("applied"), self._on_applied),

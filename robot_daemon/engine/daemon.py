@@ -1,8 +1,9 @@
 """The robot daemon: the 8 ms motion loop, publication on the key space, the arbiter.
 
 One motion thread owns the bus. Each tick, at an absolute deadline: bulk-read the sensors,
-apply queued commands, run the motion modules, sync-write the goals, hand the messages to the
-publisher thread. A lost port is reopened with back-off while ``status.state`` says so.
+apply queued commands, run the motion modules, sync-write the goals, put the joints and IMU
+(droppable) and hand status and events to the publisher thread. A lost port is reopened with
+back-off while ``status.state`` says so.
 
 Safety rules the loop keeps: whenever the control lease ends (released, holder gone, idle) the
 motion comes to a safe stop; losing the port halts every motion module, commands that need the
@@ -49,7 +50,6 @@ from robot_daemon.services import DaemonInfo
 from schemas.daemon_state import DaemonState
 from schemas.errors import BusError, PortError
 from schemas.keys import Keys
-from schemas.messages import Message
 from schemas.session import Credentials
 from schemas.versions import announced_protocol, fmt, package_version
 
@@ -330,15 +330,12 @@ class Daemon(BusLifecycle):
         for kind, message, data in self.manager.drain_events():
             self.pub.event(kind, message, **data)
         # Built only for someone: a message nobody subscribes to costs the tick for nothing.
-        out: list[tuple[str, Message]] = []
+        # Sent from this thread, after the goals are written (publishers.py says why).
         if self.pub.wanted("joints"):
-            out.append(
-                ("joints", joints_message(self.robot, self.bus, frame, self._sampled_at, self.tick))
-            )
+            msg = joints_message(self.robot, self.bus, frame, self._sampled_at, self.tick)
+            self.pub.send("joints", msg)
         if self.pub.wanted("imu"):
-            out.append(("imu", imu_message(frame, self.fall, self._sampled_at, self.tick)))
-        if out:
-            self.pub.post_all(out)
+            self.pub.send("imu", imu_message(frame, self.fall, self._sampled_at, self.tick))
         self._update_state()
         # Every tick (a lock and a clock read): a silent holder's lease ends within one tick of
         # heartbeat_timeout after its last renewal, so a cut link stops the robot within it.

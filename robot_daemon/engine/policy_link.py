@@ -19,6 +19,7 @@ from robot_daemon.arbiter.lease import Lease
 from robot_daemon.bus.tables import ErrorBit
 from robot_daemon.engine.publishers import Publishers
 from robot_daemon.motion.policy import PolicyModule
+from schemas import qos
 from schemas.errors import ProtocolError
 from schemas.joints import JOINT_IDS, JOINT_NAMES
 from schemas.keys import Keys
@@ -48,7 +49,8 @@ class PolicyLink:
             pub.declare(f"policy_{what}", keys.policy(what))
         pub.declare("policy_applied", keys.policy("applied"), fifo=True)
         self.pub = pub
-        self._refusals = session.declare_publisher(keys.policy("applied"))
+        applied = keys.policy("applied")
+        self._refusals = session.declare_publisher(applied, **qos.for_key(applied).kwargs())
         module.sink = lambda topic, msg: pub.post(f"policy_{topic}", msg)
         module.wanted = lambda topic: pub.wanted(f"policy_{topic}")
         module.health = self.health

@@ -1,8 +1,15 @@
-"""Publication off the motion thread: the loop drops messages into 1-slot mailboxes and a
-publisher thread encodes and sends them, so a slow network never delays a tick.
+"""The daemon's publications.
 
-Per topic only the newest message waits (a stale joints frame is worth nothing); events go
-through a bounded FIFO because each one matters.
+The tick's joints and IMU are sent from the motion thread itself (:meth:`Publishers.send`),
+once its goals are written: they are droppable, and a droppable put waits at most
+``wait_before_drop`` (50 µs, :func:`schemas.session.server_config`) for room on a congested
+client's link, so a slow network costs a tick microseconds, never a period. Handing them to
+another thread instead cost more than the put: a thread's wake-up and the GIL passed twice a
+tick (~200 µs of CPU a tick on the benchmark machine, docs/loop-cpu.md).
+
+Everything else goes through a publisher thread: status, events (a bounded FIFO, because each
+one matters), vision's detections and the policy stream. Per slot topic only the newest
+message waits (a stale frame is worth nothing).
 """
 
 from __future__ import annotations
@@ -10,7 +17,6 @@ from __future__ import annotations
 import logging
 import threading
 from collections import deque
-from collections.abc import Iterable
 from typing import Any
 
 import zenoh
@@ -32,9 +38,12 @@ class Publishers:
         self.session = session
         self.keys = keys
         self._pubs: dict[str, zenoh.Publisher] = {}
+        self._droppable: set[str] = set()  # the topics send() may put from the caller's thread
         for topic in SLOT_TOPICS:
             key = getattr(keys, topic)
             self._pubs[topic] = session.declare_publisher(key, **qos.for_key(key).kwargs())
+            if qos.for_key(key).droppable:
+                self._droppable.add(topic)
         # Events have a queue of their own on every link (a higher priority than the per-tick
         # topics, schemas/qos.py), so a burst of joints frames never crowds one out.
         self._pubs["events"] = session.declare_publisher(
@@ -60,28 +69,29 @@ class Publishers:
     def declare(self, topic: str, key: str, fifo: bool = False) -> None:
         """Another topic to ``post`` (the policy stream's); ``fifo``: every message is sent, in
         order (a bounded queue), instead of the newest only."""
-        self._pubs[topic] = self.session.declare_publisher(
-            key, congestion_control=zenoh.CongestionControl.DROP, express=True
-        )
+        self._pubs[topic] = self.session.declare_publisher(key, **qos.for_key(key).kwargs())
         self._watch(topic)
         if fifo:
             self._fifo_topics.add(topic)
 
     def post(self, topic: str, msg: Message) -> None:
-        """Hand ``msg`` over; a message of the same topic not yet sent is replaced (unless the
-        topic was declared ``fifo``)."""
-        self.post_all(((topic, msg),))
-
-    def post_all(self, messages: Iterable[tuple[str, Message]]) -> None:
-        """Hand several over at once: the publisher thread wakes once for them all (the tick's
-        joints and IMU), not once each."""
+        """Hand ``msg`` to the publisher thread; a message of the same topic not yet sent is
+        replaced (unless the topic was declared ``fifo``)."""
         with self._cond:
-            for topic, msg in messages:
-                if topic in self._fifo_topics:
-                    self._fifo.append((topic, msg))
-                else:
-                    self._slots[topic] = msg
+            if topic in self._fifo_topics:
+                self._fifo.append((topic, msg))
+            else:
+                self._slots[topic] = msg
             self._cond.notify()
+
+    def send(self, topic: str, msg: Message) -> None:
+        """Encode and put ``msg`` now, in the caller's thread: for a droppable topic only
+        (bounded by ``wait_before_drop``; a topic that may not be dropped would block)."""
+        if topic not in self._droppable:
+            raise ValueError(
+                f"{topic!r} is not a droppable newest-only topic: post() it to the publisher thread"
+            )
+        self._put(topic, msg)
 
     def _watch(self, topic: str) -> None:
         pub = self._pubs[topic]

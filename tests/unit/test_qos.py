@@ -3,6 +3,7 @@ and the lease go first and are never dropped; the daemon's publishers are declar
 
 from __future__ import annotations
 
+import threading
 import uuid
 
 import pytest
@@ -11,6 +12,7 @@ import zenoh
 from robot_daemon.engine.publishers import SLOT_TOPICS, Publishers
 from schemas import qos
 from schemas.keys import VERBS, Keys
+from schemas.messages import Event, Imu, decode
 from schemas.session import free_tcp_port, server_config
 
 KEYS = Keys("op1")
@@ -66,5 +68,29 @@ def test_the_daemons_publishers_are_declared_with_the_table() -> None:
                     want.priority,
                     want.congestion_control,
                 ), topic
+        finally:
+            pubs.close()
+
+
+def test_only_droppable_newest_only_topics_are_put_from_the_callers_thread() -> None:
+    keys = Keys(f"t{uuid.uuid4().hex[:8]}")
+    with zenoh.open(server_config([f"tcp/127.0.0.1:{free_tcp_port()}"])) as session:
+        pubs = Publishers(session, keys)
+        try:
+            got: list[bytes] = []
+            arrived = threading.Event()
+
+            def take(sample: zenoh.Sample) -> None:
+                got.append(sample.payload.to_bytes())
+                arrived.set()
+
+            sub = session.declare_subscriber(keys.imu, take)
+            imu = Imu(gyro=[0.0] * 3, accel=[0.0] * 3, gyro_raw=[512] * 3, accel_raw=[512] * 3)
+            pubs.send("imu", imu)
+            assert arrived.wait(10)
+            assert decode(got[0], Imu) == imu
+            sub.undeclare()
+            with pytest.raises(ValueError, match="'events' is not a droppable newest-only"):
+                pubs.send("events", Event(kind="info", message="x", data={}, seq=1))
         finally:
             pubs.close()
