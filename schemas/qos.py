@@ -13,9 +13,8 @@ flag from :func:`for_key`, so video never delays control on a busy link:
 - **reads and role probes** (``read/*``, ``role/*``): ``INTERACTIVE_LOW``, never dropped.
 - **events and status** (newest-only status, one-off events): ``DATA_HIGH``, droppable.
 - **bulk telemetry** (joints, imu at tick rate; vision detections; the policy stream's
-  observations, actions and answers): ``DATA``, droppable, batched: a tick's messages share one
-  batch. Express, each took a batch of its own, and a tick's four (joints, IMU, the policy's
-  observation and answer) overran the priority's two-batch queue: the last ones were dropped.
+  observations, actions and answers): ``DATA``, droppable, express (not held for a batch; each
+  takes a batch of its own, so a listening session queues 8 of them, ``server_config``).
 - **video and the simulated world** (camera JPEG, world snapshots, rendering): ``DATA_LOW``,
   droppable — a frame that cannot go out now is worth nothing later.
 
@@ -66,7 +65,7 @@ COMMAND = Qos(BLOCK, zenoh.Priority.INTERACTIVE_HIGH)
 READ = Qos(BLOCK, zenoh.Priority.INTERACTIVE_LOW)
 EVENTS = Qos(DROP, zenoh.Priority.DATA_HIGH)
 STATUS = Qos(DROP, zenoh.Priority.DATA_HIGH, express=True)
-TELEMETRY = Qos(DROP, zenoh.Priority.DATA)
+TELEMETRY = Qos(DROP, zenoh.Priority.DATA, express=True)
 VIDEO = Qos(DROP, zenoh.Priority.DATA_LOW)
 # The simulator's and the replay's control queryables: tooling, below commands; the simulator's
 # camera frames come back as replies to ``render`` queries, so it sits with video (never

@@ -51,6 +51,10 @@ SEND_BUFFER_BYTES = 16 * 1024
 BATCH_BYTES = 16 * 1024
 # Video (DATA_LOW) batches a link queues: a whole frame's fragments fit, or it is dropped.
 VIDEO_QUEUE_BATCHES = 8
+# Telemetry (DATA) batches a link queues: each express message takes a batch, and a tick puts
+# up to five at once (joints, IMU, the policy's observation and answer, a ball detection); with
+# Zenoh's 2 the last ones of a tick were dropped whenever the link's sender was a moment late.
+TELEMETRY_QUEUE_BATCHES = 8
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 ENV_ENDPOINT = "DARWIN_ENDPOINT"
 ENV_ROBOT = "DARWIN_ROBOT"
@@ -163,6 +167,7 @@ def server_config(
         conf.insert_json5(f"transport/link/{proto}/so_sndbuf", str(SEND_BUFFER_BYTES))
     conf.insert_json5("transport/link/tx/batch_size", str(BATCH_BYTES))
     conf.insert_json5("transport/link/tx/queue/size/data_low", str(VIDEO_QUEUE_BATCHES))
+    conf.insert_json5("transport/link/tx/queue/size/data", str(TELEMETRY_QUEUE_BATCHES))
     congestion = "transport/link/tx/queue/congestion_control"
     if mode == "peer":
         # The daemon's session (a router keeps Zenoh's defaults: with these it closed a lossy
