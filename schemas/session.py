@@ -172,9 +172,9 @@ def server_config(
     if mode == "peer":
         # The daemon's session (a router keeps Zenoh's defaults: with these it closed a lossy
         # operator's link over and over, and dropped more for slow observers).
-        # It publishes every tick from one thread; a publication (DROP) to a client whose link
-        # is congested waits this long (µs) for room in that link's queue, in that thread:
-        # Zenoh's 1000 let one slow client hold up every other subscriber.
+        # It publishes every tick from its motion thread; a publication (DROP) to a client whose
+        # link is congested waits this long (µs) for room in that link's queue, in that thread:
+        # Zenoh's 1000 let one slow client hold up every other subscriber, and the tick.
         conf.insert_json5(f"{congestion}/drop/wait_before_drop", "50")
         # A message that may not be dropped (a declaration, a reply) to a client whose link is
         # dead with a full queue blocks this long (µs) before that client's transport closes,
