@@ -8,6 +8,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -15,6 +16,7 @@ import pytest
 import zenoh
 
 from clients.learn.live_record import ANSWER_WINDOW, LiveRecorder
+from schemas.errors import RobotUnreachableError
 from schemas.keys import Keys
 from schemas.messages import encode
 from schemas.policy import (
@@ -34,6 +36,14 @@ def until(condition: Callable[[], object], what: str) -> None:
     while not condition():
         if time.monotonic() > deadline:
             raise AssertionError(f"timed out waiting for {what}")
+
+
+def answers(control: Any) -> bool:
+    try:
+        control.status()
+    except RobotUnreachableError:
+        return False
+    return True
 
 
 def obs(tick: int, stamp: float, position: float, running: bool) -> bytes:
@@ -99,6 +109,9 @@ def test_the_record_control_op_ends_an_episode_and_names_a_bad_op(
         pub = server.declare_publisher(KEYS.policy("obs"))
         until(lambda: pub.matching_status.matching, "the subscription")
         control = RecordControl(server, "rec1")
+        # The control's queryable is declared after the subscriptions: seen matching, it may
+        # not have reached this session yet (a query then finds nobody, at once).
+        until(lambda: answers(control), "the record control")
         for k in range(3):
             pub.put(obs(10 + k * 3, 1.0 + k * 0.02, 0.0, running=False))
         until(lambda: control.status()["open_frames"] >= 2, "frames")
