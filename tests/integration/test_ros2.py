@@ -310,6 +310,9 @@ def test_bad_ros_input_moves_nothing_and_the_adapter_keeps_running(
             watcher.subscribe(
                 "events", lambda e: events.append(e) if e.kind == "ros2_refused" else None
             )
+            # The adapter took the lease on demand for the trajectory above and lets it go
+            # once idle: wait for that, or the holder below finds the lease busy.
+            watcher.wait_for("status", lambda s: not s.lease, timeout=30)
             with watcher.control("busy holder"):
                 for _ in range(5):
                     put(twist(x=0.05))
