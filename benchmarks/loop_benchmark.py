@@ -206,6 +206,13 @@ def main() -> int:
         help="the read plan measured beside (servos a tick; 0: none); the Atom proxy runs "
         "with every servo and then with this plan",
     )
+    parser.add_argument(
+        "--telemetry-hz",
+        type=float,
+        default=50.0,
+        help="joints and IMU at this rate (daemon.telemetry_hz), measured beside, alone and "
+        "with the read plan; the Atom proxy runs with both too (0: not measured)",
+    )
     parser.add_argument("--atom-only", action="store_true", help="only the Atom proxy")
     parser.add_argument(
         "--bare-sdk", action="store_true", help="instead: the daemon against a bare SDK loop"
@@ -228,12 +235,20 @@ def main() -> int:
     if not args.bare_sdk:
         if not args.atom_only:
             loop_cpu.cpu_table(
-                args.seconds, args.baseline, args.ftdi_latency_ms, args.servo_reads
+                args.seconds,
+                args.baseline,
+                args.ftdi_latency_ms,
+                args.servo_reads,
+                args.telemetry_hz,
             )
         if not args.no_atom:
             loop_cpu.atom_table(args.seconds, args.ftdi_latency_ms)
             if args.servo_reads:
                 loop_cpu.atom_table(args.seconds, args.ftdi_latency_ms, args.servo_reads)
+            if args.servo_reads or args.telemetry_hz:
+                loop_cpu.atom_table(
+                    args.seconds, args.ftdi_latency_ms, args.servo_reads, args.telemetry_hz
+                )
         return 0
     print(f"running each loop for {args.seconds:.0f} s on the wire-timed emulator …", flush=True)
     base = baseline(args.seconds)

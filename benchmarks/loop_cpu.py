@@ -134,6 +134,7 @@ def daemon_run(
     group: CpuGroup | None = None,
     walk: bool = True,
     servo_reads: int = 0,
+    telemetry_hz: float = 0.0,
 ) -> Run:
     """The daemon of source ``tree`` on ``port``, walking for ``seconds``, measured. Its loop
     runs SCHED_FIFO as shipped (``daemon.realtime_priority``), so other programs on a shared
@@ -142,6 +143,7 @@ def daemon_run(
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as cfg:
         cfg.write("[daemon]\n" + ("realtime_priority = 0\n" if group else ""))
         cfg.write(f"servo_reads_per_tick = {servo_reads}\n" if servo_reads else "")
+        cfg.write(f"telemetry_hz = {telemetry_hz}\n" if telemetry_hz else "")
     env = {**os.environ, "PYTHONPATH": str(tree)}
     args = [sys.executable, "-m", "robot_daemon.launch.cli", "daemon", "--port", port]
     args += ["--camera", "none", "--listen", endpoint, "--robot", "bench"]
@@ -182,12 +184,17 @@ def daemon_run(
     periods = [(b[1] - a[1]) * 1000 for a, b in itertools.pairwise(got) if b[0] == a[0] + 1]
     arr = np.array(periods or [0.0])
     rate = ticks / max(1e-9, last.stamp - first.stamp)
+    if telemetry_hz:  # joints not every tick: the loop's own window (its last 1000 ticks)
+        p50, p99, top = (last.loop[f"period_{k}_ms"] for k in ("p50", "p99", "max"))
+    else:
+        p50, p99 = (float(np.percentile(arr, q)) for q in (50, 99))
+        top = float(arr.max())
     return Run(
         ticks_per_s=rate,
         cpu_ms_per_tick=(cpu1 - cpu0) * 1000 / max(1e-9, rate * (wall1 - wall0)),
-        p50_ms=float(np.percentile(arr, 50)),
-        p99_ms=float(np.percentile(arr, 99)),
-        max_ms=float(arr.max()),
+        p50_ms=p50,
+        p99_ms=p99,
+        max_ms=top,
         overrun_pct=100.0 * overruns / max(1, ticks),
         missing=last.bus["missing_replies"] - first.bus["missing_replies"],
     )
@@ -198,9 +205,17 @@ def machine_load() -> str:
     return f"load average {one:.1f} (1 min), {five:.1f} (5 min) on {os.cpu_count()} CPUs"
 
 
-def cpu_table(seconds: float, commit: str, ftdi_ms: float, servo_reads: int = 4) -> None:
+def plan_label(servo_reads: int, telemetry_hz: float) -> str:
+    reads = f"CM-730 + {servo_reads} servos a tick" if servo_reads else "every servo every tick"
+    return reads + (f", joints and IMU at {telemetry_hz:g} Hz" if telemetry_hz else "")
+
+
+def cpu_table(
+    seconds: float, commit: str, ftdi_ms: float, servo_reads: int = 4, telemetry_hz: float = 0.0
+) -> None:
     """CPU per tick, baseline ``commit`` and today's tree, per-reply and FTDI delivery; and
-    today's tree with the read plan of ``servo_reads`` servos a tick (FTDI delivery)."""
+    today's tree with the read plan of ``servo_reads`` servos a tick, with joints and IMU at
+    ``telemetry_hz``, and with both (FTDI delivery)."""
     modes = (("per reply", 0.0), (f"FTDI {ftdi_ms:g} ms", ftdi_ms))
     print(f"CPU per tick, walking, {seconds:.0f} s each; {machine_load()}", flush=True)
     rows: dict[tuple[str, str], Run] = {}
@@ -216,11 +231,12 @@ def cpu_table(seconds: float, commit: str, ftdi_ms: float, servo_reads: int = 4)
                     f"overruns {r.overrun_pct:4.1f} %  missing replies {r.missing}",
                     flush=True,
                 )
-    if servo_reads:
+    plans = [(servo_reads, 0.0), (0, telemetry_hz), (servo_reads, telemetry_hz)]
+    for reads, hz in dict.fromkeys(p for p in plans if any(p)):
         with emulator(ftdi_ms) as port:
-            r = daemon_run(ROOT, port, seconds, servo_reads=servo_reads)
+            r = daemon_run(ROOT, port, seconds, servo_reads=reads, telemetry_hz=hz)
         print(
-            f"  today, CM-730 + {servo_reads} servos a tick, {modes[1][0]}: "
+            f"  today, {plan_label(reads, hz)}, {modes[1][0]}: "
             f"{r.cpu_ms_per_tick:6.3f} ms/tick  {r.ticks_per_s:6.1f} ticks/s  p99 "
             f"{r.p99_ms:5.2f} ms  overruns {r.overrun_pct:4.1f} %  missing replies {r.missing}",
             flush=True,
@@ -235,10 +251,13 @@ def cpu_table(seconds: float, commit: str, ftdi_ms: float, servo_reads: int = 4)
     print(f"after: {machine_load()}")
 
 
-def atom_table(seconds: float, ftdi_ms: float, servo_reads: int = 0) -> None:
+def atom_table(
+    seconds: float, ftdi_ms: float, servo_reads: int = 0, telemetry_hz: float = 0.0
+) -> None:
     """Today's daemon free and in a 1/8-core quota group, the emulator outside it (with
-    ``servo_reads``: the read plan of that many servos a tick)."""
-    plan = f"CM-730 + {servo_reads} servos a tick" if servo_reads else "every servo every tick"
+    ``servo_reads``: the read plan of that many servos a tick; ``telemetry_hz``: joints and
+    IMU at that rate)."""
+    plan = plan_label(servo_reads, telemetry_hz)
     print(f"Atom proxy: {QUOTA_US} µs per {PERIOD_US} µs, {plan}; {machine_load()}", flush=True)
     try:
         group = CpuGroup()
@@ -249,7 +268,9 @@ def atom_table(seconds: float, ftdi_ms: float, servo_reads: int = 0) -> None:
         runs = {}
         for label, g in (("free", None), ("1/8 core", group)):
             with emulator(ftdi_ms) as port:
-                runs[label] = daemon_run(ROOT, port, seconds, g, servo_reads=servo_reads)
+                runs[label] = daemon_run(
+                    ROOT, port, seconds, g, servo_reads=servo_reads, telemetry_hz=telemetry_hz
+                )
     finally:
         group.remove()
     print(

@@ -64,6 +64,7 @@ class LoopInfo(TypedDict, total=False):
     overrun_pct: float
     scheduling: str
     events_dropped: int  # events the publisher's queue had no room for
+    telemetry_hz: float  # joints and imu at most this often ([daemon] telemetry_hz); 0: every tick
 
 
 class CameraInfo(TypedDict, total=False):

@@ -95,6 +95,7 @@ def status_message(daemon: Daemon) -> Status:
         loop={
             **daemon.stats.summary(),
             "scheduling": daemon.scheduling,
+            "telemetry_hz": daemon.telemetry.hz,
             "events_dropped": daemon.pub.dropped_events if daemon.pub is not None else 0,
         },
         voltage=cm["voltage"],

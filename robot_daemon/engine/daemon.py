@@ -40,6 +40,7 @@ from robot_daemon.engine.loop_stats import LoopStats
 from robot_daemon.engine.policy_link import PolicyLink, link_policy
 from robot_daemon.engine.power_actions import PowerGuard
 from robot_daemon.engine.publishers import Publishers
+from robot_daemon.engine.telemetry_rate import RateGate, check_rate
 from robot_daemon.engine.zenoh_setup import open_session
 from robot_daemon.frames import JointFrame, Targets
 from robot_daemon.motion.fall import FallMonitor
@@ -87,6 +88,9 @@ class Daemon(BusLifecycle):
         self.keys = Keys(options.robot)
         self.tick_s = options.tick_ms / 1000.0
         self.status_period = 1.0 / float(dcfg.get("status_hz", 10.0))
+        self.telemetry = RateGate(
+            check_rate(dcfg.get("telemetry_hz", 0.0), "daemon.telemetry_hz"), self.tick_s
+        )
         self.backoff_min = float(dcfg.get("reopen_backoff_min", 0.1))
         self.backoff_max = float(dcfg.get("reopen_backoff_max", 5.0))
         self.realtime_priority = check_priority(
@@ -331,11 +335,12 @@ class Daemon(BusLifecycle):
             self.pub.event(kind, message, **data)
         # Built only for someone: a message nobody subscribes to costs the tick for nothing.
         # Sent from this thread, after the goals are written (publishers.py says why).
-        if self.pub.wanted("joints"):
-            msg = joints_message(self.robot, self.bus, frame, self._sampled_at, self.tick)
-            self.pub.send("joints", msg)
-        if self.pub.wanted("imu"):
-            self.pub.send("imu", imu_message(frame, self.fall, self._sampled_at, self.tick))
+        if self.telemetry.open(now):
+            if self.pub.wanted("joints"):
+                msg = joints_message(self.robot, self.bus, frame, self._sampled_at, self.tick)
+                self.pub.send("joints", msg)
+            if self.pub.wanted("imu"):
+                self.pub.send("imu", imu_message(frame, self.fall, self._sampled_at, self.tick))
         self._update_state()
         # Every tick (a lock and a clock read): a silent holder's lease ends within one tick of
         # heartbeat_timeout after its last renewal, so a cut link stops the robot within it.

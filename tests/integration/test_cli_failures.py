@@ -100,3 +100,12 @@ def test_bad_config_file(text: str, words: str, tmp_path: Path) -> None:
         "up", "--no-gateway", "--listen", "tcp/127.0.0.1:0", "--config", str(config)
     )
     assert str(config) in line and words in line
+
+
+def test_a_bad_daemon_setting_is_named(tmp_path: Path) -> None:
+    config = tmp_path / "rate.toml"
+    config.write_text("[daemon]\ntelemetry_hz = -5\n")
+    line = failure_line(
+        "up", "--no-gateway", "--listen", "tcp/127.0.0.1:0", "--config", str(config)
+    )
+    assert "daemon.telemetry_hz" in line and "-5" in line
