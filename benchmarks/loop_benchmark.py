@@ -213,6 +213,13 @@ def main() -> int:
         help="joints and IMU at this rate (daemon.telemetry_hz), measured beside, alone and "
         "with the read plan; the Atom proxy runs with both too (0: not measured)",
     )
+    parser.add_argument(
+        "--atom-tick-ms",
+        type=float,
+        default=10.0,
+        help="the Atom proxy once more with the read plan and telemetry rate at this tick "
+        "(daemon.tick_ms: the same walk, fewer ticks; 0: not measured)",
+    )
     parser.add_argument("--atom-only", action="store_true", help="only the Atom proxy")
     parser.add_argument(
         "--bare-sdk", action="store_true", help="instead: the daemon against a bare SDK loop"
@@ -248,6 +255,14 @@ def main() -> int:
             if args.servo_reads or args.telemetry_hz:
                 loop_cpu.atom_table(
                     args.seconds, args.ftdi_latency_ms, args.servo_reads, args.telemetry_hz
+                )
+            if args.atom_tick_ms:
+                loop_cpu.atom_table(
+                    args.seconds,
+                    args.ftdi_latency_ms,
+                    args.servo_reads,
+                    args.telemetry_hz,
+                    args.atom_tick_ms,
                 )
         return 0
     print(f"running each loop for {args.seconds:.0f} s on the wire-timed emulator …", flush=True)

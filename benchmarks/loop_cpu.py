@@ -135,6 +135,7 @@ def daemon_run(
     walk: bool = True,
     servo_reads: int = 0,
     telemetry_hz: float = 0.0,
+    tick_ms: float = 8.0,
 ) -> Run:
     """The daemon of source ``tree`` on ``port``, walking for ``seconds``, measured. Its loop
     runs SCHED_FIFO as shipped (``daemon.realtime_priority``), so other programs on a shared
@@ -144,6 +145,7 @@ def daemon_run(
         cfg.write("[daemon]\n" + ("realtime_priority = 0\n" if group else ""))
         cfg.write(f"servo_reads_per_tick = {servo_reads}\n" if servo_reads else "")
         cfg.write(f"telemetry_hz = {telemetry_hz}\n" if telemetry_hz else "")
+        cfg.write(f"tick_ms = {tick_ms}\n" if tick_ms != 8.0 else "")
     env = {**os.environ, "PYTHONPATH": str(tree)}
     args = [sys.executable, "-m", "robot_daemon.launch.cli", "daemon", "--port", port]
     args += ["--camera", "none", "--listen", endpoint, "--robot", "bench"]
@@ -252,12 +254,18 @@ def cpu_table(
 
 
 def atom_table(
-    seconds: float, ftdi_ms: float, servo_reads: int = 0, telemetry_hz: float = 0.0
+    seconds: float,
+    ftdi_ms: float,
+    servo_reads: int = 0,
+    telemetry_hz: float = 0.0,
+    tick_ms: float = 8.0,
 ) -> None:
     """Today's daemon free and in a 1/8-core quota group, the emulator outside it (with
     ``servo_reads``: the read plan of that many servos a tick; ``telemetry_hz``: joints and
-    IMU at that rate)."""
+    IMU at that rate; ``tick_ms``: a slower loop, the same walk)."""
     plan = plan_label(servo_reads, telemetry_hz)
+    if tick_ms != 8.0:
+        plan += f", tick {tick_ms:g} ms"
     print(f"Atom proxy: {QUOTA_US} µs per {PERIOD_US} µs, {plan}; {machine_load()}", flush=True)
     try:
         group = CpuGroup()
@@ -269,7 +277,13 @@ def atom_table(
         for label, g in (("free", None), ("1/8 core", group)):
             with emulator(ftdi_ms) as port:
                 runs[label] = daemon_run(
-                    ROOT, port, seconds, g, servo_reads=servo_reads, telemetry_hz=telemetry_hz
+                    ROOT,
+                    port,
+                    seconds,
+                    g,
+                    servo_reads=servo_reads,
+                    telemetry_hz=telemetry_hz,
+                    tick_ms=tick_ms,
                 )
     finally:
         group.remove()
@@ -283,5 +297,11 @@ def atom_table(
             f"{r.overrun_pct:10.2f}{r.cpu_ms_per_tick:12.3f}"
         )
     r = runs["1/8 core"]
-    ok = r.ticks_per_s >= 124 and r.p99_ms <= 10 and r.overrun_pct < 1
-    print("target (125 Hz held, p99 ≤ 10 ms, overruns < 1 %):", "met" if ok else "NOT met")
+    # At 8 ms: 125 Hz held, p99 ≤ 10 ms, overruns < 1 % (issue #30); a slower tick the same
+    # in proportion.
+    rate, p99 = 1000.0 / tick_ms, tick_ms * 1.25
+    ok = r.ticks_per_s >= rate * 0.992 and r.p99_ms <= p99 and r.overrun_pct < 1
+    print(
+        f"target ({rate:g} Hz held, p99 ≤ {p99:g} ms, overruns < 1 %):",
+        "met" if ok else "NOT met",
+    )

@@ -72,6 +72,8 @@ class WalkingModule(WalkReady, MotionModule):
         self._last: dict[int, float] = {}
         self._limits: dict[int, tuple[float, float]] | None = None
         self._gyro_f = [0.0, 0.0]  # low-passed gyro counts (right/left, front/back)
+        self._gains: dict[int, tuple[int, int, int]] = {}
+        self._gains_for: tuple[int, int, int] | None = None
         self._update_time()
         self._update_move()
 
@@ -349,9 +351,15 @@ class WalkingModule(WalkReady, MotionModule):
 
     def gains(self) -> dict[int, tuple[int, int, int]]:
         p = self.params
-        legs = {j: (p.p_gain, p.i_gain, p.d_gain) for j in LEG_IDS}
-        # Soft arms "to protect the joints when it fell down" (ROBOTIS Walking.cpp: P = 8).
-        return {**legs, **dict.fromkeys(ARM_IDS, (ARM_P_GAIN, 0, 0))}
+        pid = (p.p_gain, p.i_gain, p.d_gain)
+        if self._gains_for != pid:  # made again only when the parameters change, not per tick
+            # Soft arms "to protect the joints when it fell down" (ROBOTIS Walking.cpp: P = 8).
+            self._gains = {
+                **dict.fromkeys(LEG_IDS, pid),
+                **dict.fromkeys(ARM_IDS, (ARM_P_GAIN, 0, 0)),
+            }
+            self._gains_for = pid
+        return self._gains
 
     def status(self) -> dict[str, Any]:
         x, y, a = si_from_amplitudes(*self.latched, self.params.period_time)
