@@ -283,10 +283,12 @@ def drive(endpoint: str, robot_name: str) -> str:
             )
             robot.walk_stop()
     loop = status.loop
+    hz = loop.get("telemetry_hz", 0.0)
     return (
         f"client: read 20 joints and walked {status.motion['walking']['steps']} steps; loop "
         f"period p50 {loop.get('period_p50_ms', 0):.1f} ms, p99 {loop.get('period_p99_ms', 0):.1f}"
-        f" ms, {loop.get('overruns', 0)} overruns in {loop.get('ticks', 0)} ticks"
+        f" ms, {loop.get('overruns', 0)} overruns in {loop.get('ticks', 0)} ticks; joints and IMU"
+        f" {f'at {hz:g} Hz' if hz else 'every tick'}"
     )
 
 

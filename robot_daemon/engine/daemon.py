@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import zenoh
 
-from config.loader import RobotConfig
+from config.loader import RobotConfig, refuse_unknown, shipped
 from robot_daemon.arbiter.core import Arbiter
 from robot_daemon.arbiter.lease import Holder, Lease
 from robot_daemon.arbiter.registry import MotionContext
@@ -85,6 +85,8 @@ class Daemon(BusLifecycle):
         self.robot = robot
         self.settings = settings
         dcfg = settings.get("daemon", {})
+        # A misspelt setting must not leave its default silently in force.
+        refuse_unknown(dcfg, shipped().get("daemon", {}), "daemon")
         self.keys = Keys(options.robot)
         self.tick_s = options.tick_ms / 1000.0
         self.status_period = 1.0 / float(dcfg.get("status_hz", 10.0))

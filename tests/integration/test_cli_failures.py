@@ -102,10 +102,17 @@ def test_bad_config_file(text: str, words: str, tmp_path: Path) -> None:
     assert str(config) in line and words in line
 
 
-def test_a_bad_daemon_setting_is_named(tmp_path: Path) -> None:
-    config = tmp_path / "rate.toml"
-    config.write_text("[daemon]\ntelemetry_hz = -5\n")
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("[daemon]\ntelemetry_hz = -5\n", ["daemon.telemetry_hz", "-5"]),
+        ("[daemon]\ntelemetry_rate = 50\n", ["'telemetry_rate'", "nearest known: 'telemetry_hz'"]),
+    ],
+)
+def test_a_bad_daemon_setting_is_named(text: str, words: list[str], tmp_path: Path) -> None:
+    config = tmp_path / "daemon.toml"
+    config.write_text(text)
     line = failure_line(
         "up", "--no-gateway", "--listen", "tcp/127.0.0.1:0", "--config", str(config)
     )
-    assert "daemon.telemetry_hz" in line and "-5" in line
+    assert all(w in line for w in words), line

@@ -7,8 +7,11 @@ from __future__ import annotations
 import importlib.util
 import shlex
 import sys
+import tomllib
 from pathlib import Path
 from types import ModuleType
+
+from robot_daemon.engine.telemetry_rate import check_rate
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -55,4 +58,24 @@ def test_opencv_comes_after_the_daemon_and_blocks_are_named_by_their_comment() -
     blocks, _ = check.recipe()
     assert "python3-opencv" not in blocks[0]
     names = [check.label(b) for b in blocks]
-    assert names == ["the daemon", "OpenCV, for the camera and ball play"]
+    assert names == [
+        "the daemon",
+        "OpenCV, for the camera and ball play",
+        "the loop's settings for the Atom",
+    ]
+
+
+def test_the_atom_settings_are_settings_the_daemon_knows() -> None:
+    """The config the recipe writes (and the robot-run command reads) names only settings of
+    the shipped [daemon] table, with values the daemon takes."""
+    check = load_check()
+    blocks, command = check.recipe()
+    block = blocks[-1]
+    body = block.split("<<'EOF'\n", 1)[1].split("\nEOF", 1)[0]
+    path = shlex.split(block.split("cat > ", 1)[1])[0]
+    assert f"--config {path}" in command
+    written = tomllib.loads(body)["daemon"]
+    shipped = tomllib.loads((REPO / "config" / "daemon.toml").read_text())["daemon"]
+    assert set(written) <= set(shipped)
+    assert check_rate(written["telemetry_hz"], "daemon.telemetry_hz") > 0
+    assert 0 < written["servo_reads_per_tick"] < 20
