@@ -82,6 +82,11 @@ class Model:
         self.event_count += 1
         self.bump("events")
 
+    def events_since(self, count: int) -> list[Event]:
+        """The events added after the ``event_count`` was ``count`` (those the log still holds)."""
+        new = min(self.event_count - count, len(self.events))
+        return list(self.events)[len(self.events) - new :] if new > 0 else []
+
     def add(self, topic: str, msg: Any) -> None:
         """Store a sample of the client topic ``topic`` (what the link posts as telemetry)."""
         _ADD[topic](self, msg)

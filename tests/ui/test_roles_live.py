@@ -66,8 +66,7 @@ async def test_an_observer_sees_commands_greyed_and_they_do_nothing(
         assert app.model.status is not None and app.model.status.lease is None
         # The robot's own events (its gyro centre measured, …) may arrive meanwhile; none may be
         # about the lease this key would have taken.
-        new = app.model.event_count - before
-        arrived = list(app.model.events)[len(app.model.events) - new :] if new else []
+        arrived = app.model.events_since(before)
         assert not [e for e in arrived if e.kind == "lease"], arrived
         await show_tab(pilot, 5)  # Walk
         assert not enabled(app, "move(1, 0, 0)")
