@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from config.user_file import set_joint_offsets
@@ -38,22 +39,74 @@ def partner(name: str) -> str | None:
     return None
 
 
+@dataclass
+class _Sent:
+    """A change sent and not answered yet: what the view showed before it, and what undoing
+    it took from the history (put back should the daemon refuse it)."""
+
+    before: dict[str, float]
+    entry: dict[str, float] | None  # the history entry this change added
+    undone: dict[str, float] | None  # the history entry an undo took
+
+
 class OffsetEdits:
     """The editing logic shared by :class:`OffsetTuner` and the TUI's calibration view: the
-    offsets as the daemon last reported them and the history of changes; each method returns
-    the ``{joint: degrees}`` to send with ``offsets`` ``op: set`` (nothing is sent here)."""
+    offsets as shown (the daemon's last answer with the changes sent since) and the history of
+    changes; each method returns the ``{joint: degrees}`` to send with ``offsets`` ``op: set``
+    (nothing is sent here) and shows it at once, so a key pressed again before the daemon has
+    answered nudges a step further. Answers come in the order the changes were sent."""
 
     def __init__(self, offsets: dict[str, float] | None = None) -> None:
         self.offsets: dict[str, float] = dict(offsets or {})
         self.history: list[dict[str, float]] = []  # offsets before each change, newest last
+        self._unanswered: list[_Sent] = []
 
-    def applied(self, offsets: dict[str, float]) -> None:
-        """The daemon's reply: what the offsets are now."""
-        self.offsets = dict(offsets)
+    @property
+    def pending(self) -> int:
+        """Changes sent and not answered yet."""
+        return len(self._unanswered)
+
+    def applied(self, offsets: dict[str, float], *, answers_change: bool = True) -> None:
+        """The daemon's answer: what the offsets are now (to a change, or to a ``get`` with
+        ``answers_change=False``). While later changes are unanswered the view is newer than
+        this answer and stays; the last answer, which includes them all, replaces it."""
+        if answers_change and self._unanswered:
+            self._unanswered.pop(0)
+        if not self._unanswered:
+            self.offsets = dict(offsets)
+
+    def refused(self) -> None:
+        """The oldest unanswered change was refused: nothing changed on the daemon. With no
+        other change in flight the view goes back to what it was; otherwise the caller asks
+        the daemon (``get``) once they are answered."""
+        if not self._unanswered:
+            return
+        sent = self._unanswered.pop(0)
+        if sent.entry is not None:
+            self.history[:] = [h for h in self.history if h is not sent.entry]
+        if sent.undone is not None:
+            self.history.append(sent.undone)
+        if not self._unanswered:
+            self.offsets = sent.before
+
+    def _sent(
+        self,
+        changes: dict[str, float],
+        *,
+        entry: dict[str, float] | None = None,
+        undone: dict[str, float] | None = None,
+    ) -> dict[str, float]:
+        if changes:
+            self._unanswered.append(_Sent(dict(self.offsets), entry, undone))
+            self.offsets.update(changes)
+        elif entry is not None:
+            self.history.pop()  # nothing to send: nothing to undo either
+        return changes
 
     def _change(self, changes: dict[str, float]) -> dict[str, float]:
-        self.history.append(dict(self.offsets))
-        return changes
+        entry = dict(self.offsets)
+        self.history.append(entry)
+        return self._sent(changes, entry=entry)
 
     def nudge(self, joint: str, delta_deg: float) -> dict[str, float]:
         return self._change({joint: self.offsets[joint] + delta_deg})
@@ -75,7 +128,8 @@ class OffsetEdits:
         if not self.history:
             raise ValueError("nothing to undo")
         before = self.history.pop()
-        return {k: v for k, v in before.items() if self.offsets.get(k) != v}
+        changes = {k: v for k, v in before.items() if self.offsets.get(k) != v}
+        return self._sent(changes, undone=before)
 
 
 class OffsetTuner:
@@ -98,7 +152,8 @@ class OffsetTuner:
         return self.edits.history
 
     def refresh(self) -> dict[str, float]:
-        self.edits.applied(self.robot.command("offsets", op="get")["offsets"])
+        answer = self.robot.command("offsets", op="get")["offsets"]
+        self.edits.applied(answer, answers_change=False)
         self._read = True
         return dict(self.edits.offsets)
 
@@ -113,7 +168,7 @@ class OffsetTuner:
         try:
             return self._send(changes)
         except Exception:
-            self.edits.history.pop()  # refused: nothing changed
+            self.edits.refused()
             raise
 
     def set(self, changes: dict[str, float]) -> dict[str, float]:
@@ -131,8 +186,7 @@ class OffsetTuner:
         return self._edit(lambda: self.edits.reset(joints))
 
     def undo(self) -> dict[str, float]:
-        self.offsets  # noqa: B018
-        return self._send(self.edits.undo())
+        return self._edit(self.edits.undo)
 
     def reference_pose(self, duration: float = 2.0) -> dict[str, Any]:
         """Every joint to 0 rad: ROBOTIS's offset-tuner posture (see the module's docstring)."""

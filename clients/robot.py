@@ -16,13 +16,13 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import zenoh
 
+from clients.arrivals import Arrivals
 from clients.commander import Commander
 from clients.fleet import RobotRecord, discover_at
 from clients.protocol_watch import ProtocolWatch
@@ -140,9 +140,7 @@ class Robot(Commander, TeachMixin):
         self._state = RobotState()
         self._listeners: dict[str, list[Subscription]] = {}
         self._zsubs: dict[str, Any] = {}
-        self._conds = threading.Condition()
-        self._seq: dict[str, int] = {}
-        self._latest: dict[str, Message] = {}
+        self._arrivals = Arrivals()
         self.protocol = ProtocolWatch(f"this client ({self.name})")
         for topic in ALWAYS:
             self._ensure_zsub(topic)
@@ -209,10 +207,7 @@ class Robot(Commander, TeachMixin):
             elif topic == "world":
                 self._state.world = msg  # type: ignore[assignment]
             listeners = list(self._listeners.get(topic, ()))
-        with self._conds:
-            self._seq[topic] = self._seq.get(topic, 0) + 1
-            self._latest[topic] = msg
-            self._conds.notify_all()
+        self._arrivals.add(topic, msg)
         for sub in listeners:
             sub._deliver(msg)
 
@@ -253,23 +248,12 @@ class Robot(Commander, TeachMixin):
     ) -> Any:
         """Block until a message on ``topic`` satisfies ``predicate`` and return it. With
         ``fresh`` only messages arriving after the call count; otherwise the latest one may.
+        Every message that arrives is tested, in order, not only the newest when this thread
+        wakes: an event followed at once by another is not missed (:mod:`clients.arrivals`).
         Raises ``CommandTimeoutError`` if none does within ``timeout`` seconds."""
         self._ensure_zsub(topic)
-        deadline = time.monotonic() + timeout
-        with self._conds:
-            seen = self._seq.get(topic, 0) if fresh else -1
-            while True:
-                latest = self._latest.get(topic)
-                if self._seq.get(topic, 0) != seen and latest is not None:
-                    seen = self._seq.get(topic, 0)
-                    if predicate(latest):
-                        return latest
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    raise CommandTimeoutError(
-                        f"no {topic!r} message matching the condition within {timeout:.1f} s"
-                    )
-                self._conds.wait(remaining)
+        since = self._arrivals.count(topic)
+        return self._arrivals.wait(topic, predicate, timeout, since if fresh else since - 1)
 
     # -- notebook helpers: tables and images ------------------------------------------------------
     def collect(

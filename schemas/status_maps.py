@@ -70,6 +70,7 @@ class LoopInfo(TypedDict, total=False):
 class CameraInfo(TypedDict, total=False):
     source: str
     subscribed: bool
+    capturing: bool  # the capture thread is running; counts settle once it is False
     captured: int
     published: int
     errors: int

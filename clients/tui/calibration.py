@@ -39,9 +39,7 @@ class CalibrationView(TabView):
     DEFAULT_CSS = """
     CalibrationView #cal-table { height: 1fr; }
     """
-    ACTION_ROLES = {
-        a: Role.ADMIN for a in ("nudge", "mirror", "undo", "zero", "posture", "save")
-    }
+    ACTION_ROLES = {a: Role.ADMIN for a in ("nudge", "mirror", "undo", "zero", "posture", "save")}
     BINDINGS = [
         Binding("p", "posture", N_("Reference posture")),
         Binding("plus,equals_sign", "nudge(1)", N_("Offset +1 step")),
@@ -142,12 +140,15 @@ class CalibrationView(TabView):
 
     def command_done(self, tag: str, applied: dict[str, Any], error: str) -> None:
         if error:
-            if tag == "set" and self.edits.history:
-                self.edits.history.pop()  # refused: nothing changed
+            if tag == "set":
+                self.edits.refused()
+                if self.edits.pending:  # what the daemon holds is known once they are answered
+                    self.send("offsets", tag="get", quiet=True, op="get")
+                self.refresh_view(self.model)
             self.notify_error(error)
             return
         if tag in ("get", "set") and "offsets" in applied:
-            self.edits.applied(applied["offsets"])
+            self.edits.applied(applied["offsets"], answers_change=tag == "set")
             self.refresh_view(self.model)
 
 

@@ -79,7 +79,7 @@ def status_message(daemon: Daemon) -> Status:
     if daemon.camera is not None:
         extra["camera"] = daemon.camera.status()
     else:
-        extra["camera"] = {"source": "none", "captured": 0, "subscribed": False}
+        extra["camera"] = {"source": "none", "captured": 0, "subscribed": False, "capturing": False}
     return Status(
         state=str(daemon.state),
         robot=daemon.options.robot,

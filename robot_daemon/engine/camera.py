@@ -86,6 +86,9 @@ class CameraThread:
         self.captured = 0
         self.published = 0
         self.passed_through = 0  # published as the source's own JPEG bytes
+        # Between a need and the source closed again: a capture may still complete (a render
+        # under way when the last viewer left), so counts settle once this is False.
+        self.capturing = False
         self.errors = 0
         self.last_error = ""
         self._source: CameraSource | None = None
@@ -144,10 +147,13 @@ class CameraThread:
             with self._cond:
                 while not self._needed() and not self._stop:
                     self._close_source()
+                    self.capturing = False
                     self._cond.wait()
                 if self._stop:
                     self._close_source()
+                    self.capturing = False
                     return
+                self.capturing = True
             next_t = max(next_t + self.period, time.monotonic())
             self._capture_one()
             with self._cond:
@@ -198,6 +204,7 @@ class CameraThread:
         return {
             "source": self.spec,
             "subscribed": self._subscribed,
+            "capturing": self.capturing,
             "readers": len(self._consumers),
             "opened": self.opened,
             "captured": self.captured,

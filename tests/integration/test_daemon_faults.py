@@ -15,6 +15,7 @@ from clients.robot import Robot
 from schemas.errors import CommandError
 from schemas.messages import CameraFrame
 from schemas.sim_control import SimControl
+from tests.fixtures.emulator import wait_until
 from tests.fixtures.system import EventLog, RunningSystem, darwin_command, start_system
 
 HEAD_PAN = 19
@@ -145,7 +146,7 @@ def test_camera_is_captured_only_while_watched(faulty_system: RunningSystem) -> 
         # Nobody watches: several status periods pass without a single capture.
         for _ in range(5):
             status = robot.wait_for("status")
-            assert status.camera["subscribed"] is False
+            assert status.camera["subscribed"] is False and status.camera["capturing"] is False
             assert status.camera["captured"] == first.camera["captured"]
         frames: list[CameraFrame] = []
         with robot.subscribe("camera", frames.append):
@@ -155,11 +156,10 @@ def test_camera_is_captured_only_while_watched(faulty_system: RunningSystem) -> 
             watched = robot.wait_for(
                 "status", lambda s: s.camera["captured"] > first.camera["captured"], timeout=10
             )
-            assert watched.camera["subscribed"] is True
+            assert watched.camera["subscribed"] is True and watched.camera["capturing"] is True
         robot.wait_for("status", lambda s: not s.camera["subscribed"], timeout=10)
         # A frame already being rendered when the last subscriber left may still complete.
-        robot.wait_for("status")
-        stopped = robot.wait_for("status")
+        stopped = robot.wait_for("status", lambda s: not s.camera["capturing"], timeout=10)
         for _ in range(5):
             status = robot.wait_for("status")
             assert status.camera["captured"] == stopped.camera["captured"]
@@ -181,7 +181,12 @@ def test_an_overheating_servo_is_protected_and_reported(faulty_system: RunningSy
             with servo_fault(sim, "overheat", 5, "on"):
                 robot.wait_for("status", lambda s: any(a["id"] == 5 for a in s.alarms), timeout=15)
                 robot.wait_for("status", lambda s: 5 in s.bus["torque_off"], timeout=15)
-                assert sim.call("state")["servos"]["5"]["torque"] is False
+                # The write went out on the bus; the emulator applies it as it arrives.
+                wait_until(
+                    lambda: sim.call("state")["servos"]["5"]["torque"] is False,
+                    timeout=10,
+                    what="servo 5's torque off in the emulator",
+                )
             alarm = events.wait(lambda e: e.kind == "servo_alarm" and e.data["id"] == 5)
         assert "overheating" in alarm.data["alarms"] and "torque off" in alarm.message
         with robot.control():  # torque back on only when someone asks

@@ -30,7 +30,8 @@ def still_serving(system: RunningSystem, url: str) -> None:
         fc.subscribe("/joints")
         first = fc.take("/joints")["tick"]
         assert fc.take("/joints", lambda m: m["tick"] > first)
-        assert robot.wait_for("status", lambda s: True, WAIT).state == "running"
+        # (degraded for a moment should a loaded machine starve a few bulk reads)
+        robot.wait_for("status", lambda s: s.state == "running", WAIT)
     assert system.alive
 
 

@@ -267,10 +267,11 @@ def test_a_released_lease_stops_the_walk_within_a_step(robot_system: RunningSyst
             walking = walker.wait_for(
                 "status", lambda s: s.motion.get("walking", {}).get("steps", 0) >= 2, WAIT
             )
-            # The newest count before the release: status is at most one period old.
-            steps = walker.wait_for("status").motion["walking"]["steps"]
-            assert steps >= walking.motion["walking"]["steps"]
-        # Leaving the block released the lease: nobody controls the walk, so it ends.
+        # Leaving the block released the lease: nobody controls the walk, so it ends. The lease
+        # change publishes a status on the release's own tick: the count the stop starts from.
+        released = walker.wait_for("status", lambda s: s.lease is None, WAIT, fresh=False)
+        steps = released.motion["walking"]["steps"]
+        assert steps >= walking.motion["walking"]["steps"]
         stopped = events.wait(_kind("walk", state="stopped"))
         events.close()
         assert stopped.data["steps"] - steps <= 2

@@ -64,7 +64,7 @@ def test_record_walk_then_replay_as_live(robot_system: RunningSystem, tmp_path: 
                 got: queue.Queue[Joints] = queue.Queue()
                 viewer.subscribe("joints", got.put)
                 ReplayControl(viewer).resume()
-                imu = viewer.wait_for("imu", timeout=10)
+                imu = viewer.wait_for("imu", timeout=10, fresh=False)  # none before resume
                 assert isinstance(imu, Imu)
                 replayed = [got.get(timeout=10) for _ in back.topic("joints")]
                 assert replayer.wait(timeout=30)

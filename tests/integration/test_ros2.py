@@ -25,6 +25,7 @@ pytest.importorskip("rosbags")
 from clients.recording import Recorder, read_recording
 from config.loader import load_robot
 from schemas.session import free_tcp_port, open_client, server_config
+from tests.fixtures.emulator import wait_until
 from tests.fixtures.system import (
     REPO,
     START_TIMEOUT,
@@ -72,6 +73,15 @@ class Adapter:
             assert line is not None, "\n".join(self.lines)
             if text in line:
                 return line
+
+    def wait_count(self, text: str, n: int, timeout: float = 30.0) -> None:
+        """Until ``n`` of its lines hold ``text``."""
+        deadline = time.monotonic() + timeout
+        while sum(text in line for line in self.lines) < n:
+            remaining = deadline - time.monotonic()
+            assert remaining > 0, f"fewer than {n} lines with {text!r}:\n" + "\n".join(self.lines)
+            with contextlib.suppress(queue.Empty):
+                assert self._q.get(timeout=remaining) is not None, "\n".join(self.lines)
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -314,12 +324,16 @@ def test_bad_ros_input_moves_nothing_and_the_adapter_keeps_running(
             # once idle: wait for that, or the holder below finds the lease busy.
             watcher.wait_for("status", lambda s: not s.lease, timeout=30)
             with watcher.control("busy holder"):
+                nan = "cmd_vel linear.x is nan"
+                said = sum(nan in line for line in ad.lines)
                 for _ in range(5):
                     put(twist(x=0.05))
+                # Behind the five in the adapter's one command queue: once it is refused, so
+                # were they, and none is left to take the lease after this block lets it go.
+                put(twist(x=math.nan))
+                ad.wait_count(nan, said + 1)
                 ad.wait_line("ROS command ignored")
-                watcher.wait_for(
-                    "events", lambda e: e.kind == "ros2_refused", fresh=False, timeout=10
-                )
+                wait_until(lambda: bool(events), timeout=10, what="the ros2_refused event")
                 st = watcher.wait_for("status", timeout=10)
                 assert not walking(st) and st.lease["name"] == "busy holder"
             assert sum("ROS command ignored" in line for line in ad.lines) == 1

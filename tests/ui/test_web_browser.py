@@ -18,6 +18,7 @@ import pytest
 
 from schemas.session import free_tcp_port
 from tests.browser import Page, chromium
+from tests.fixtures.emulator import wait_until
 from tests.fixtures.system import (
     REPO,
     RunningSystem,
@@ -143,7 +144,8 @@ def test_tui_in_a_browser(
         assert tab_processes(robot)
         server.terminate()
         assert server.wait(timeout=30) == 0
-        assert not tab_processes(robot)
+        # Told to quit as the server shut down, the tab's UI may take a moment more to exit.
+        wait_until(lambda: not tab_processes(robot), timeout=30, what="the tab's UI to end")
 
 
 def test_darwin_up_web_serves_the_page() -> None:
