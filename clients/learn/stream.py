@@ -31,6 +31,7 @@ class PolicyStream:
         self._key = b""
         self._cond = threading.Condition()
         self._obs: PolicyObservation | None = None
+        self._started = -1  # the tick the stream started at (observations after it are its)
         self._applied: dict[int, PolicyApplied] = {}
         self.applied: deque[PolicyApplied] = deque(maxlen=10000)
         self.status: PolicyStatus | None = None
@@ -81,6 +82,10 @@ class PolicyStream:
             fields["scale"] = scale
         self.info = self.robot.command("policy", **fields)
         self._key = bytes(self.info["stream_key"])
+        with self._cond:
+            # An observation received before (of no stream, or of one that ended) is not one
+            # of this stream: it would say the stream is not running.
+            self._started = int(self.info.get("tick", -1))
         return self
 
     def stop(self) -> dict[str, Any]:
@@ -89,8 +94,10 @@ class PolicyStream:
     def next_observation(
         self, after_tick: int = -1, timeout: float = 2.0
     ) -> PolicyObservation | None:
-        """The first observation newer than ``after_tick`` (None after ``timeout``)."""
+        """The first observation newer than ``after_tick`` and than the stream's start (None
+        after ``timeout``)."""
         with self._cond:
+            after_tick = max(after_tick, self._started)
             self._cond.wait_for(lambda: self._obs is not None and self._obs.tick > after_tick,
                                 timeout)  # fmt: skip
             obs = self._obs

@@ -108,6 +108,7 @@ class PolicyModule(MotionModule):
         self._next_obs = 0.0
         self._next_status = 0.0
         self._status_state = ""
+        self.started_tick = -1
         self.last_action = np.zeros(N_JOINTS)
 
     def _reset_stream(self) -> None:
@@ -136,6 +137,8 @@ class PolicyModule(MotionModule):
             self._token_at = self.clock()
             self._mail = None
         frame = self.manager.last_frame if self.manager else None
+        # Observations of later ticks are published after this start (they say `running`).
+        self.started_tick = frame.tick if frame else -1
         present = frame.position[IDX] if frame else self.default
         self.target = np.clip(present, self.low, self.high)
         self.last_action = self._to_action(self.target)

@@ -140,7 +140,11 @@ def test_walking_alternates_legs_at_the_period_and_stops_within_a_step(robot: Ro
     assert not np.any(lifted_r & lifted_l)
     starts_l = [stamps[i] for i in range(1, len(h)) if lifted_l[i] and not lifted_l[i - 1]]
     starts_r = [stamps[i] for i in range(1, len(h)) if lifted_r[i] and not lifted_r[i - 1]]
-    assert len(starts_l) >= 3 and len(starts_r) >= 3
+    assert len(starts_l) >= 3 and len(starts_r) >= 3, (
+        f"{len(frames)} samples over {stamps[-1] - stamps[0]:.2f} s (ticks "
+        f"{frames[0].tick}..{frames[-1].tick}); lift-offs left {starts_l}, right {starts_r}; "
+        f"highest feet {h.max(axis=0)}; events {[e.message for e in events.seen]}"
+    )
     # Each foot lifts once per period, the two half a period apart, to within what the samples
     # resolve: a lift-off is seen at the first sample after it, so each difference of two is off
     # by at most the widest gap between samples (a late tick on a busy machine, a dropped one).

@@ -124,6 +124,25 @@ def _policy_event(words: str):
     return lambda e: e.kind == "policy" and e.data.get("state") == "stopped" and words in e.message
 
 
+def test_a_started_stream_never_answers_an_observation_from_before_it(holder: Robot) -> None:
+    stream = PolicyStream(holder).start(rate_hz=50)
+    try:
+        _stream(holder, 3, [0.0] * 20, stream)
+        stream.stop()
+        # The newest observation this client holds is of no stream now.
+        stale = stream.next_observation(timeout=WAIT)
+        while stale is not None and stale.running:
+            stale = stream.next_observation(stale.tick, timeout=WAIT)
+        assert stale is not None and not stale.running
+        stream.start(rate_hz=50)
+        assert stream.info["tick"] >= stale.tick
+        obs = stream.next_observation(timeout=WAIT)
+        assert obs is not None and obs.running and obs.tick > stream.info["tick"]
+    finally:
+        stream.stop()
+        stream.close()
+
+
 def test_silence_ends_the_stream_with_a_safe_stop(holder: Robot) -> None:
     events = Events(holder)
     stream = PolicyStream(holder).start(rate_hz=50)

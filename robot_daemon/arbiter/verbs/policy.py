@@ -46,6 +46,7 @@ def policy(req: Request, ctx: MotionContext) -> dict[str, Any]:
     return {
         "op": op,
         "stream_key": key,
+        "tick": module.started_tick,  # observations after this tick are of the stream
         "client": req.client,
         "rate_hz": rate,
         "mode": mode,
