@@ -93,9 +93,12 @@ def test_operator_link_cut_safe_stop_then_client_reconnects(net: Network) -> Non
     observer.send("count", topic="joints", seconds=COUNT_S)
     back = time.time()
     net.link_up("operator")
-    # What was queued for it before the cut may arrive first: wait for the robot as it is now.
-    seen = operator.request("wait_status", path="lease", equals=None, timeout=WAIT, fresh=True)
-    assert seen["motion"]["walking"]["walking"] is False
+    # What was queued for it during the cut arrives first, in order (the walk ending its step
+    # after the lease ended among it): wait for the robot as it is now, stopped and free.
+    seen = operator.request(
+        "wait_status", path="motion.walking.walking", equals=False, timeout=WAIT, fresh=True
+    )
+    assert seen["lease"] is None
     assert operator.call("alive") is True
     # Its commands reach the arbiter again: it takes a new lease, with a new secret.
     assert operator.call("acquire")["holder"]["name"] == "op-cut"
