@@ -14,8 +14,10 @@ caller alone), every command carries it, and a background thread renews the leas
 from __future__ import annotations
 
 import contextlib
+import threading
 import time
 import uuid
+import weakref
 from collections.abc import Iterator
 from typing import Any, Self
 
@@ -38,6 +40,22 @@ from schemas.roles import LADDER, Role, command_key, discover_role, parse_role, 
 from schemas.roles import check as check_role
 from schemas.session import CONNECT_HINT, Credentials, Target, connect, login_hint, resolve
 from schemas.session import credentials as make_credentials
+
+# Clients not yet closed, closed when the interpreter ends. Zenoh runs each subscriber's callback
+# in a Python thread that is not a daemon thread and lives until the subscriber is undeclared,
+# so a script that forgets ``close()`` would otherwise never exit: Python joins those threads
+# before it runs ``atexit`` handlers. ``threading._register_atexit`` runs before that join (as
+# concurrent.futures uses it); closing releases the lease (a safe stop) and the session.
+_OPEN: weakref.WeakSet[Commander] = weakref.WeakSet()
+
+
+def _close_open_clients() -> None:
+    for client in list(_OPEN):
+        with contextlib.suppress(Exception):
+            client.close()
+
+
+threading._register_atexit(_close_open_clients)  # type: ignore[attr-defined]
 
 
 class Commander:
@@ -90,6 +108,7 @@ class Commander:
         )
         # The arbiter releases our lease (and safely stops the robot) when this token goes.
         self._token = self.session.liveliness().declare_token(self.keys.client(self.client_id))
+        _OPEN.add(self)
         self._open_extra()
 
     def _open_extra(self) -> None:
@@ -100,6 +119,7 @@ class Commander:
             return
         self._lease.drop()
         self._closed = True
+        _OPEN.discard(self)
         self._close_extra()
         with contextlib.suppress(Exception):
             self._token.undeclare()

@@ -2,13 +2,17 @@
 
     >>> from clients import Robot
     >>> with Robot() as robot:                 # DARWIN_ENDPOINT / DARWIN_ROBOT or local defaults
-    ...     print(robot.state.joints.position)
+    ...     state = robot.wait_ready()         # the first messages have arrived
+    ...     print(state.joints.position)
     ...     with robot.control("my notebook"):
     ...         robot.joint("head_pan", 0.3)
 
 This module is the watching side (state, subscriptions, waiting, notebook tables and images);
 the commands and the control lease are :class:`clients.commander.Commander`, which ``Robot``
 extends and which is importable from here too.
+
+A script that forgets ``close()`` still exits: every client still open is closed when the
+interpreter ends (:mod:`clients.commander`).
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -60,6 +65,10 @@ TOPICS: dict[str, type[Message]] = {
 # Topics the client always follows (cheap, and what `state` shows); the camera is subscribed to
 # only on demand because the daemon captures frames only while someone watches.
 ALWAYS = ("joints", "imu", "status", "events")
+# What ``wait_ready`` waits for: the topics ``state`` shows that every daemon publishes.
+READY = ("joints", "imu", "status")
+# Where a one-line error's fix is explained at length.
+TROUBLESHOOTING = "docs/troubleshooting.md"
 
 
 def topic_key(keys: Keys, topic: str) -> str:
@@ -185,6 +194,29 @@ class Robot(Commander, TeachMixin):
     def state(self) -> RobotState:
         with self._lock:
             return RobotState(**vars(self._state))
+
+    def wait_ready(self, timeout: float = 5.0) -> RobotState:
+        """Wait until the first joints, IMU and status messages have arrived and return the
+        state. Right after ``Robot()`` nothing has arrived yet (``state.joints`` is ``None``);
+        call this before reading ``state``. Raises ``CommandTimeoutError`` naming what did not
+        arrive within ``timeout`` seconds."""
+        deadline = time.monotonic() + timeout
+        missing: list[str] = []
+        for topic in READY:
+            if self._arrivals.count(topic):
+                continue
+            try:
+                self._arrivals.wait(topic, lambda m: True, max(0.0, deadline - time.monotonic()), 0)
+            except CommandTimeoutError:
+                missing.append(topic)
+        if missing:
+            raise CommandTimeoutError(
+                f"no {', '.join(missing)} message from robot {self.target.robot!r} at "
+                f"{self.target.endpoint} within {timeout:g} s: is its daemon running (`darwin "
+                "up`, or `darwin list` for the robots there) and is the robot name right? "
+                f"({TROUBLESHOOTING}#no-robot-found)"
+            )
+        return self.state
 
     def _on_sample(self, topic: str, sample: zenoh.Sample) -> None:
         try:
