@@ -162,7 +162,13 @@ SPEC: dict[str, Verb] = {
             "`head` / `eye` [r,g,b] 0..255, `panel` 0..7 (each optional, one at least)",
             bus=True,
         ),
-        Verb("halt", {}, "— stop every module, hold the present pose; always taken", lease=False),
+        Verb(
+            "halt",
+            {},
+            "— stop every module and hold (a walk ends at its next double support, within half "
+            "a gait period; the rest at once); always taken",
+            lease=False,
+        ),
         Verb(
             "config",
             {},

@@ -50,6 +50,16 @@ class MotionModule:
     def halt(self) -> None:
         """Stop now; the manager will hold the present pose."""
 
+    def halt_safely(self) -> None:
+        """The ``halt`` verb: stop as soon as the body is safe. Most modules freeze at once
+        (``halt``); the walk ends at its next double support (motion/walking/gait.py)."""
+        self.halt()
+
+    @property
+    def finishing(self) -> bool:
+        """Still driving its joints after ``halt_safely`` (the walk's last half step)."""
+        return False
+
     @property
     def active(self) -> bool:
         return bool(self.owned())

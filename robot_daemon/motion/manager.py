@@ -124,17 +124,34 @@ class MotionManager:
         self._last_goal.update(targets.goal)
         return targets
 
-    def halt(self) -> None:
-        """Stop every module now and hold the present pose on every joint."""
+    def halt(self, finish_step: bool = False) -> None:
+        """Stop every module and hold the pose on every joint.
+
+        ``finish_step`` (the ``halt`` verb): a walk ends at its next double support, within
+        half a gait period, and then holds; everything else freezes now. Without it (a lost
+        port, a fault, shutdown) everything freezes now."""
         for m in self.modules:
-            m.halt()
-        for j in self._owner:
-            self._owner[j] = None
+            if finish_step:
+                m.halt_safely()
+            else:
+                m.halt()
+        keep = {m.name for m in self.modules if m.finishing}
+        for j, o in self._owner.items():
+            if o not in keep:
+                self._owner[j] = None
         self._owned = None
         frame = self.last_frame
         if frame is not None:
             self.hold_present(frame)
-        self.emit("halt", "all motion stopped; holding the present pose")
+        if keep:
+            self.emit(
+                "halt",
+                "all motion stopped; the walk ends its step at the next double support "
+                "(within half a gait period), then holds",
+                finishing=sorted(keep),
+            )
+        else:
+            self.emit("halt", "all motion stopped; holding the present pose", finishing=[])
 
     def hold_present(self, frame: JointFrame) -> None:
         """Hold the pose on every joint nobody owns (halt, shutdown, the port came back): the

@@ -170,9 +170,13 @@ def led(req: Request, ctx: MotionContext) -> dict[str, Any]:
 
 @verb("halt")
 def halt(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    ctx.manager.halt()
-    ctx.emit("halt", f"halt by {req.name!r}", client=req.client)
-    return {"halted": True, "by": req.name}
+    # Pages, poses, trajectories, ball play, the policy freeze now; a walk ends its step at the
+    # next double support (within half a period) and holds: frozen mid-step it stood on one
+    # foot and tipped over. Limp at once is `torque` enable=false (or the reset button).
+    ctx.manager.halt(finish_step=True)
+    finishing = sorted(m.name for m in ctx.manager.modules if m.finishing)
+    ctx.emit("halt", f"halt by {req.name!r}", client=req.client, finishing=finishing)
+    return {"halted": True, "by": req.name, "finishing": finishing}
 
 
 @verb("config")

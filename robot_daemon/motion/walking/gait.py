@@ -74,6 +74,9 @@ class WalkingModule(WalkReady, MotionModule):
         self._gyro_f = [0.0, 0.0]  # low-passed gyro counts (right/left, front/back)
         self._gains: dict[int, tuple[int, int, int]] = {}
         self._gains_for: tuple[int, int, int] | None = None
+        # ``halt`` during the gait: the walk runs on to its next step boundary, the middle of
+        # a double support with both feet down, and stops there (at most half a period).
+        self._halting = False
         self._update_time()
         self._update_move()
 
@@ -91,6 +94,7 @@ class WalkingModule(WalkReady, MotionModule):
             if not self._readying:
                 self.claim(WALK_IDS)
             self.running = True
+            self._halting = False
             self.time_ms = 0.0
             self.latched = [0.0, 0.0, 0.0]
             self._update_time()
@@ -98,6 +102,7 @@ class WalkingModule(WalkReady, MotionModule):
             self._ready_from = {}
             self.emit("walk", "walking started", state="started")
         self.ctrl_running = True
+        self._halting = False  # a walk started again after a halt walks on
         return tuple(self.cmd)
 
     def set_speed(self, x: float, y: float, turn: float) -> tuple[float, ...]:
@@ -120,7 +125,28 @@ class WalkingModule(WalkReady, MotionModule):
         """Finish the current step and stand."""
         self.ctrl_running = False
 
+    def halt_safely(self) -> None:
+        """The ``halt`` verb: stopped at once, a walk would stand on one foot for most of a
+        period (the swing foot up to the step height in the air, the body over the stance
+        foot) and tip over. So while the gait runs it ends at its next step boundary (time 0
+        or phase 2 of the period: the middle of a double support, both feet down, the body
+        centred), at most half a period later, and holds there; ROBOTIS's Walking.cpp stops
+        only there too (``m_Real_Running = false`` at those two phase points). Before the
+        gait runs (gyro, walk-ready page, the blend into the stance) both feet are down: it
+        stops at once."""
+        if self.running and not self._readying and self._ready_t is None and self.owned():
+            self.ctrl_running = False
+            self.cmd = [0.0, 0.0, 0.0]
+            self._halting = True
+            return
+        self.halt()
+
+    @property
+    def finishing(self) -> bool:
+        return self._halting and self.running
+
     def halt(self) -> None:
+        self._halting = False
         self._readying = ""
         self.ctrl_running = self.running = False
         self.cmd = [0.0, 0.0, 0.0]
@@ -168,7 +194,16 @@ class WalkingModule(WalkReady, MotionModule):
         (amplitudes zero), else take one more step, latching zero at its mid-swing."""
         self._update_time()
         self.steps += 1
-        if not self.ctrl_running and all(abs(a) < 1e-9 for a in self.latched):
+        if self._halting:
+            self._halting = self.running = False
+            self.cmd = [0.0, 0.0, 0.0]  # this tick's pose keeps the step's amplitudes
+            self.emit(
+                "walk",
+                "walking halted at double support; holding",
+                state="stopped",
+                steps=self.steps,
+            )
+        elif not self.ctrl_running and all(abs(a) < 1e-9 for a in self.latched):
             self.running = False
             self.cmd = [0.0, 0.0, 0.0]
             self.emit("walk", "walking stopped", state="stopped", steps=self.steps)
@@ -179,6 +214,7 @@ class WalkingModule(WalkReady, MotionModule):
             if self._last and self.active:
                 # Standing after a stop: hand the joints back, holding the last pose.
                 self._last = {}
+                self.latched = [0.0, 0.0, 0.0]
                 self.release()
             return {}
         if not frame.imu_calibrated:
@@ -187,7 +223,9 @@ class WalkingModule(WalkReady, MotionModule):
         if self._ready_t is not None:
             return self._blend(frame)
         self._clock(tick_ms)
-        goals = self._pose(frame)
+        # The walk's last pose is held after it (static goals): without the gyro feedback of
+        # that one tick, which frozen in the knees and ankles tipped a halted robot over.
+        goals = self._pose(frame, balance=self.running)
         if self.running:
             self.time_ms += tick_ms
             if self.time_ms >= self.period - 1e-9:
