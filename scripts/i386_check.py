@@ -44,8 +44,15 @@ def say(line: str) -> None:
     print(f"i386-check: {line}", flush=True)
 
 
+# The page marks its blocks with a class in the attribute form of the fence, which Markdown
+# (pymdownx.superfences) renders as a shell block and GitHub as a code block: an info string
+# like "sh recipe" is no fence at all to Python-Markdown, and the page rendered as prose.
+RECIPE = "{.sh .recipe}"
+ROBOT_RUN = "{.sh .robot-run}"
+
+
 def fenced_blocks(text: str, info: str) -> list[str]:
-    """The bodies of the fenced blocks whose info string is exactly ``info`` ("sh recipe")."""
+    """The bodies of the fenced blocks whose info string is exactly ``info`` (``RECIPE``)."""
     pattern = re.compile(r"^```" + re.escape(info) + r"[ \t]*\n(.*?)^```[ \t]*$", re.M | re.S)
     return [m.group(1) for m in pattern.finditer(text)]
 
@@ -53,9 +60,9 @@ def fenced_blocks(text: str, info: str) -> list[str]:
 def recipe() -> tuple[list[str], str]:
     """The page's install blocks, in order, and its daemon command."""
     text = DOC.read_text()
-    install, run = fenced_blocks(text, "sh recipe"), fenced_blocks(text, "sh robot-run")
+    install, run = fenced_blocks(text, RECIPE), fenced_blocks(text, ROBOT_RUN)
     if not install or len(run) != 1:
-        raise CheckFailed(f"{DOC}: needs ```sh recipe blocks and one ```sh robot-run block")
+        raise CheckFailed(f"{DOC}: needs ```{RECIPE} blocks and one ```{ROBOT_RUN} block")
     return install, run[0].strip()
 
 

@@ -42,8 +42,9 @@ def test_the_recipe_installs_the_daemon_first_and_has_one_daemon_command() -> No
 
 def test_fenced_blocks_are_found_by_their_info_string_only() -> None:
     check = load_check()
-    text = "```sh\nnot me\n```\n```sh recipe\necho a\necho b\n```\n```sh recipe-x\nno\n```\n"
-    assert check.fenced_blocks(text, "sh recipe") == ["echo a\necho b\n"]
+    text = ("```sh\nnot me\n```\n```{.sh .recipe}\necho a\necho b\n```\n"
+            "```{.sh .recipe-x}\nno\n```\n")
+    assert check.fenced_blocks(text, check.RECIPE) == ["echo a\necho b\n"]
 
 
 def test_the_core_requirements_are_the_ones_the_check_dry_runs() -> None:
