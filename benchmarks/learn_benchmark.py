@@ -1,9 +1,12 @@
 """Robot learning figures: the fast backend, the stack, the policy loop, the per-tick cost.
 
-    .venv/bin/python benchmarks/learn_benchmark.py [--steps 500] [--seconds 10]
+    .venv/bin/python benchmarks/learn_benchmark.py [--steps 500] [--seconds 10] [--fast-only]
 
-1. Fast backend (clients/learn/fast.py): env steps/s and real-time factor at 50 Hz, against
-   the bare plant (``mj_step`` on the same model, same number of physics steps) in this run.
+1. Fast backend (clients/learn/fast.py): env steps/s at 50 Hz (wall, and per second of this
+   process's CPU: the one-core figure on a shared machine) for the training model
+   (``[physics.fast]``) and the full one, each against bare ``mj_step`` of the same model over
+   the same simulated time, in this run; then the vectorised env (``gym.make_vec``): ``--worlds``
+   worlds in one process (sync) and one process per core (async).
 2. Stack backend: the real-time factor of ``darwin up --physics mujoco`` driven by the env.
 3. The policy loop with a client streaming at 50 Hz over Zenoh (``darwin up``): observation →
    applied latency p50/p99 (the daemon's PolicyApplied.latency), missed deadlines, overruns,
@@ -17,6 +20,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -33,23 +37,56 @@ from clients.learn.fast import Randomization
 RATE = 50.0
 
 
-def fast_backend(steps: int) -> None:
-    env = gym.make("darwin/Stand-v0", randomize=Randomization.off(), max_steps=10**9)
-    env.reset(seed=0)
-    backend = env.unwrapped.backend
-    t = time.perf_counter()
+def _steps_per_s(env: gym.Env, steps: int) -> tuple[float, float]:
+    """Env steps per second of wall time and of this process's CPU time."""
+    zero = np.zeros(20)
+    t, c = time.perf_counter(), time.process_time()
     for _ in range(steps):
-        env.step(np.zeros(20))
-    wall = time.perf_counter() - t
-    plant = backend.plant
-    n_phys = int(steps / RATE / plant.model.opt.timestep)
-    t = time.perf_counter()
-    plant.mj.mj_step(plant.model, plant.data, nstep=n_phys)
-    bare = time.perf_counter() - t
-    print(f"fast backend: {steps / wall:.0f} steps/s, real-time factor {steps / RATE / wall:.1f}")
-    print(f"bare mj_step of the same {n_phys} physics steps: real-time factor "
-          f"{steps / RATE / bare:.1f}; env overhead ×{wall / bare:.2f}")  # fmt: skip
-    env.close()
+        env.step(zero)
+    return steps / (time.perf_counter() - t), steps / (time.process_time() - c)
+
+
+def _bare(plant, seconds: float) -> tuple[int, float, float]:  # type: ignore[no-untyped-def]
+    """``mj_step`` alone over ``seconds`` of simulated time: physics steps, wall, CPU."""
+    n = int(round(seconds / plant.model.opt.timestep))
+    t, c = time.perf_counter(), time.process_time()
+    plant.mj.mj_step(plant.model, plant.data, nstep=n)
+    return n, time.perf_counter() - t, time.process_time() - c
+
+
+def fast_backend(steps: int, worlds: int) -> None:
+    """The training model (``[physics.fast]``) and the full one (the stack's), each beside bare
+    ``mj_step`` of the same model; then the vectorised env (Gymnasium's vector API)."""
+    for fast in (False, True):
+        env = gym.make("darwin/Stand-v0", randomize=Randomization.off(), max_steps=10**9,
+                       fast=fast)  # fmt: skip
+        env.reset(seed=0)
+        plant = env.unwrapped.backend.plant
+        wall, cpu = _steps_per_s(env, steps)
+        n, _, bare_cpu = _bare(plant, steps / RATE)
+        name = "fast model" if fast else "full model"
+        ts = plant.model.opt.timestep * 1000
+        bare = steps / bare_cpu
+        print(f"{name} ({ts:g} ms steps): env {wall:.0f} steps/s wall, {cpu:.0f} steps/s CPU "
+              f"({cpu / RATE:.0f}× real time on one core); bare mj_step of the same model: "
+              f"{bare:.0f} policy steps/s CPU ({n} physics steps in {bare_cpu:.2f} s, "
+              f"{bare / RATE:.0f}× real time); env / bare ×{bare / cpu:.2f}")  # fmt: skip
+        env.close()
+    for mode, n_envs in (("sync", worlds), ("async", os.cpu_count() or 1)):
+        envs = gym.make_vec("darwin/Stand-v0", num_envs=n_envs, vectorization_mode=mode,
+                            randomize=Randomization.off(), max_steps=10**9)  # fmt: skip
+        envs.reset(seed=0)
+        zero = np.zeros((n_envs, 20))
+        rounds = max(1, steps // n_envs)
+        t, c = time.perf_counter(), time.process_time()
+        for _ in range(rounds):
+            envs.step(zero)
+        wall, cpu = time.perf_counter() - t, time.process_time() - c
+        where = "worlds in this process" if mode == "sync" else "processes, one per core"
+        cpu_note = f", {rounds * n_envs / cpu:.0f} steps/s of this process's CPU"
+        print(f"vectorised ({mode}, {n_envs} {where}): {rounds * n_envs / wall:.0f} steps/s "
+              f"wall{cpu_note if mode == 'sync' else ''}")  # fmt: skip
+        envs.close()
 
 
 def stack(steps: int) -> None:
@@ -154,9 +191,14 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=500)
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--skip-stack", action="store_true", help="no `darwin up` parts")
+    ap.add_argument("--fast-only", action="store_true", help="only the fast backend's figures")
+    ap.add_argument("--worlds", type=int, default=8, help="worlds in one process (sync vector)")
     args = ap.parse_args()
+    if args.fast_only:
+        fast_backend(args.steps, args.worlds)
+        return
     tick_cost()
-    fast_backend(args.steps)
+    fast_backend(args.steps, args.worlds)
     if not args.skip_stack:
         stack(min(args.steps, 250))
         policy_loop(args.seconds)

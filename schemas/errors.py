@@ -13,7 +13,7 @@ DarwinError
 ├── ReplaceRefused          a servo replacement that would be unsafe (robot_daemon/bus/replace)
 ├── ServiceError            the boot service cannot be installed, removed or read here
 ├── JoinError               a robot cannot join its router, or the router cannot see it
-├── PolicyLoadError         a policy file that cannot be loaded (clients/learn/runner)
+├── PolicyLoadError         a policy file that cannot be loaded (clients/learn/onnx_policy)
 ├── MissingExtraError       an optional package is not installed; names the extra (schemas/extras)
 ├── BusError                serial port and Dynamixel bus
 │   ├── PortError           cannot open / lost the serial port

@@ -170,6 +170,15 @@ OBSERVATION_LAYOUT: tuple[tuple[str, int], ...] = (
     ("last_action", N_JOINTS),
 )
 OBSERVATION_SIZE = sum(n for _, n in OBSERVATION_LAYOUT)
+# Where each field lies in the vector.
+OBSERVATION_SLICES: dict[str, slice] = {
+    name: slice(at - n, at)
+    for (name, n), at in zip(
+        OBSERVATION_LAYOUT,
+        [sum(n for _, n in OBSERVATION_LAYOUT[: i + 1]) for i in range(len(OBSERVATION_LAYOUT))],
+        strict=True,
+    )
+}
 
 
 @dataclass

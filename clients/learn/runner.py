@@ -1,13 +1,17 @@
 """`darwin policy run FILE`: drive the robot (or the simulator) with a policy at its rate.
 
-FILE is an ONNX model (``*.onnx``, through onnxruntime: input ``[1, 69]`` float32, the
-observation vector of schemas/policy.py; output ``[1, 20]``, the action) or a Python callable
+FILE is an ONNX model (``*.onnx``: input ``[1, 69]`` float32, the observation vector of
+schemas/policy.py; output ``[1, 20]``, the action; run by onnxruntime, or by numpy over the graph
+where onnxruntime is missing, as on the robot: clients/learn/onnx_policy.py), whose deploy
+constants (contract version, joint order, default pose, observation layout, action scale, rate)
+must match the contract and the daemon's, or a Python callable
 ``module:name`` / ``path.py:name`` taking the observation vector and returning the action (an
 object with ``reset()`` is reset first; ``rate_hz`` on it sets the rate). The loop is the
 daemon's policy stream: take the lease, start the stream, answer each observation with one
 action. Any key (or Ctrl-C) is an e-stop: ``halt``, then the lease goes. ``--dry-run`` takes no
 lease and only publishes what it would send on ``…/policy/dry_run``. ``--sim`` runs the fast
-MuJoCo backend instead of a robot (``--push N`` shoves it every 2 s) and says how long it stood.
+backend (on the stack's full MuJoCo model) instead of a robot (``--push N`` shoves it every 2 s)
+and says how long it stood.
 """
 
 from __future__ import annotations
@@ -16,7 +20,6 @@ import argparse
 import contextlib
 import importlib
 import importlib.util
-import os
 import sys
 import threading
 import time
@@ -26,21 +29,27 @@ from typing import Any
 
 import numpy as np
 
+from clients.learn.onnx_policy import (
+    META_RATE,
+    META_SCALE,
+    PolicyLoadError,
+    contract_mismatch,
+    load_onnx,
+)
 from schemas import qos
 from schemas.errors import DarwinError
-from schemas.policy import N_JOINTS, OBSERVATION_SIZE, PolicyAction
+from schemas.policy import N_JOINTS, PolicyAction
+
+__all__ = ["PolicyLoadError", "load_policy", "run", "run_sim"]
 
 Policy = Callable[[np.ndarray], Any]
 
 
-class PolicyLoadError(DarwinError):
-    """The policy file cannot be loaded (the message names the cause and the fix)."""
-
-
-def load_policy(spec: str) -> tuple[Policy, float | None]:
-    """The policy callable of ``spec`` and its rate (Hz) when it says one."""
+def load_policy(spec: str, engine: str = "auto") -> tuple[Policy, float | None]:
+    """The policy callable of ``spec`` and its rate (Hz) when it says one. An ONNX policy's
+    callable carries its metadata (``meta``) and the ``engine`` that runs it."""
     if spec.endswith(".onnx"):
-        return _load_onnx(spec)
+        return _load_onnx(spec, engine)
     module_name, _, attr = spec.partition(":")
     if not attr:
         raise PolicyLoadError(f"{spec!r} is neither an .onnx file nor module:function")
@@ -66,30 +75,14 @@ def load_policy(spec: str) -> tuple[Policy, float | None]:
     return fn, float(rate) if rate else None
 
 
-def _load_onnx(path: str) -> tuple[Policy, float | None]:
-    try:
-        import onnxruntime as ort
-    except ImportError:
-        raise PolicyLoadError("ONNX policies need onnxruntime: pip install -e '.[learn]'") from None
-    if not os.path.isfile(path):
-        raise PolicyLoadError(f"{path} does not exist")
-    try:
-        session = ort.InferenceSession(path, providers=["CPUExecutionProvider"])
-    except Exception as exc:  # onnxruntime raises its own unrelated types
-        raise PolicyLoadError(f"{path} is not a loadable ONNX model: {exc}") from None
-    inp = session.get_inputs()[0]
-    if inp.shape[-1] not in (OBSERVATION_SIZE, None) and not isinstance(inp.shape[-1], str):
-        raise PolicyLoadError(
-            f"{path} takes {inp.shape[-1]} inputs; the observation has {OBSERVATION_SIZE}"
-        )
-    meta = session.get_modelmeta().custom_metadata_map
-    rate = float(meta["rate_hz"]) if "rate_hz" in meta else None
-
-    def run(obs: np.ndarray) -> np.ndarray:
-        x = np.asarray(obs, np.float32).reshape(1, OBSERVATION_SIZE)
-        return np.asarray(session.run(None, {inp.name: x})[0]).reshape(-1)
-
-    return run, rate
+def _load_onnx(path: str, engine: str) -> tuple[Policy, float | None]:
+    run, meta, used = load_onnx(path, engine)
+    why = contract_mismatch(meta)
+    if why:
+        raise PolicyLoadError(f"{path} is refused: {why}")
+    run.meta = meta  # type: ignore[attr-defined]
+    run.engine = used  # type: ignore[attr-defined]
+    return run, float(meta[META_RATE]) if META_RATE in meta else None
 
 
 def _action(policy: Policy, obs: np.ndarray) -> list[float]:
@@ -125,15 +118,20 @@ class EStop:
             self._restore()
 
 
-def run_sim(policy: Policy, rate: float, seconds: float, push: float, seed: int) -> int:
-    """Steps the fast backend stood (of ``seconds × rate``), pushed ``push`` N every 2 s."""
+def run_sim(
+    policy: Policy, rate: float, seconds: float, push: float, seed: int, fast: bool = False
+) -> int:
+    """Steps the fast backend stood (of ``seconds × rate``), pushed ``push`` N every 2 s: on
+    the stack's own model (1 ms steps) unless ``fast`` (the training model) — an evaluation
+    should not share the training model's approximations."""
     import gymnasium as gym
 
     import clients.learn.env  # noqa: F401
     from clients.learn.fast import Randomization
 
     steps = int(seconds * rate)
-    env = gym.make("darwin/Stand-v0", rate_hz=rate, max_steps=steps, randomize=Randomization.off())
+    env = gym.make("darwin/Stand-v0", rate_hz=rate, max_steps=steps, randomize=Randomization.off(),
+                   fast=fast)  # fmt: skip
     obs, _ = env.reset(seed=seed)
     rng = np.random.default_rng(seed)
     period = int(2 * rate)
@@ -165,9 +163,14 @@ def run_robot(args: argparse.Namespace, policy: Policy, rate: float) -> int:
         else None
     )
     try:
+        meta = getattr(policy, "meta", None)
         if not args.dry_run:
             robot.acquire()
-            stream.start(rate_hz=rate)
+            scale = float(meta[META_SCALE]) if meta else None
+            stream.start(rate_hz=rate, scale=scale)
+            why = contract_mismatch(meta, stream.info) if meta else ""
+            if why:
+                raise PolicyLoadError(f"{args.file} is refused by this daemon: {why}")
         end = time.monotonic() + args.seconds if args.seconds else float("inf")
         last = -1
         while not estop.event.is_set() and time.monotonic() < end:
@@ -231,14 +234,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--seed", type=int, default=0, help="with --sim: the episode's seed")
     run.add_argument("--connect", help="the robot's Zenoh endpoint (else DARWIN_ENDPOINT)")
     run.add_argument("--robot", help="the robot's name (else DARWIN_ROBOT)")
+    run.add_argument(
+        "--engine",
+        choices=("auto", "onnxruntime", "numpy"),
+        default="auto",
+        help="what runs an .onnx policy (auto: onnxruntime where installed, else numpy)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
-    policy, own_rate = load_policy(args.file)
+    policy, own_rate = load_policy(args.file, args.engine)
     rate = args.rate or own_rate or 50.0
     if not 25.0 <= rate <= 125.0:
         raise PolicyLoadError(f"rate {rate:g} Hz is outside 25..125 Hz")
-    print(f"policy: {args.file} at {rate:g} Hz", flush=True)
+    engine = getattr(policy, "engine", None)
+    print(f"policy: {args.file} at {rate:g} Hz" + (f" ({engine})" if engine else ""), flush=True)
     if args.sim:
         seconds = args.seconds or 10.0
         stood = run_sim(policy, rate, seconds, args.push, args.seed)

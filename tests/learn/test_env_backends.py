@@ -64,7 +64,8 @@ def test_spaces_seeded_resets_and_randomization() -> None:
     pose = np.array(env.unwrapped.backend.default)
     pose[12] += 0.2
     obs, _ = env.reset(seed=2, options={"mode": "pose", "pose": pose})
-    assert obs[_slice("joint_pos")][12] == pytest.approx(0.2, abs=0.01)
+    # Within the droop of a P-controlled knee carrying the body (Kp randomised down to 0.8×).
+    assert obs[_slice("joint_pos")][12] == pytest.approx(0.2, abs=0.025)
     with pytest.raises(ValueError, match="20 finite numbers"):
         env.step(np.full(20, np.nan))
     env.close()

@@ -54,7 +54,9 @@ def test_an_onnx_policy_loads_and_runs(tmp_path: Path) -> None:
     )
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)])
     model.ir_version = 8
-    helper.set_model_props(model, {"rate_hz": "25"})
+    from clients.learn.onnx_policy import deploy_metadata
+
+    helper.set_model_props(model, deploy_metadata(25.0, 0.3, [32] * N_JOINTS))
     path = tmp_path / "zero.onnx"
     onnx.save(model, str(path))
     policy, rate = load_policy(str(path))

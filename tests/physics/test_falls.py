@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pytest
@@ -56,9 +57,10 @@ def upright(rig: SimRig) -> bool:
     return rig.world.fallen == "none" and fall.state == "upright" and torso_z > 0.2
 
 
-def one_try(direction: str, seed: int) -> Try:
+def one_try(direction: str, seed: int, settings: dict[str, Any] | None = None) -> Try:
+    """``settings``: another merged config (tests/learn/test_fast_model.py: the fast model)."""
     rng = np.random.default_rng(seed)
-    rig = SimRig(seed=seed, physics="mujoco", vision_fps=0.1)
+    rig = SimRig(seed=seed, physics="mujoco", vision_fps=0.1, settings=settings)
     rig.world.place_robot(0.0, 0.0, 0.0)
     assert rig.calibrated()  # standing in the servos' zero pose, torque on, gyro centred
     rig.run(0.7)  # and settled: pushed at once, the detector read the landing as backward

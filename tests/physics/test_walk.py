@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import pytest
 
@@ -24,8 +25,9 @@ class Walked:
     falls: int
 
 
-def walk(x: float, y: float, turn: float) -> Walked:
-    rig = SimRig(seed=2, physics="mujoco", vision_fps=1.0)
+def walk(x: float, y: float, turn: float, settings: dict[str, Any] | None = None) -> Walked:
+    """``settings``: another merged config (tests/learn/test_fast_model.py: the fast model)."""
+    rig = SimRig(seed=2, physics="mujoco", vision_fps=1.0, settings=settings)
     walking = rig.manager.module("walking")
     walking.start()  # into the walk-ready stance, marking time
     rig.run(1.0)

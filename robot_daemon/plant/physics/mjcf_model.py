@@ -50,13 +50,25 @@ _TABLES: dict[str, dict[str, str]] = {
     },
     "falls": {"tilt_deg": "fall_tilt_deg"},
 }
+# What [physics.fast] may change: the solver and the world, never the robot or its servos.
+_FAST = ("timestep", "integrator", "cone", "ball", "iterations")
+
+
+# The solver options a model may choose (MuJoCo's names).
+INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
+CONES = ("elliptic", "pyramidal")
 
 
 @dataclass(frozen=True)
 class PhysicsSettings:
-    """The ``[physics]`` section (config/physics.toml), with sources there."""
+    """The ``[physics]`` section (config/physics.toml), with sources there. ``fast=True`` in
+    :meth:`from_config` lays ``[physics.fast]`` over it: the training model (clients/learn)."""
 
     timestep: float = 0.001
+    integrator: str = "implicitfast"
+    cone: str = "elliptic"
+    ball: bool = True  # the field's ball (a free body: its contacts cost even when parked)
+    iterations: int = 100  # the constraint solver's (MuJoCo's default)
     stall_torque: float = 2.5
     no_load_rpm: float = 55.0
     stiffness_per_p: float = 12.6 / 32
@@ -76,21 +88,31 @@ class PhysicsSettings:
         return self.stall_torque / (self.no_load_rpm * 2 * math.pi / 60.0)
 
     @classmethod
-    def from_config(cls, data: dict[str, Any]) -> PhysicsSettings:
+    def from_config(cls, data: dict[str, Any], fast: bool = False) -> PhysicsSettings:
         from config.loader import refuse_unknown, section_to
         from schemas.errors import ConfigError
 
         # config/physics.toml groups the fields in sub-tables; the settings are one flat table.
         p = dict(data.get("physics", {}))
-        refuse_unknown(p, ("timestep", *_TABLES), "physics")
-        flat = {k: v for k, v in p.items() if k not in _TABLES}
+        refuse_unknown(p, (*_FAST, *_TABLES, "fast"), "physics")
+        flat = {k: v for k, v in p.items() if k not in _TABLES and k != "fast"}
         for table, keys in _TABLES.items():
             sub = p.get(table, {})
             if not isinstance(sub, dict):
                 raise ConfigError(f"[physics] {table} should be a table [physics.{table}]")
             refuse_unknown(sub, keys, f"physics.{table}")
             flat.update({keys[k]: v for k, v in sub.items()})
+        overlay = p.get("fast", {})
+        if not isinstance(overlay, dict):
+            raise ConfigError("[physics] fast should be a table [physics.fast]")
+        refuse_unknown(overlay, _FAST, "physics.fast")
+        if fast:
+            flat.update(overlay)
         s = section_to(cls, flat, "physics")
+        if s.integrator not in INTEGRATORS:
+            raise ConfigError(f"[physics] integrator={s.integrator!r} is not one of {INTEGRATORS}")
+        if s.cone not in CONES:
+            raise ConfigError(f"[physics] cone={s.cone!r} is not one of {CONES}")
         if not 0 < s.timestep <= 0.005:
             raise ConfigError(f"[physics] timestep={s.timestep} s must be in (0, 0.005]")
         if s.solref[0] < 2 * s.timestep:
@@ -219,13 +241,11 @@ def world_mjcf(
         )
     )
     ET.SubElement(m, "compiler", angle="radian", autolimits="true")
-    ET.SubElement(
-        m,
-        "option",
-        timestep=f"{s.timestep:.9g}",
-        integrator="implicitfast",
-        cone="elliptic",
+    option = ET.SubElement(
+        m, "option", timestep=f"{s.timestep:.9g}", integrator=s.integrator, cone=s.cone
     )
+    if s.iterations != PhysicsSettings.iterations:
+        option.set("iterations", str(s.iterations))
     default = ET.SubElement(m, "default")
     ET.SubElement(default, "geom", solref=_fmt(s.solref))
     visual = ET.SubElement(m, "visual")
@@ -258,21 +278,8 @@ def world_mjcf(
         condim="3",  # a pair uses the larger condim: the feet and the ball say theirs
     )
     robot_mjcf(body, s, world)
-    ball = ET.SubElement(world, "body", name=BALL, pos=f"0 0 {ball_radius:.9g}")
-    ET.SubElement(ball, "freejoint", name="ball_root")
-    ET.SubElement(
-        ball,
-        "geom",
-        name=BALL,
-        type="sphere",
-        size=f"{ball_radius:.9g}",
-        mass=f"{s.ball_mass:.9g}",
-        rgba="0.82 0.11 0.11 1",
-        friction=_fmt(s.ball_friction),
-        condim="6",
-        contype="1",
-        conaffinity="1",
-    )
+    if s.ball:
+        _ball_mjcf(world, s, ball_radius)
     actuators = ET.SubElement(m, "actuator")
     for j in body.servo_joints():
         # Gains and force range are set by the plant from the registers at every step.
@@ -293,3 +300,21 @@ def world_mjcf(
     ET.SubElement(sensors, "accelerometer", name="accel", site=IMU_SITE)
     ET.indent(m)
     return ET.tostring(m, encoding="unicode") + "\n"
+
+
+def _ball_mjcf(world: ET.Element, s: PhysicsSettings, ball_radius: float) -> None:
+    ball = ET.SubElement(world, "body", name=BALL, pos=f"0 0 {ball_radius:.9g}")
+    ET.SubElement(ball, "freejoint", name="ball_root")
+    ET.SubElement(
+        ball,
+        "geom",
+        name=BALL,
+        type="sphere",
+        size=f"{ball_radius:.9g}",
+        mass=f"{s.ball_mass:.9g}",
+        rgba="0.82 0.11 0.11 1",
+        friction=_fmt(s.ball_friction),
+        condim="6",
+        contype="1",
+        conaffinity="1",
+    )

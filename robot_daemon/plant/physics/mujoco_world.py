@@ -107,8 +107,9 @@ class MujocoWorld(WorldViews):
         )
         self._root_q = m.jnt_qposadr[mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, "root")]
         self._root_d = m.jnt_dofadr[mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, "root")]
-        self._ball_q = m.jnt_qposadr[mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, "ball_root")]
-        self._ball_d = m.jnt_dofadr[mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, "ball_root")]
+        ball = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, "ball_root")  # -1: a model without
+        self._ball_q = m.jnt_qposadr[ball] if ball >= 0 else -1
+        self._ball_d = m.jnt_dofadr[ball] if ball >= 0 else -1
         self._torso = mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, ROOT)
         self._ball_geom = mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, BALL)
         self._camera = mj.mj_name2id(m, mj.mjtObj.mjOBJ_CAMERA, CAMERA)
@@ -131,7 +132,7 @@ class MujocoWorld(WorldViews):
         self._setpoint = np.zeros(len(self.servo_ids))  # each servo's profile set point (rad)
         self._pose = s.robot_start
         self._place_robot_now(*s.robot_start)
-        if s.ball_start is not None:
+        if s.ball_start is not None and self._ball_q >= 0:
             self.place_ball(*s.ball_start)
         else:
             self.remove_ball()
@@ -186,8 +187,7 @@ class MujocoWorld(WorldViews):
     def step_plant(self, dt: float, emulator: Emulator) -> None:
         """Simulate ``dt`` s of the emulator's clock with its servos' present commands."""
         goal, speed, kp, kd, force = self._commands(emulator)
-        m, d, mj = self.model, self.data, self.mj
-        ts = m.opt.timestep
+        d, ts = self.data, self.model.opt.timestep
         if not self.released:
             # Held where it was placed (on its stand, as a robot being switched on) until a
             # servo first has torque: a limp robot would otherwise crumple before the daemon
@@ -198,40 +198,61 @@ class MujocoWorld(WorldViews):
                 return
             self.released = True
         with self.lock:
-            self._debt += dt
-            n = int(self._debt / ts + 1e-6)
+            n = self._due(dt)
             if n <= 0:
                 return
-            self._debt -= n * ts
-            a = self._act
-            m.actuator_gainprm[a, 0] = kp
-            m.actuator_biasprm[a, 1] = -kp
-            # Back-EMF outside the torque clip, as in the motor (torque = stall · (duty − ω/ω₀)):
-            # it caps the speed at the no-load speed; MuJoCo integrates joint damping implicitly.
-            m.dof_damping[self._dadr] = self.physics.damping + kd
-            m.actuator_forcerange[a, 0] = -force
-            m.actuator_forcerange[a, 1] = force
-            # The firmware moves its set point toward the goal at the moving speed (register
-            # 32); a limp servo's set point follows the horn, so torque on never jumps.
-            q = d.qpos[self._qadr]
-            move = np.clip(goal - self._setpoint, -speed * n * ts, speed * n * ts)
-            self._setpoint = np.where(kp > 0, self._setpoint + move, q)
-            d.ctrl[a] = self._setpoint
-            # A push lasts until its end time, which may fall inside this round of steps.
-            k = n
-            if self._push_until is not None:
-                k = min(n, max(0, math.ceil((self._push_until - self.time) / ts - 1e-6)))
-            if k:
-                mj.mj_step(m, d, nstep=k)
-            if k < n:
-                d.xfrc_applied[self._torso, :] = 0.0
-                self._push_until = None
-                mj.mj_step(m, d, nstep=n - k)
-            self.time += n * ts
+            self._set_servos(kp, kd, force)
+            self._move_setpoint(goal, speed, kp, n * ts)
+            self._run(n)
             self._after_step()
             demand = kp * (self._setpoint - d.qpos[self._qadr])
             saturated = (np.abs(demand) > force + 1e-9) & (force > 0)
         self._report(emulator, n * ts, saturated)
+
+    def _due(self, dt: float) -> int:
+        """How many physics steps ``dt`` more of the clock makes due (the rest is carried)."""
+        ts = self.model.opt.timestep
+        self._debt += dt
+        n = int(self._debt / ts + 1e-6)
+        if n > 0:
+            self._debt -= n * ts
+        return n
+
+    def _set_servos(self, kp: np.ndarray, kd: np.ndarray, force: np.ndarray) -> None:
+        """The motors' stiffness (N·m/rad), back-EMF damping (N·m·s/rad) and torque limit."""
+        m, a = self.model, self._act
+        m.actuator_gainprm[a, 0] = kp
+        m.actuator_biasprm[a, 1] = -kp
+        # Back-EMF outside the torque clip, as in the motor (torque = stall · (duty − ω/ω₀)):
+        # it caps the speed at the no-load speed; MuJoCo integrates joint damping implicitly.
+        m.dof_damping[self._dadr] = self.physics.damping + kd
+        m.actuator_forcerange[a, 0] = -force
+        m.actuator_forcerange[a, 1] = force
+
+    def _move_setpoint(
+        self, goal: np.ndarray, speed: np.ndarray, kp: np.ndarray, seconds: float
+    ) -> None:
+        # The firmware moves its set point toward the goal at the moving speed (register
+        # 32); a limp servo's set point follows the horn, so torque on never jumps.
+        q = self.data.qpos[self._qadr]
+        move = np.clip(goal - self._setpoint, -speed * seconds, speed * seconds)
+        self._setpoint = np.where(kp > 0, self._setpoint + move, q)
+        self.data.ctrl[self._act] = self._setpoint
+
+    def _run(self, n: int) -> None:
+        """``n`` physics steps; a push lasts until its end time, which may fall among them."""
+        m, d, mj = self.model, self.data, self.mj
+        ts = m.opt.timestep
+        k = n
+        if self._push_until is not None:
+            k = min(n, max(0, math.ceil((self._push_until - self.time) / ts - 1e-6)))
+        if k:
+            mj.mj_step(m, d, nstep=k)
+        if k < n:
+            d.xfrc_applied[self._torso, :] = 0.0
+            self._push_until = None
+            mj.mj_step(m, d, nstep=n - k)
+        self.time += n * ts
 
     def _report(self, emulator: Emulator, dt: float, saturated: np.ndarray) -> None:
         d = self.data
@@ -265,7 +286,7 @@ class MujocoWorld(WorldViews):
         if self.fallen != "none" and was == "none":
             self.falls += 1
         touching = False
-        for c in self.data.contact[: self.data.ncon]:
+        for c in self.data.contact[: self.data.ncon] if self._ball_geom >= 0 else ():
             pair = {int(c.geom1), int(c.geom2)}
             if self._ball_geom in pair and pair & self._foot_geoms:
                 touching = True
@@ -309,6 +330,8 @@ class MujocoWorld(WorldViews):
             self._place_robot_now(x, y, yaw)
 
     def place_ball(self, x: float, y: float, vx: float = 0.0, vy: float = 0.0) -> None:
+        if self._ball_q < 0:
+            raise ValueError("this model has no ball ([physics] ball = false)")
         r = self.settings.ball.radius
         with self.lock:
             q, v = self._ball_q, self._ball_d
@@ -319,6 +342,9 @@ class MujocoWorld(WorldViews):
             self.ball.state = self._ball_state()
 
     def remove_ball(self) -> None:
+        if self._ball_q < 0:
+            self.ball.state = None
+            return
         with self.lock:
             q, v = self._ball_q, self._ball_d
             self.data.qpos[q : q + 7] = (*_BALL_PARKED, self.settings.ball.radius, 1, 0, 0, 0)
@@ -335,6 +361,8 @@ class MujocoWorld(WorldViews):
             self.pushes += 1
 
     def _ball_state(self) -> BallState | None:
+        if self._ball_q < 0:
+            return None
         if self.ball.state is None and self.data.qpos[self._ball_q + 1] == _BALL_PARKED[1]:
             return None
         q, v = self._ball_q, self._ball_d

@@ -1,0 +1,342 @@
+"""Train a stand-under-pushes policy on the fast backend and write it as an ONNX file.
+
+    python -m clients.learn.train --out policies/stand_push.onnx --minutes 25 --seed 0
+
+PPO (clipped surrogate, GAE, Adam) written here in numpy against ``darwin/Stand-v0``, not a
+library: the networks are two small MLPs whose gradients take a page, the simulation costs far
+more than the learning, and numpy is what the robot already has; a library (Stable-Baselines3,
+skrl, rsl_rl) brings torch, gigabytes where a CUDA build is the default. The environment is
+Gymnasium's vector API over the fast backend (``gym.make_vec``: ``--envs`` worlds in this
+process), with MuJoCo Playground's domain randomisation (:class:`Randomization`: floor friction,
+joint friction, armature, masses, Kp, damping; plus latency and IMU noise) and shoves of
+``--push`` N·s every 1–3 s. Everything is seeded by ``--seed``: the same command writes the same
+file (on the same numpy and MuJoCo builds).
+
+The file is the deterministic policy (the Gaussian's mean), the observation normaliser in front
+and the action clipped to ±1, with the deploy constants in its metadata
+(:func:`clients.learn.onnx_policy.deploy_metadata`) and how it was made (``darwin.training``).
+Each iteration prints one line: steps, mean return and length of the episodes that ended.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import math
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from schemas.policy import N_JOINTS, OBSERVATION_SIZE
+
+RATE = 50.0
+
+
+# -- networks ---------------------------------------------------------------------------------
+class MLP:
+    """Tanh hidden layers, a linear output; ``backward`` after ``forward`` on the same batch."""
+
+    def __init__(self, sizes: Sequence[int], rng: np.random.Generator, out_gain: float) -> None:
+        self.params: list[np.ndarray] = []
+        for k, (n_in, n_out) in enumerate(itertools.pairwise(sizes)):
+            gain = out_gain if k == len(sizes) - 2 else math.sqrt(2)
+            # Orthogonal initialisation, as PPO implementations do.
+            a = rng.normal(size=(max(n_in, n_out), min(n_in, n_out)))
+            q, r = np.linalg.qr(a)
+            q = q * np.sign(np.diag(r))
+            w = (q if n_in >= n_out else q.T)[:n_in, :n_out] * gain
+            self.params += [w.astype(np.float64), np.zeros(n_out)]
+        self._cache: list[np.ndarray] = []
+
+    @property
+    def layers(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        return [(self.params[i], self.params[i + 1]) for i in range(0, len(self.params), 2)]
+
+    def forward(self, x: np.ndarray) -> np.ndarray:
+        self._cache = [x]
+        n = len(self.params) // 2
+        for k in range(n):
+            x = x @ self.params[2 * k] + self.params[2 * k + 1]
+            if k < n - 1:
+                x = np.tanh(x)
+            self._cache.append(x)
+        return x
+
+    def backward(self, grad: np.ndarray) -> list[np.ndarray]:
+        n = len(self.params) // 2
+        grads: list[np.ndarray] = [np.empty(0)] * len(self.params)
+        for k in reversed(range(n)):
+            if k < n - 1:
+                grad = grad * (1.0 - self._cache[k + 1] ** 2)
+            grads[2 * k] = self._cache[k].T @ grad
+            grads[2 * k + 1] = grad.sum(axis=0)
+            grad = grad @ self.params[2 * k].T
+        return grads
+
+
+class Adam:
+    def __init__(self, params: list[np.ndarray], lr: float) -> None:
+        self.params, self.lr, self.t = params, lr, 0
+        self.m = [np.zeros_like(p) for p in params]
+        self.v = [np.zeros_like(p) for p in params]
+
+    def step(self, grads: list[np.ndarray], max_norm: float = 0.5) -> None:
+        norm = math.sqrt(sum(float(np.sum(g * g)) for g in grads))
+        scale = min(1.0, max_norm / (norm + 1e-8))
+        self.t += 1
+        b1, b2 = 0.9, 0.999
+        for p, g, m, v in zip(self.params, grads, self.m, self.v, strict=True):
+            g = g * scale
+            m *= b1
+            m += (1 - b1) * g
+            v *= b2
+            v += (1 - b2) * g * g
+            mh = m / (1 - b1**self.t)
+            vh = v / (1 - b2**self.t)
+            p -= self.lr * mh / (np.sqrt(vh) + 1e-8)
+
+
+class Normaliser:
+    """Running mean and variance of the observations (Welford, batched)."""
+
+    def __init__(self, n: int) -> None:
+        self.mean, self.var, self.count = np.zeros(n), np.ones(n), 1e-4
+
+    def update(self, x: np.ndarray) -> None:
+        bm, bv, bc = x.mean(axis=0), x.var(axis=0), len(x)
+        delta, total = bm - self.mean, self.count + bc
+        self.mean = self.mean + delta * bc / total
+        m2 = self.var * self.count + bv * bc + delta**2 * self.count * bc / total
+        self.var, self.count = m2 / total, total
+
+    @property
+    def std(self) -> np.ndarray:
+        return np.sqrt(self.var) + 1e-2  # never amplify a constant input (command, …) wildly
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        return (x - self.mean) / self.std
+
+
+@dataclass
+class Settings:
+    envs: int = 16
+    horizon: int = 64  # steps per env per iteration
+    epochs: int = 4
+    minibatches: int = 4
+    lr: float = 3e-4
+    gamma: float = 0.99
+    lam: float = 0.95
+    clip: float = 0.2
+    init_std: float = 0.3
+    hidden: tuple[int, ...] = (128, 128)
+    push: tuple[float, float] = (0.3, 3.0)  # N·s
+    push_spread: float = 0.5  # rad about forward/backward (the push table shoves along x)
+    episode_steps: int = 400
+    randomize: bool = True
+    reward_scale: float = 0.1  # returns of ~20, not ~200: the value net's targets near 1
+
+
+class PPO:
+    def __init__(self, s: Settings, seed: int) -> None:
+        self.s = s
+        self.rng = np.random.default_rng(seed)
+        sizes = (OBSERVATION_SIZE, *s.hidden)
+        # A near-zero first action: the untrained policy holds the stand pose.
+        self.pi = MLP((*sizes, N_JOINTS), self.rng, out_gain=0.01)
+        self.vf = MLP((*sizes, 1), self.rng, out_gain=1.0)
+        self.log_std = np.full(N_JOINTS, math.log(s.init_std))
+        self.norm = Normaliser(OBSERVATION_SIZE)
+        self.opt = Adam([*self.pi.params, self.log_std, *self.vf.params], s.lr)
+
+    def act(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        x = self.norm(obs)
+        mu = self.pi.forward(x)
+        std = np.exp(self.log_std)
+        a = mu + std * self.rng.normal(size=mu.shape)
+        return a, self._logp(a, mu), self.vf.forward(x)[:, 0], x
+
+    def value(self, obs: np.ndarray) -> np.ndarray:
+        return self.vf.forward(self.norm(obs))[:, 0]
+
+    def _logp(self, a: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        z = (a - mu) / np.exp(self.log_std)
+        return (
+            -0.5 * np.sum(z * z, axis=1)
+            - np.sum(self.log_std)
+            - 0.5 * N_JOINTS * math.log(2 * math.pi)
+        )
+
+    def update(self, x, a, logp_old, adv, ret) -> dict[str, float]:  # type: ignore[no-untyped-def]
+        s, n = self.s, len(x)
+        size = n // s.minibatches
+        stats: dict[str, float] = {"clipfrac": 0.0, "vloss": 0.0}
+        for _ in range(s.epochs):
+            order = self.rng.permutation(n)
+            for k in range(s.minibatches):
+                idx = order[k * size : (k + 1) * size]
+                xb, ab, lb = x[idx], a[idx], logp_old[idx]
+                advb = (adv[idx] - adv[idx].mean()) / (adv[idx].std() + 1e-8)
+                mu = self.pi.forward(xb)
+                std = np.exp(self.log_std)
+                logp = self._logp(ab, mu)
+                ratio = np.exp(logp - lb)
+                active = ~(
+                    ((advb > 0) & (ratio > 1 + s.clip)) | ((advb < 0) & (ratio < 1 - s.clip))
+                )
+                d_logp = -(ratio * advb * active) / len(idx)  # d loss / d logp
+                d_mu = d_logp[:, None] * (ab - mu) / std**2
+                d_log_std = np.sum(d_logp[:, None] * (((ab - mu) / std) ** 2 - 1.0), axis=0)
+                g_pi = self.pi.backward(d_mu)
+                v = self.vf.forward(xb)[:, 0]
+                d_v = (v - ret[idx]) / len(idx)  # 0.5 (v − R)² averaged
+                g_vf = self.vf.backward(d_v[:, None])
+                self.opt.step([*g_pi, d_log_std, *g_vf])
+                stats["clipfrac"] += float(np.mean(~active)) / (s.epochs * s.minibatches)
+                stats["vloss"] += float(np.mean((v - ret[idx]) ** 2)) / (s.epochs * s.minibatches)
+        return stats
+
+
+def make_envs(s: Settings, seed: int) -> Any:
+    import gymnasium as gym
+
+    import clients.learn.env  # noqa: F401  (registers darwin/Stand-v0)
+    from clients.learn.fast import Randomization
+
+    envs = gym.make_vec(
+        "darwin/Stand-v0",
+        num_envs=s.envs,
+        vectorization_mode="sync",
+        vector_kwargs={"autoreset_mode": gym.vector.AutoresetMode.SAME_STEP},
+        randomize=Randomization() if s.randomize else Randomization.off(),
+        pushes=s.push,
+        push_spread=s.push_spread,
+        max_steps=s.episode_steps,
+    )
+    envs.reset(seed=seed)
+    return envs
+
+
+def train(
+    s: Settings,
+    seed: int,
+    iterations: int,
+    minutes: float = 0.0,
+    out: Path | None = None,
+    log: Any = sys.stdout,
+) -> tuple[PPO, list[float]]:
+    """Train; returns the agent and the mean return of the episodes that ended in each
+    iteration (nan where none did)."""
+    envs = make_envs(s, seed)
+    agent = PPO(s, seed)
+    obs, _ = envs.reset(seed=seed)
+    ep_ret, ep_len = np.zeros(s.envs), np.zeros(s.envs, int)
+    returns: list[float] = []
+    t0 = time.monotonic()
+    steps = 0
+    for it in range(iterations):
+        agent.norm.update(obs)
+        buf_x, buf_a, buf_l, buf_r, buf_v, buf_d = [], [], [], [], [], []
+        done_ret, done_len = [], []
+        for _ in range(s.horizon):
+            a, logp, v, x = agent.act(obs)
+            obs, r, term, trunc, info = envs.step(a)
+            ep_ret += r
+            ep_len += 1
+            r = np.asarray(r, float) * s.reward_scale
+            if trunc.any():  # bootstrap a cut-off episode from its last observation
+                final = np.stack([info["final_obs"][i] if t else obs[i]
+                                  for i, t in enumerate(trunc)])  # fmt: skip
+                r = r + s.gamma * agent.value(final) * (trunc & ~term)
+            for i in np.flatnonzero(term | trunc):
+                done_ret.append(ep_ret[i])
+                done_len.append(ep_len[i])
+                ep_ret[i], ep_len[i] = 0.0, 0
+            buf_x.append(x)
+            buf_a.append(a)
+            buf_l.append(logp)
+            buf_r.append(r)
+            buf_v.append(v)
+            buf_d.append((term | trunc).astype(float))
+            steps += s.envs
+        last_v = agent.value(obs)
+        rew, val, dones = np.array(buf_r), np.array(buf_v), np.array(buf_d)
+        adv = np.zeros_like(rew)
+        gae = np.zeros(s.envs)
+        for t in reversed(range(s.horizon)):
+            nxt = last_v if t == s.horizon - 1 else val[t + 1]
+            delta = rew[t] + s.gamma * nxt * (1 - dones[t]) - val[t]
+            gae = delta + s.gamma * s.lam * (1 - dones[t]) * gae
+            adv[t] = gae
+        ret = adv + val
+        stats = agent.update(
+            np.concatenate(buf_x), np.concatenate(buf_a), np.concatenate(buf_l),
+            adv.reshape(-1), ret.reshape(-1),
+        )  # fmt: skip
+        mean_ret = float(np.mean(done_ret)) if done_ret else math.nan
+        returns.append(mean_ret)
+        elapsed = time.monotonic() - t0
+        print(
+            f"iter {it + 1} steps {steps} return {mean_ret:.1f} length "
+            f"{float(np.mean(done_len)) if done_len else math.nan:.0f} episodes {len(done_ret)} "
+            f"std {float(np.exp(agent.log_std).mean()):.3f} clipfrac {stats['clipfrac']:.2f} "
+            f"vloss {stats['vloss']:.2f} elapsed {elapsed:.0f} s",
+            file=log, flush=True,
+        )  # fmt: skip
+        if out is not None and (it + 1) % 10 == 0:
+            export(agent, out, {"iterations": it + 1, "steps": steps})
+        if minutes and elapsed > minutes * 60:
+            break
+    envs.close()
+    if out is not None:
+        export(agent, out, {"iterations": len(returns), "steps": steps})
+    return agent, returns
+
+
+def export(agent: PPO, out: Path, made: dict[str, Any]) -> None:
+    """The deterministic policy as ONNX, with its deploy constants (written atomically)."""
+    import onnx
+
+    from clients.learn.onnx_policy import deploy_metadata, mlp_model
+    from config.loader import load_all, load_robot
+    from robot_daemon.motion.policy import PolicySettings
+    from schemas.joints import JOINT_IDS
+
+    robot = load_robot()
+    scale = PolicySettings.from_config(load_all().get("policy")).scale
+    training = {"algorithm": "PPO (numpy, clients/learn/train.py)", **made,
+                "settings": {k: v for k, v in vars(agent.s).items()}}  # fmt: skip
+    meta = deploy_metadata(RATE, scale, [robot.by_id[j].p for j in JOINT_IDS],
+                           **{"darwin.training": json.dumps(training)})  # fmt: skip
+    model = mlp_model(agent.pi.layers, "Tanh", agent.norm.mean, agent.norm.std, meta)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_suffix(".onnx.tmp")
+    onnx.save(model, str(tmp))
+    tmp.replace(out)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, required=True, help="the .onnx file to write")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--iterations", type=int, default=10**6)
+    ap.add_argument("--minutes", type=float, default=0.0, help="stop after this long (0: never)")
+    ap.add_argument("--envs", type=int, default=Settings.envs)
+    ap.add_argument("--horizon", type=int, default=Settings.horizon)
+    ap.add_argument("--push", type=float, nargs=2, default=Settings.push, metavar=("LO", "HI"))
+    args = ap.parse_args(argv)
+    s = Settings(envs=args.envs, horizon=args.horizon, push=tuple(args.push))
+    given = sys.argv[1:] if argv is None else argv
+    print(f"training: python -m clients.learn.train {' '.join(given)}", flush=True)
+    train(s, args.seed, args.iterations, args.minutes, args.out)
+    print(f"policy: {args.out}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
