@@ -3,7 +3,10 @@
 A user file is one TOML file whose top-level tables are the shipped sections (``robot``,
 ``daemon``, ``zenoh``, ``imu``, ``walking``, ``behaviours``…); each value replaces the shipped one.
 It is found, first match wins, at: the ``path`` argument (``--config FILE``), ``$DARWIN_CONFIG``,
-``<platform config dir>/darwin/config.toml``.
+``<platform config dir>/darwin/config.toml`` if it exists, ``/etc/darwin/config.toml`` (the robot's,
+written by docs/robot.md's recipe and read by its boot service) if it exists. The commands that
+change the file (``config.user_file``) write to the same one, so an import lands where the daemon
+reads.
 """
 
 from __future__ import annotations
@@ -29,9 +32,25 @@ CONFIG_DIR = Path(__file__).resolve().parent
 ENV_CONFIG = "DARWIN_CONFIG"
 
 
+# The robot's own file: one per robot, whoever runs the command (root's boot service, a user).
+SYSTEM_CONFIG = Path("/etc/darwin/config.toml")
+
+
 def user_config_path() -> Path:
     base = os.environ.get("XDG_CONFIG_HOME") or os.path.join(os.path.expanduser("~"), ".config")
     return Path(base) / "darwin" / "config.toml"
+
+
+def config_path(path: str | os.PathLike[str] | None = None) -> Path | None:
+    """The user file read on top of the shipped config (None: none exists yet)."""
+    if path:
+        return Path(path)
+    if os.environ.get(ENV_CONFIG):
+        return Path(os.environ[ENV_CONFIG])
+    for default in (user_config_path(), SYSTEM_CONFIG):
+        if default.exists():
+            return default
+    return None
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
@@ -71,17 +90,9 @@ def shipped() -> dict[str, Any]:
 def load_all(path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     """Shipped config with the user file merged on top."""
     data = _shipped()
-    candidates: list[Path] = []
-    if path:
-        candidates.append(Path(path))
-    elif os.environ.get(ENV_CONFIG):
-        candidates.append(Path(os.environ[ENV_CONFIG]))
-    else:
-        default = user_config_path()
-        if default.exists():
-            candidates.append(default)
-    for c in candidates:
-        data = merge(data, _read_toml(c))
+    found = config_path(path)
+    if found is not None:
+        data = merge(data, _read_toml(found))
     return copy.deepcopy(data)
 
 

@@ -18,7 +18,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from config.loader import ENV_CONFIG, user_config_path
+from config.loader import config_path, user_config_path
 from schemas.errors import ConfigError
 
 _HEADER = re.compile(r"^\s*\[\s*([^\[\]]+?)\s*\]\s*(#.*)?$")
@@ -26,13 +26,10 @@ _ANY_HEADER = re.compile(r"^\s*\[")
 
 
 def target_path(path: str | os.PathLike[str] | None = None) -> Path:
-    """The file a change is written to: ``--config FILE``, else ``$DARWIN_CONFIG``, else the
-    platform user file (the same order the loader reads them in)."""
-    if path:
-        return Path(path)
-    if os.environ.get(ENV_CONFIG):
-        return Path(os.environ[ENV_CONFIG])
-    return user_config_path()
+    """The file a change is written to: the one the loader reads (``--config FILE``, else
+    ``$DARWIN_CONFIG``, else the platform user file or the robot's ``/etc/darwin/config.toml``,
+    whichever exists first), else a new platform user file."""
+    return config_path(path) or user_config_path()
 
 
 def _format(value: Any) -> str:
@@ -122,8 +119,14 @@ def set_values(
                 f"user config {target}: [{table}] {key} is also set elsewhere in the file "
                 "(a dotted key or an inline table); write it by hand"
             )
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+    except PermissionError as exc:
+        raise ConfigError(
+            f"cannot write the config {target}: permission denied; run the command as its "
+            "owner (sudo for /etc/darwin), or pass --config FILE"
+        ) from exc
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)

@@ -62,9 +62,10 @@ def explain(exc: ModuleNotFoundError) -> str | None:
 
 
 def message(extra: str, what: str | None = None) -> str:
-    """``needs the 'tui' extra: pip install 'darwin-zenoh[tui]'`` (``what`` first when given)."""
+    """``needs the 'tui' extra: pip install -e '.[tui]' in the project's clone`` (``what``
+    first when given): the project is installed from its clone, not from PyPI."""
     head = f"{what}: " if what else ""
-    line = f"{head}needs the {extra!r} extra: pip install '{DISTRIBUTION}[{extra}]'"
+    line = f"{head}needs the {extra!r} extra: pip install -e '.[{extra}]' in the project's clone"
     if extra in ON_THE_ROBOT:
         line += f" (on the robot: apt-get install {ON_THE_ROBOT[extra]})"
     return line

@@ -89,7 +89,8 @@ def check_daemon(status: Mapping[str, Any], program: str) -> str | None:
     newer = "the robot's daemon" if theirs < ours else "this client"
     if theirs[0] != ours[0]:
         raise IncompatibleProtocolError(
-            f"{both}: incompatible; upgrade {newer} (pip install -U {PACKAGE}) so both speak "
-            f"protocol {max(theirs, ours)[0]}.x"
+            f"{both}: incompatible; upgrade {newer} (git pull in its clone, then pip install "
+            f"it again) so both speak protocol {max(theirs, ours)[0]}.x "
+            "(docs/troubleshooting.md#version-skew)"
         )
     return f"{both}: it works, but upgrade {newer} for the newer fields and verbs"

@@ -61,7 +61,7 @@ def _ros() -> tuple[ModuleType, ModuleType]:
     except ImportError as exc:
         raise ClientError(
             f"the ros2 recording profile needs the ros2 extra ({exc.name} is missing): "
-            "pip install 'darwin-zenoh[ros2]'"
+            "pip install -e '.[ros2]' in the project's clone"
         ) from exc
 
 

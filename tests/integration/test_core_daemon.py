@@ -65,7 +65,8 @@ def test_the_core_daemon_walks_and_ball_play_names_the_vision_extra(tmp_path: Pa
                 with pytest.raises(UnavailableError) as err:
                     robot.playball("red")
         assert str(err.value).endswith(
-            "ball finding: needs the 'vision' extra: pip install 'darwin-zenoh[vision]' "
+            "ball finding: needs the 'vision' extra: pip install -e '.[vision]' in the project's "
+            "clone "
             "(on the robot: apt-get install python3-opencv)"
         )
 

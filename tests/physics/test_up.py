@@ -66,5 +66,5 @@ def test_missing_mujoco_is_one_line_naming_the_fix(tmp_path: Path) -> None:
         assert done.returncode == 2, done.stderr
         assert done.stderr.strip().splitlines() == [
             f"darwin {args[0]}: the MuJoCo plant: needs the 'physics' extra: "
-            "pip install 'darwin-zenoh[physics]'"
+            "pip install -e '.[physics]' in the project's clone"
         ]

@@ -132,3 +132,31 @@ def test_a_file_the_writer_cannot_edit_safely_is_left_alone(tmp_path: Path) -> N
     with pytest.raises(ConfigError, match="by hand"):
         set_joint_offsets({"r_knee": 2.0}, user)
     assert user.read_text() == text
+
+
+def test_without_config_the_import_lands_in_the_robots_file_the_daemon_reads(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On the robot the recipe writes /etc/darwin/config.toml and the daemon reads it: an import
+    without --config (no user file, no $DARWIN_CONFIG) writes there, and the loader reads it."""
+    import config.loader as loader
+    from config.user_file import target_path
+
+    system = tmp_path / "etc" / "config.toml"
+    system.parent.mkdir()
+    system.write_text(USER_FILE)
+    monkeypatch.setattr(loader, "SYSTEM_CONFIG", system)
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "home"))
+    monkeypatch.delenv("DARWIN_CONFIG", raising=False)
+    assert target_path() == system
+    ini = tmp_path / "config.ini"
+    ini.write_text(SAMPLE_INI)
+    assert set_joint_offsets(import_offsets(str(ini), load_robot(system)).degrees) == system
+    assert loader.load_all()["robot"]["joints"]["r_knee"]["offset_deg"] == pytest.approx(
+        -12 * 360 / 4096
+    )
+    # A user file, once there, comes first for both.
+    user = tmp_path / "home" / "darwin" / "config.toml"
+    user.parent.mkdir(parents=True)
+    user.write_text("[daemon]\ntick_ms = 8.0\n")
+    assert target_path() == user

@@ -75,7 +75,8 @@ def test_a_laptop_command_without_its_extra_is_one_line(command: list[str], extr
     assert proc.returncode == 2
     assert proc.stdout == ""
     assert proc.stderr == (
-        f"darwin {command[0]}: needs the {extra!r} extra: pip install 'darwin-zenoh[{extra}]'\n"
+        f"darwin {command[0]}: needs the {extra!r} extra: pip install -e '.[{extra}]' in the "
+        "project's clone\n"
     )
 
 
@@ -86,12 +87,14 @@ def test_a_laptop_command_without_its_extra_is_one_line(command: list[str], extr
             "from robot_daemon.vision.ball_finder import BallFinder, FinderSettings\n"
             "from config.loader import load_all\n"
             "BallFinder(FinderSettings.from_config(load_all(None)['ballplay']))\n",
-            "ball finding: needs the 'vision' extra: pip install 'darwin-zenoh[vision]' "
+            "ball finding: needs the 'vision' extra: pip install -e '.[vision]' in the project's "
+            "clone "
             "(on the robot: apt-get install python3-opencv)",
         ),
         (
             "from clients.dataframes import to_frame\nto_frame('joints', [])\n",
-            "DataFrames: needs the 'notebook' extra: pip install 'darwin-zenoh[notebook]'",
+            "DataFrames: needs the 'notebook' extra: pip install -e '.[notebook]' in the "
+            "project's clone",
         ),
     ],
 )

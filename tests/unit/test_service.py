@@ -135,7 +135,7 @@ def test_the_commands_docs_service_md_shows(tmp_path: Path) -> None:
     outputs = []
     for argv in commands:
         argv = argv[1:] if argv[0] == "sudo" else argv
-        assert argv[0] == ".venv/bin/darwin"
+        assert argv[0] == "/opt/darwin/bin/darwin"  # where docs/robot.md's recipe installs it
         argv = [str(config) if a == "/etc/darwin/config.toml" else a for a in argv[1:]]
         done = run_darwin(*argv, "--root", str(root))
         assert done.returncode == 0, done.stderr
