@@ -238,5 +238,6 @@ class SensorRead:
             alarms=names,
         )
         if protect and st.torque[jid]:
-            # As the firmware's alarm shutdown does: no torque until someone re-enables it.
+            # As the firmware's alarm shutdown does: no torque until someone re-enables it
+            # (MOVE_SERVO_SHUTDOWN in robot_daemon/motion_authority.py).
             self.set_torque([jid], False)

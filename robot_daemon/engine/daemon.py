@@ -139,6 +139,9 @@ class Daemon(BusLifecycle):
             self._status_dirty = True
 
     def _lease_changed(self, old: Holder | None, new: Holder | None, reason: str) -> None:
+        # Who may have motion started for them (robot_daemon/motion_authority.py): a fall is
+        # recovered from only inside the lease holder's motion.
+        self.manager.controller = new.client if new is not None else None
         if new is not None:
             self._emit("lease", f"lease acquired by {new.name!r}", holder=new.to_dict())
         else:

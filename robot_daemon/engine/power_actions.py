@@ -67,6 +67,8 @@ class PowerGuard:
                 log.info("cannot say %r: %s", message, exc)
 
     def _act(self, kind: str, level: str, data: dict[str, Any]) -> None:
+        # The protective actions MOVE_POWER_SIT and MOVE_POWER_OFF (robot_daemon/
+        # motion_authority.py).
         if level == "sit":
             self.manager.stop_all()
             player = self.manager.get("action")

@@ -14,8 +14,15 @@ calibrated (``frame.imu_calibrated``, motion/gyro_centre.py), only error-free CM
 enter the window (``frame.imu_valid``: before the CM-730 first answered the block is zeros, which
 read as lying face down), and the window starts full of the neutral 512, so one bad sample
 cannot make a fall. A fall
-stops every module (walking, behaviours), publishes an event, and when ``[fall] recover`` is on,
-plays the matching get-up page (10 front, 11 back). While that page plays the robot is not
+stops every module (walking, behaviours) and publishes an event. It plays the matching get-up
+page (10 front, 11 back) only inside a lease holder's motion, as the motion-authority rule
+(robot_daemon/motion_authority.py) has it: ``[fall] recover`` on, the lease held, and a walk,
+ball play, a behaviour or the policy loop running within ``client_motion_s`` before the fall
+(the policy stops itself when the body tilts, before the robot lies). Never after a halt or a
+power or port event (each halts every module and clears that memory), nor at start-up: a robot
+lying when the daemon starts, laid down after a halt, or falling with nobody's motion running
+lies still, and the fall event says why. ROBOTIS's demo gets up likewise only in its soccer
+mode, after START (``Linux/project/demo/StatusCheck.cpp``). While that page plays the robot is not
 "upright again", whatever the accelerometer reads: sitting up on the way reads upright for longer
 than ``settle_ticks``, and lying back on the way (page 11 rocks onto its back) then read as a new
 fall that restarted the page from step 1, in a loop (the MuJoCo plant, issue 18). The ROBOTIS
@@ -41,6 +48,12 @@ from typing import Any
 from config.loader import section_to
 from robot_daemon.frames import JointFrame
 from robot_daemon.motion.interface import MotionModule
+from robot_daemon.motion_authority import (
+    BY_NAME,
+    MOVE_FALL_RECOVERY,
+    RECOVERS_FROM_FALLS,
+    RECOVERS_FROM_FALLS_WORDS,
+)
 from schemas.units import IMU_CENTER
 
 UPRIGHT, FORWARD, BACKWARD = "upright", "fallen_forward", "fallen_backward"
@@ -56,6 +69,9 @@ class FallRecovery:
     get_up_front_page: int = 10
     get_up_back_page: int = 11
     settle_ticks: int = 60
+    # s: a fall counts as inside the lease holder's motion when that motion ran this recently
+    # (the policy loop stops itself at a 32° tilt, a moment before the robot lies).
+    client_motion_s: float = 2.0
 
 
 class FallMonitor(MotionModule):
@@ -75,6 +91,8 @@ class FallMonitor(MotionModule):
         self.front_page = settings.get_up_front_page
         self.back_page = settings.get_up_back_page
         self.settle_ticks = settings.settle_ticks
+        self.client_motion_s = settings.client_motion_s
+        self._client_motion_at: float | None = None  # when a lease holder's motion last ran
         self.state = UPRIGHT
         self.now = UPRIGHT  # the present window's classification (state latches until settled)
         self.falls = 0
@@ -104,6 +122,7 @@ class FallMonitor(MotionModule):
     def observe(self, frame: JointFrame) -> None:
         # The framework's "accel Y" register is the robot's fore/aft axis, which JointFrame
         # holds first (robot axes x y z; see IMU_ACCEL_AXES in bus/tables.py).
+        self._note_client_motion(frame)
         if not frame.imu_calibrated:
             return  # the framework computes no fall before the gyro centre is measured
         if not frame.imu_valid:
@@ -128,7 +147,30 @@ class FallMonitor(MotionModule):
             return
         self.state = now
         self.falls += 1
-        self._on_fall(now)
+        self._on_fall(now, frame)
+
+    def _note_client_motion(self, frame: JointFrame) -> None:
+        manager = self.manager
+        if manager is None or manager.controller is None:
+            self._client_motion_at = None  # nobody holds the lease: nobody's motion runs
+            return
+        for name in RECOVERS_FROM_FALLS:
+            m = manager.get(name)
+            if m is not None and m.in_motion:
+                self._client_motion_at = frame.time
+                return
+
+    def _no_recovery(self, frame: JointFrame) -> str | None:
+        """Why this fall gets no get-up page (None: it does)."""
+        if not self.recover:
+            return "[fall] recover is off"
+        assert self.manager is not None
+        if self.manager.controller is None:
+            return "nobody holds the lease"
+        at = self._client_motion_at
+        if at is None or frame.time - at > self.client_motion_s:
+            return f"no {RECOVERS_FROM_FALLS_WORDS} of the lease holder was running"
+        return None
 
     def _getting_up(self) -> bool:
         if self._get_up is None or self.manager is None:
@@ -141,33 +183,46 @@ class FallMonitor(MotionModule):
         return False
 
     def halt(self) -> None:
+        # A halt (and a power or port event, which halts too) ends the holder's motion: a fall
+        # after it is nobody's to get up from.
         self._get_up = None
+        self._client_motion_at = None
 
-    def _on_fall(self, state: str) -> None:
+    def _on_fall(self, state: str, frame: JointFrame) -> None:
         manager = self.manager
         assert manager is not None
+        why = self._no_recovery(frame)
         # Everything that moves the body stops now (walking, behaviours, ball play); the head
-        # may keep its pose and the action player is about to get up.
+        # may keep its pose, and the action player is about to get up, or stops too.
+        keep = ("action", "head") if why is None else ("head",)
         for m in manager.modules:
-            if m is not self and m.name not in ("action", "head"):
+            if m is not self and m.name not in keep:
                 m.halt()
+                if m.name == "action":
+                    m.release()  # its last goals are held (the walk-ready page, a kick …)
         page = self.front_page if state == FORWARD else self.back_page
         action = manager.get("action")
         recovering = False
-        if self.recover and action is not None:
+        if why is None and action is not None:
             try:
                 action.play(page)  # type: ignore[attr-defined]
                 recovering = True
                 self._get_up = page
-            except (KeyError, ValueError):
-                recovering = False
-        self._event(
-            f"fell {DIRECTION[state]}; motion stopped"
-            + (f", getting up (page {page})" if recovering else ""),
-            state,
-            recovering=recovering,
-            page=page if recovering else None,
-        )
+            except (KeyError, ValueError) as exc:
+                why = f"page {page} cannot be played: {exc}"
+        self._client_motion_at = None  # whatever ran has been stopped
+        if recovering:
+            off = BY_NAME[MOVE_FALL_RECOVERY].off
+            message = (
+                f"fell {DIRECTION[state]}; motion stopped, getting up (page {page}; off: {off})"
+            )
+        else:
+            message = (
+                f"fell {DIRECTION[state]}; motion stopped; lying still, not getting up: {why} "
+                f"(a get-up page plays by itself only inside a lease holder's "
+                f"{RECOVERS_FROM_FALLS_WORDS}; to get up, play page {page})"
+            )
+        self._event(message, state, recovering=recovering, page=page if recovering else None)
 
     def _event(self, message: str, state: str, *, recovering: bool, page: int | None) -> None:
         self.emit(

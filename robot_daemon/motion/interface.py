@@ -56,6 +56,11 @@ class MotionModule:
         self.halt()
 
     @property
+    def in_motion(self) -> bool:
+        """Runs a motion now: not a halted walk's last step, not a stopped walk's hand-back."""
+        return self.active and not self.finishing
+
+    @property
     def finishing(self) -> bool:
         """Still driving its joints after ``halt_safely`` (the walk's last half step)."""
         return False

@@ -30,6 +30,9 @@ class MotionManager:
         self._last_goal: dict[int, float] = {}
         self.events: deque[tuple[str, str, dict[str, Any]]] = deque(maxlen=1000)
         self.last_frame: JointFrame | None = None
+        # The lease holder's client id, set by the daemon when the lease changes (None: nobody
+        # holds it). Motion that starts itself asks it (robot_daemon/motion_authority.py).
+        self.controller: str | None = None
         for m in modules or []:
             self.add(m)
 
@@ -156,7 +159,8 @@ class MotionManager:
     def hold_present(self, frame: JointFrame) -> None:
         """Hold the pose on every joint nobody owns (halt, shutdown, the port came back): the
         last goal of a joint whose torque is on; a joint without torque has no goal to keep
-        (enabling it holds where it is, bus/robot_bus.py)."""
+        (enabling it holds where it is, bus/robot_bus.py). The one move of ``MOVE_HOLD``
+        (robot_daemon/motion_authority.py)."""
         self._hold = {
             j: self._last_goal[j]
             for j, o in self._owner.items()

@@ -3,7 +3,9 @@ the CM-730 accelerometer registers the plant fills) sees which way, the get-up p
 project's motion library plays (10 front, 11 back) and stands the robot up again.
 
 Each direction gets 10 tries, lock-step on a simulated clock: a fresh rig per try (seeded), the
-robot standing, then a push of seeded strength and direction at the torso. The figures are
+robot standing inside a lease holder's behaviour (a long pause: a get-up page plays by itself
+only inside a lease holder's walk, ball play, behaviour or policy, robot_daemon/
+motion_authority.py), then a push of seeded strength and direction at the torso. The figures are
 printed (``-s``). The detector must see at least 8 of 10 falls the right way and start the
 right page, and the page must stand the robot up again in at least 8 of 10.
 
@@ -57,6 +59,16 @@ def upright(rig: SimRig) -> bool:
     return rig.world.fallen == "none" and fall.state == "upright" and torso_z > 0.2
 
 
+def hold_still_for_a_client(rig: SimRig) -> None:
+    """A lease holder's behaviour that moves nothing: a pause, as `choreography` would run it."""
+    rig.manager.controller = "tester"
+    choreography = rig.manager.module("choreography")
+    pages = rig.manager.module("action").library
+    choreography.play([choreography.behaviours.resolve({"kind": "pause", "duration": 60.0}, pages)])
+    rig.step()
+    assert choreography.in_motion
+
+
 def one_try(direction: str, seed: int, settings: dict[str, Any] | None = None) -> Try:
     """``settings``: another merged config (tests/learn/test_fast_model.py: the fast model)."""
     rng = np.random.default_rng(seed)
@@ -65,6 +77,7 @@ def one_try(direction: str, seed: int, settings: dict[str, Any] | None = None) -
     assert rig.calibrated()  # standing in the servos' zero pose, torque on, gyro centred
     rig.run(0.7)  # and settled: pushed at once, the detector read the landing as backward
     assert upright(rig), "the robot did not stand before the push"
+    hold_still_for_a_client(rig)
     force = rng.uniform(*PUSHES[direction]) * (1.0 if direction == "forward" else -1.0)
     angle = rng.uniform(-0.2, 0.2)  # a little off the sagittal plane
     rig.world.push((force * math.cos(angle), force * math.sin(angle), 0.0), PUSH_S)

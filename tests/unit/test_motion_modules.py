@@ -68,6 +68,7 @@ def test_head_tracking_turns_toward_the_error_and_stays_in_limits() -> None:
 
 def test_a_forward_fall_stops_walking_emits_and_plays_get_up_front() -> None:
     rig = Rig()
+    rig.manager.controller = "c1"  # the lease holder's walk: a fall is recovered from
     rig.m("walking").start(0.05, 0, 0)
     rig.run(200)
     assert rig.m("walking").running
@@ -85,12 +86,20 @@ def test_a_forward_fall_stops_walking_emits_and_plays_get_up_front() -> None:
     assert rig.m("fall").falls == 1  # still lying: one fall, not one per tick
 
 
+def _holders_walk(rig: Rig) -> None:
+    rig.manager.controller = "c1"
+    rig.m("walking").start(0.0, 0, 0)
+    rig.run(5)
+
+
 def test_a_backward_fall_plays_get_up_back_and_recovery_can_be_disabled() -> None:
     rig = Rig()
+    _holders_walk(rig)
     rig.accel_y = 700
     rig.run(31)
     assert rig.m("action").status()["page"] == 11
     rig = Rig()
+    _holders_walk(rig)
     rig.m("fall").recover = False
     rig.accel_y = 700
     rig.run(31)
@@ -107,6 +116,7 @@ def test_sitting_up_during_the_get_up_page_does_not_restart_it() -> None:
     page 11 from step 1 in a loop before); upright again is reported once the page is over."""
     rig = Rig()
     fall, action = rig.m("fall"), rig.m("action")
+    _holders_walk(rig)
     rig.accel_y = 700
     rig.run(31)
     assert action.status()["page"] == 11

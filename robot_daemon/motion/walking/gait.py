@@ -126,14 +126,14 @@ class WalkingModule(WalkReady, MotionModule):
         self.ctrl_running = False
 
     def halt_safely(self) -> None:
-        """The ``halt`` verb: stopped at once, a walk would stand on one foot for most of a
-        period (the swing foot up to the step height in the air, the body over the stance
-        foot) and tip over. So while the gait runs it ends at its next step boundary (time 0
-        or phase 2 of the period: the middle of a double support, both feet down, the body
-        centred), at most half a period later, and holds there; ROBOTIS's Walking.cpp stops
-        only there too (``m_Real_Running = false`` at those two phase points). Before the
-        gait runs (gyro, walk-ready page, the blend into the stance) both feet are down: it
-        stops at once."""
+        """The ``halt`` verb (``MOVE_WALK_LAST_STEP``, robot_daemon/motion_authority.py).
+        Stopped at once, a walk would stand on one foot for most of a period (the swing foot
+        up to the step height in the air, the body over the stance foot) and tip over. So
+        while the gait runs it ends at its next step boundary (time 0 or phase 2 of the
+        period: the middle of a double support, both feet down, the body centred), at most
+        half a period later, and holds there; ROBOTIS's Walking.cpp stops only there too
+        (``m_Real_Running = false`` at those two phase points). Before the gait runs (gyro,
+        walk-ready page, the blend into the stance) both feet are down: it stops at once."""
         if self.running and not self._readying and self._ready_t is None and self.owned():
             self.ctrl_running = False
             self.cmd = [0.0, 0.0, 0.0]
@@ -144,6 +144,10 @@ class WalkingModule(WalkReady, MotionModule):
     @property
     def finishing(self) -> bool:
         return self._halting and self.running
+
+    @property
+    def in_motion(self) -> bool:
+        return self.running and not self._halting
 
     def halt(self) -> None:
         self._halting = False
