@@ -269,6 +269,11 @@ class Commander:
             fields["ids"] = ids
         return self.command("torque", **fields)
 
+    def power(self, on: bool) -> dict[str, Any]:
+        """Power the servos again after the CM-730's reset button (``on``), or cut their power
+        (every servo limp at once). Admin only, under the lease."""
+        return self.command("power", op="on" if on else "off")
+
     def led(
         self,
         head: tuple[int, int, int] | None = None,

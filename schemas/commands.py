@@ -170,6 +170,14 @@ SPEC: dict[str, Verb] = {
             lease=False,
         ),
         Verb(
+            "power",
+            {"op": _op("on", "off")},
+            "`op`: on (the servos after the reset button: torque back on those that had it, "
+            "holding where they are) \\| off (cut DXL power: every servo limp at once)",
+            admin_ops=_ops("on", "off"),
+            bus=True,
+        ),
+        Verb(
             "config",
             {},
             "— joints, limits, offsets, gains, tick, walking and IMU settings, robot name",

@@ -16,4 +16,6 @@ class DaemonState(StrEnum):
     RUNNING = "running"
     DEGRADED = "degraded"
     PORT_LOST = "port_lost"
+    # DXL power went off (the CM-730's reset button): every servo limp until powered again.
+    SERVOS_OFF = "servos_off"
     STOPPING = "stopping"

@@ -18,8 +18,7 @@ DarwinError
 ├── BusError                serial port and Dynamixel bus
 │   ├── PortError           cannot open / lost the serial port
 │   │   ├── PortInUseError  another process holds it
-│   │   ├── SlowPortError   the USB latency timer is above 1 ms
-│   │   └── DxlPowerLostError  the servos lost power (CM-730 DXL_POWER reads 0)
+│   │   └── SlowPortError   the USB latency timer is above 1 ms
 │   ├── NoReplyError        a device did not answer
 │   └── PacketError         a reply was corrupt or malformed
 ├── ProtocolError           malformed input on a wire (legacy framing, JSON, msgpack)
@@ -129,11 +128,6 @@ class PortInUseError(PortError):
 class SlowPortError(PortError):
     """The serial adapter would make every reply late (an FTDI latency timer above 1 ms): the
     daemon refuses to drive the robot until it is set to 1."""
-
-
-class DxlPowerLostError(PortError):
-    """The CM-730 reads DXL_POWER 0 (its reset button, a supply glitch): the servos are off.
-    The daemon halts and powers, scans and holds again, as after a lost port."""
 
 
 class NoReplyError(BusError):

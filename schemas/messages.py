@@ -155,7 +155,7 @@ class Status(Message):
     (docs/daemon.md, Status)."""
 
     TYPE: ClassVar[str] = "status"
-    state: str  # starting | scanning | running | degraded | port_lost | stopping
+    state: str  # starting | scanning | running | degraded | port_lost | servos_off | stopping
     robot: str
     lease: LeaseInfo | None = None
     motion: MotionInfo = field(default_factory=lambda: MotionInfo())

@@ -61,7 +61,7 @@ class BusCommands(Protocol):
     bus transactions, in the motion thread)."""
 
     def set_leds(self, head: int | None, eye: int | None, panel: int | None) -> None: ...
-    def set_torque(self, ids: list[int], enable: bool) -> None: ...
+    def set_torque(self, ids: list[int], enable: bool) -> dict[int, str]: ...
     def read_registers(self, dxl_id: int, address: int, length: int) -> bytes: ...
     def write_registers(self, dxl_id: int, address: int, data: bytes) -> None: ...
 
@@ -83,6 +83,7 @@ class MotionContext:
     publish: Callable[[str, Message], None] | None = None  # publish(topic, msg), newest only
     info: DaemonInfo | None = None  # the daemon's name and period
     extras: dict[str, Any] = field(default_factory=dict)  # options, e.g. "allow_eeprom"
+    power: PowerSwitch | None = None  # the servos' power switch (the daemon's bus supervisor)
 
     def module(self, name: str, kind: type[M], what: str = "") -> M:
         """The motion module ``name``, a ``kind``; ``Reject`` (unavailable) when this daemon
@@ -93,6 +94,12 @@ class MotionContext:
                 ErrorCode.UNAVAILABLE, f"{what or f'the {name} module'} is not part of this daemon"
             )
         return found
+
+
+class PowerSwitch(Protocol):
+    """The servos' power (DXL_POWER through the CM-730), as the ``power`` verb may use it."""
+
+    def ask_power(self, on: bool, by: str) -> dict[str, Any]: ...
 
 
 Handler = Callable[[Request, MotionContext], dict[str, Any]]

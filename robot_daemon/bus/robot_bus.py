@@ -11,19 +11,19 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 import numpy as np
 
 from config.loader import RobotConfig
 from robot_daemon.bus.calibration import Calibration
-from robot_daemon.bus.dxl import DxlBus, ReplyBudget
+from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.preflight import firmware_refusal
 from robot_daemon.bus.scan import identify, identity_warnings
-from robot_daemon.bus.sensor_read import SLOW_LENGTH, SLOW_START, SensorRead
-from robot_daemon.bus.servo_ram import reset_servo_ram
+from robot_daemon.bus.sensor_read import PROTECT_BITS, SLOW_LENGTH, SLOW_START, SensorRead
+from robot_daemon.bus.servo_ram import FULL_TORQUE, reset_servo_ram
 from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, imu_si
 from robot_daemon.bus.tables import (
     CM730,
@@ -78,6 +78,14 @@ class RobotBus(SensorRead):
         self.start_margin_ms = float(bus_cfg.get("start_reply_margin_ms", 20.0))
         self.power_on_delay = float(bus_cfg.get("power_on_delay_ms", 300.0)) / 1000.0
         self.torque_on_start = bool(daemon.get("torque_on_start", True))
+        # A torqued servo found at start keeps its goal only this close to where it is.
+        sag_deg = float(bus_cfg.get("hold_sag_limit_deg", 5.0))
+        self.hold_sag_raw = sag_deg * units.UNITS_PER_REV / 360.0
+        # DXL power off (the reset button): only the CM-730 is read until it is powered again.
+        self.unpowered = False
+        # The TORQUE_LIMIT each servo runs with (MAX_TORQUE, bus/servo_ram.py): what a re-arm
+        # writes back.
+        self.torque_limits: dict[int, int] = {}
         imu = settings.get("imu", {})
         self.gyro_dps = float(imu.get("gyro_full_scale_dps", units.GYRO_DPS_FULL_SCALE))
         self.emit = emit  # emit(kind, message, **data)
@@ -165,7 +173,10 @@ class RobotBus(SensorRead):
         found: dict[int, int] = {}
         self.warnings = []
         self.refused = {}
-        for dxl_id in (self.cm730_id, *self.ids):
+        # Two passes: a servo that powered up late (or a busy host that missed its replies)
+        # is asked again after the others, rather than left offline without torque.
+        ids = [self.cm730_id, *self.ids]
+        for dxl_id in self._scan_order(ids, found):
             ident = identify(bus, dxl_id, SCAN_TRIES)
             if ident is None:
                 continue
@@ -189,6 +200,11 @@ class RobotBus(SensorRead):
             self.state.misses[jid] = 0
         return found
 
+    @staticmethod
+    def _scan_order(ids: list[int], found: dict[int, int]) -> Iterator[int]:
+        yield from ids
+        yield from [i for i in ids if i not in found]
+
     def _write_retry(self, dxl_id: int, address: int, data: bytes) -> None:
         # The first try at the loop's margin; a status that missed it (a busy host, an
         # emulator's pace) is waited for with bring-up's patience, since a command that fails
@@ -211,34 +227,105 @@ class RobotBus(SensorRead):
         log.warning(text)
         self.warnings.append(text)
 
-    def initial_read(self) -> None:
-        """Read every online servo's slow block once, reset the RAM a previous program may have
-        left (bus/servo_ram.py), then hold: a servo with torque on keeps its goal, the others
-        hold their present pose."""
+    def initial_read(self, torque: Iterable[int] | None = None) -> list[int]:
+        """Read every online servo's slow block once (its alarm bits kept), then hold:
+
+        * a servo in alarm shutdown (an OVERLOAD or OVERHEATING bit, or TORQUE_LIMIT 0 with
+          torque enabled: the MX-28's shutdown, e-manual "Torque Limit (34)") is reported and
+          left alone: its RAM is not reset (writing TORQUE_LIMIT would re-arm it) and it gets
+          no torque;
+        * a servo with torque on keeps its goal when that is within ``hold_sag_limit_deg`` of
+          where it is (its present position under load is below the goal: re-commanding that
+          would make the joint sink), else it holds where it is (a goal left far away would
+          be a jump the moment the RAM reset lifts a slow MOVING_SPEED);
+        * the others' goal is their present position, so enabling torque moves nothing;
+        * then the RAM a previous program may have left (bus/servo_ram.py) is reset on the
+          servos not in alarm, and torque is enabled on ``torque`` (not the alarmed ones;
+          None: every servo when ``daemon.torque_on_start``, none otherwise).
+
+        Returns the servos left limp for an alarm."""
+        st = self.state
+        enabled: dict[int, bool] = {}
         for jid in self.ids:
-            if self.state.online[jid]:
-                data = self._read_retry(self._bus(), jid, SLOW_START, SLOW_LENGTH)
-                if data is None:
-                    self.state.online[jid] = False
+            if st.online[jid]:
+                read = self._read_with_error(jid, SLOW_START, SLOW_LENGTH)
+                if read is None:
+                    st.online[jid] = False
                     self._warn(f"servo {jid} stopped answering after the scan; offline")
                 else:
-                    self._apply_slow(jid, data, 0)
-        st = self.state
+                    data, error = read
+                    enabled[jid] = bool(data[0])
+                    self._apply_slow(jid, data, error)
         online = [j for j in self.ids if st.online[j]]
-        reset_servo_ram(self._bus(), online, lambda *a: self._read_retry(self._bus(), *a))
-        # A servo whose torque is on keeps the goal it holds (its present position under load
-        # is below it: re-commanding that would make the joint sink); the others hold where
-        # they are, so enabling torque moves nothing.
+        alarmed = [j for j in online if self._shut_down(j, enabled.get(j, False))]
+        for jid in alarmed:
+            names = ", ".join(error_names(int(st.alarm[jid]))) or "torque limit 0"
+            self._warn(
+                f"servo {jid} ({self.robot.by_id[jid].name}) is in alarm shutdown ({names}): "
+                "left limp, its torque limit untouched; `torque` enable=true re-arms it once "
+                "the alarm is gone (let it cool, take the load off)"
+            )
+            st.torque[jid] = False
+        sag = self.hold_sag_raw
         for jid in self.ids:
-            if not (st.online[jid] and st.torque[jid]):
+            far = abs(int(st.goal[jid]) - int(st.position[jid])) > sag
+            if far or not (st.online[jid] and st.torque[jid]):
                 st.goal[jid] = st.position[jid]
-        rows = {j: self._sync_row(j, int(st.goal[j])) for j in online}
+        rows = {j: self._sync_row(j, int(st.goal[j])) for j in online if j not in alarmed}
         if rows:
             self._bus().sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
-        if self.torque_on_start:
-            online = [j for j in self.ids if self.state.online[j]]
-            self.set_torque(online, True)
+        # After the goals: the reset lifts any slow MOVING_SPEED, so the goal must be near.
+        healthy = [j for j in online if j not in alarmed]
+        self.torque_limits.update(
+            reset_servo_ram(self._bus(), healthy, lambda *a: self._read_retry(self._bus(), *a))
+        )
+        if torque is None:
+            torque = self.ids if self.torque_on_start else ()
+        wanted = [j for j in torque if j in healthy]
+        if wanted:
+            self.set_torque(wanted, True)
         self._bus().budget.margin_ms = self.reply_margin_ms  # from now on the loop is timed
+        return alarmed
+
+    def _shut_down(self, jid: int, enabled: bool) -> bool:
+        """In alarm shutdown: a protecting alarm stands, or torque enabled with a limit of 0."""
+        st = self.state
+        return bool(st.alarm[jid] & PROTECT_BITS) or (enabled and st.torque_limit[jid] == 0)
+
+    def _read_with_error(self, jid: int, address: int, length: int) -> tuple[bytes, int] | None:
+        try:
+            return self._bus().read(
+                jid, address, length, tries=SCAN_TRIES, retry_margin_ms=self.start_margin_ms
+            )
+        except PortError:
+            raise
+        except BusError:
+            return None
+
+    def dxl_power(self) -> bool:
+        """Whether the CM-730 says the servo bus is powered (a read: nothing is switched)."""
+        data = self._read_retry(self._bus(), self.cm730_id, CM730.DXL_POWER.reg.address, 1)
+        if data is None:
+            raise NoReplyError(
+                f"the CM-730 (id {self.cm730_id}) on {self.port_name} does not answer"
+            )
+        return bool(data[0])
+
+    def paint_disconnected(self) -> None:
+        """The head LED green, as ROBOTIS's ``CM730::Disconnect`` leaves it
+        (``Framework/src/CM730.cpp``): the orange of a connected daemon must not stay after it
+        exits. Sent without waiting for the status; best effort."""
+        if self.dxl is None:
+            return
+        green = units.rgb_to_color_word(0, 255, 0)
+        try:
+            self.dxl.write_unanswered(
+                self.cm730_id, CM730.LED_HEAD.reg.address, green.to_bytes(2, "little")
+            )
+            assert self.handler is not None
+            self.handler.pause(0.002)  # the 9 bytes on the wire before the port closes
+        except (BusError, OSError) as exc:
+            log.info("could not paint the head LED green: %s", exc)
 
     # -- per tick ----------------------------------------------------------------------------
     def _sync_row(self, jid: int, goal_raw: int) -> bytes:
@@ -322,23 +409,45 @@ class RobotBus(SensorRead):
         if eye is not None:
             self._write_retry(cm, CM730.LED_EYE.reg.address, eye.to_bytes(2, "little"))
 
-    def set_torque(self, ids: list[int], enable: bool) -> None:
-        ids = [j for j in ids if self.state.online[j]]
+    def set_torque(self, ids: list[int], enable: bool) -> dict[int, str]:
+        """Torque on or off; returns the servos refused (id → why): enabling skips a servo in
+        alarm shutdown, since writing its TORQUE_LIMIT would re-arm it into the same fault."""
+        st = self.state
+        ids = [j for j in ids if st.online[j]]
+        refused: dict[int, str] = {}
+        if enable:
+            for j in ids:
+                if st.alarm[j] & PROTECT_BITS:
+                    names = ", ".join(error_names(int(st.alarm[j])))
+                    refused[j] = f"servo {j} ({self.robot.by_id[j].name}) is in alarm ({names})"
+            ids = [j for j in ids if j not in refused]
         if not ids:
-            return
+            return refused
         bus = self._bus()
-        off = [j for j in ids if not self.state.torque[j]]
+        off = [j for j in ids if not st.torque[j]]
         if enable and off:
             # Hold where the servo is now, so enabling torque never makes it jump (one already
             # on keeps its goal).
-            rows = {j: self._sync_row(j, int(self.state.position[j])) for j in off}
+            rows = {j: self._sync_row(j, int(st.position[j])) for j in off}
             bus.sync_write(SYNC_WRITE_START, SYNC_WRITE_LENGTH, rows)
             for j in off:
-                self.state.goal[j] = self.state.position[j]
+                st.goal[j] = st.position[j]
+            # A servo shut down by an alarm that has since gone (cooled, unloaded) has
+            # TORQUE_LIMIT 0: re-armed with the limit it runs with, goal already at present.
+            rearm = {
+                j: self.torque_limits.get(j, FULL_TORQUE).to_bytes(2, "little")
+                for j in off
+                if st.torque_limit[j] == 0
+            }
+            if rearm:
+                bus.sync_write(MX28.TORQUE_LIMIT.reg.address, 2, rearm)
+                for j in rearm:
+                    st.torque_limit[j] = self.torque_limits.get(j, FULL_TORQUE)
         flag = bytes((1 if enable else 0,))
         bus.sync_write(MX28.TORQUE_ENABLE.reg.address, 1, dict.fromkeys(ids, flag))
         for j in ids:
-            self.state.torque[j] = enable
+            st.torque[j] = enable
+        return refused
 
     def read_registers(self, dxl_id: int, address: int, length: int) -> bytes:
         # A read has no side effect: asked again, patiently, like a write (_write_retry).
@@ -348,9 +457,25 @@ class RobotBus(SensorRead):
 
     def write_registers(self, dxl_id: int, address: int, data: bytes) -> None:
         # Writing the same bytes again is harmless, so a lost status packet is retried.
+        enable_at = MX28.TORQUE_ENABLE.reg.address
+        goal_at = MX28.GOAL_POSITION.reg.address
+        st = self.state
+        if (
+            dxl_id in self.ids
+            and address <= enable_at < address + len(data)
+            and data[enable_at - address]
+            and not address <= goal_at < address + len(data)
+            and st.online[dxl_id]
+            and not st.torque[dxl_id]
+        ):
+            # Torque on by a raw write: the goal the servo holds may be anything a previous
+            # program left; hold where it is first, as `torque` does.
+            present = int(st.position[dxl_id])
+            self._write_retry(dxl_id, goal_at, present.to_bytes(2, "little"))
+            st.goal[dxl_id] = present
         self._write_retry(dxl_id, address, data)
-        if dxl_id in self.ids and address <= MX28.TORQUE_ENABLE.reg.address < address + len(data):
-            self.state.torque[dxl_id] = bool(data[MX28.TORQUE_ENABLE.reg.address - address])
+        if dxl_id in self.ids and address <= enable_at < address + len(data):
+            st.torque[dxl_id] = bool(data[enable_at - address])
 
     def status(self) -> dict[str, Any]:
         st = self.state

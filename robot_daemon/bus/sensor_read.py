@@ -41,6 +41,7 @@ _FAST_LOAD = (MX28.PRESENT_LOAD.reg.address - SERVO_BULK_START) // 2
 # Where each register is in the slow block.
 _TORQUE = MX28.TORQUE_ENABLE.reg.address - SLOW_START
 _GOAL = MX28.GOAL_POSITION.reg.address - SLOW_START
+_TORQUE_LIMIT = MX28.TORQUE_LIMIT.reg.address - SLOW_START
 _POSITION = MX28.PRESENT_POSITION.reg.address - SLOW_START
 _SPEED = MX28.PRESENT_SPEED.reg.address - SLOW_START
 _LOAD = MX28.PRESENT_LOAD.reg.address - SLOW_START
@@ -68,13 +69,14 @@ class SensorRead:
     state: ServoState
     counters: BusCounters
     refused: dict[int, str]
+    unpowered: bool
     offline_after: int
     slow_per_tick: int
     servo_share: int
     probe_every: int
     emit: Callable[..., Any]
     _rr: int
-    _who_key: tuple[bytes, int] | None = None
+    _who_key: tuple[bytes, int, bool] | None = None
     _who_cache: tuple[list[int], list[int]]
     _layouts: dict[tuple[Any, ...], _Layout]
 
@@ -87,12 +89,17 @@ class SensorRead:
         """The online servos and the offline ones worth probing, in bus order: remade only
         when who is online (or refused) changes, not every tick."""
         st = self.state
-        key = (st.online.tobytes(), len(self.refused))
+        key = (st.online.tobytes(), len(self.refused), self.unpowered)
         if key != self._who_key:
             on = st.online.tolist()
+            # DXL power off: only the CM-730 is read, and no servo is probed.
             self._who_cache = (
                 [j for j in self.ids if on[j]],
-                [j for j in self.ids if not on[j] and j not in self.refused],
+                [
+                    j
+                    for j in self.ids
+                    if not on[j] and j not in self.refused and not self.unpowered
+                ],
             )
             self._who_key = key
             self._layouts = {}
@@ -210,7 +217,9 @@ class SensorRead:
 
     def _apply_slow(self, jid: int, data: bytes, error: int) -> None:
         st = self.state
-        st.torque[jid] = bool(data[_TORQUE])
+        # An MX-28 in alarm shutdown has TORQUE_LIMIT 0 and TORQUE_ENABLE still 1: limp.
+        st.torque_limit[jid] = word(data, _TORQUE_LIMIT)
+        st.torque[jid] = bool(data[_TORQUE]) and st.torque_limit[jid] > 0
         st.goal[jid] = word(data, _GOAL)
         st.position[jid] = word(data, _POSITION)
         st.speed[jid] = word(data, _SPEED)

@@ -65,6 +65,9 @@ class ServoState:
     misses: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
     alarm: np.ndarray = field(default_factory=lambda: np.zeros(N_SLOTS, dtype=int))
     goal: np.ndarray = field(default_factory=_centred)
+    # TORQUE_LIMIT as last read: 0 after an alarm shutdown (the servo is limp though
+    # TORQUE_ENABLE reads 1), so ``torque`` is enable *and* a limit above 0.
+    torque_limit: np.ndarray = field(default_factory=lambda: np.full(N_SLOTS, 1023, dtype=int))
     firmware: dict[int, int] = field(default_factory=dict)
 
 

@@ -192,6 +192,8 @@ class EmulatorApi:
                     "position": float(units.raw_to_rad(s.position)),
                     "goal": float(units.raw_to_rad(t[MX28.GOAL_POSITION])),
                     "torque": bool(t[MX28.TORQUE_ENABLE]),
+                    # 0 after an alarm shutdown: limp whatever TORQUE_ENABLE says
+                    "torque_limit": int(t[MX28.TORQUE_LIMIT]),
                     "temperature": round(s.temperature, 2),
                     "alarm": s.alarm_bits() if s.powered else 0,
                     "powered": s.powered,

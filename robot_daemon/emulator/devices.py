@@ -13,14 +13,22 @@ Modelling choices (documented, not firmware-exact):
   through :meth:`Servo.plant_update`: position, speed and the motor's torque.
 * Present load is the external load the world applies plus a share for accelerating the horn
   (kinematic), or the motor's torque over the stall torque at the present voltage (physics: the
-  MX-28's load is its output duty); over the torque limit it raises OVERLOAD. Under physics a
-  motor held at its torque limit for ``OVERLOAD_AFTER_S`` raises OVERLOAD too (the firmware's
-  "the load cannot be controlled with the set maximum torque").
+  MX-28's load is its output duty); at or over the torque limit it raises OVERLOAD, so a full
+  external load fires it at the default limit (1023) too. Under physics a motor held at its
+  torque limit for ``OVERLOAD_AFTER_S`` raises OVERLOAD too (the firmware's "the load cannot
+  be controlled with the set maximum torque"). OVERLOAD is latched: it stays in every status
+  packet until the host writes a non-zero TORQUE_LIMIT with the load gone (a re-arm with the
+  load still there latches it again at once, as ROBOTIS's Q&A reports of the MX-28).
 * Temperature follows a first-order model: it settles at ``ambient + heat_gain · load²`` with
   time constant ``thermal_tau_s``. Above the temperature limit OVERHEATING is raised, and it
   stays until the servo has cooled ``OVERHEAT_HYSTERESIS_C`` below the limit.
-* An alarm whose bit is in ALARM_SHUTDOWN turns torque off and keeps it off while it lasts
-  (torque enable writes are accepted but torque stays off, as the firmware's shutdown does).
+* An alarm whose bit is in ALARM_SHUTDOWN sets TORQUE_LIMIT to 0: the servo goes limp while
+  TORQUE_ENABLE still reads 1, and stays limp until the host writes a non-zero TORQUE_LIMIT
+  (the MX-28 e-manual, Protocol 1.0 control table, "Torque Limit (34)": "If the function of
+  Alarm Shutdown is triggered, the motor loses its torque because the value becomes 0. At this
+  moment, if the value is changed to the value other than 0, the motor can be used again";
+  https://emanual.robotis.com/docs/en/dxl/mx/mx-28/). While the alarm stands the limit is put
+  back to 0 at once.
 * Power-up (CM-730 DXL_POWER 0 → 1) restores the RAM area, with the goal at the present position.
 """
 
@@ -132,6 +140,7 @@ class Servo(Device):
         self.external_load = 0.0  # fraction of max torque the world applies, signed
         self.forced_temperature: float | None = None
         self.overheated = False
+        self.overload_latched = False  # OVERLOAD stays until a re-arm (TORQUE_LIMIT written)
         self.powered = False
         # Set by a physics plant (plant_update): the motor's torque (N·m); None = kinematic plant.
         self.plant_torque: float | None = None
@@ -164,13 +173,21 @@ class Servo(Device):
             self.overheated = False
         if self.overheated:
             bits |= ErrorBit.OVERHEATING
-        if self.plant_torque is None:  # kinematic: the world's load against the limit
-            over = abs(self.load_fraction()) * MX28.TORQUE_LIMIT.reg.high > t[MX28.TORQUE_LIMIT]
-        else:  # physics: the motor cannot exceed its limit, it stays saturated at it
-            over = self.saturated_s >= OVERLOAD_AFTER_S
-        if over and t[MX28.TORQUE_ENABLE]:
+        if self._overloaded():
+            self.overload_latched = True
+        if self.overload_latched:
             bits |= ErrorBit.OVERLOAD
         return bits
+
+    def _overloaded(self) -> bool:
+        t = self.table
+        if not (self.powered and t[MX28.TORQUE_ENABLE] and t[MX28.TORQUE_LIMIT]):
+            return False
+        if self.plant_torque is None:  # kinematic: the world's load against the limit
+            load = abs(self.external_load) * MX28.TORQUE_LIMIT.reg.high
+            return load > 0 and load >= t[MX28.TORQUE_LIMIT]
+        # physics: the motor cannot exceed its limit, it stays saturated at it
+        return self.saturated_s >= OVERLOAD_AFTER_S
 
     def _shutdown_active(self) -> bool:
         return bool(self.alarm_bits() & self.table[MX28.ALARM_SHUTDOWN])
@@ -185,13 +202,21 @@ class Servo(Device):
         return 0
 
     def after_write(self, changed: list) -> None:
-        if MX28.TORQUE_ENABLE.reg in changed and self._shutdown_active():
-            self.table[MX28.TORQUE_ENABLE] = 0
+        t = self.table
+        if MX28.TORQUE_LIMIT.reg in changed and t[MX28.TORQUE_LIMIT]:
+            # A re-arm: the overload alarm goes if its cause has (else it latches again below).
+            self.overload_latched = False
+        self._shut_down_if_alarmed()
+
+    def _shut_down_if_alarmed(self) -> None:
+        if self._shutdown_active():
+            self.table[MX28.TORQUE_LIMIT] = 0
 
     # ---- power and dynamics -----------------------------------------------------------------
 
     def power(self, on: bool) -> None:
         if on and not self.powered:
+            self.overload_latched = False  # a power cycle clears every alarm
             self.table.reset(eeprom=False)
             self.table[MX28.GOAL_POSITION] = round(self.position)
             for reg, value in self.leftover.items():
@@ -208,8 +233,13 @@ class Servo(Device):
         rpm = top if rpm == 0 else min(rpm, top)
         return rpm * units.UNITS_PER_REV / 60.0
 
+    def drives(self) -> bool:
+        """The motor holds its goal: powered, torque enabled and a torque limit above 0."""
+        t = self.table
+        return bool(self.powered and t[MX28.TORQUE_ENABLE] and t[MX28.TORQUE_LIMIT])
+
     def load_fraction(self) -> float:
-        if not (self.powered and self.table[MX28.TORQUE_ENABLE]):
+        if not self.drives():
             return 0.0
         if self.plant_torque is not None:
             stall = STALL_TORQUE_12V * max(self.env.voltage, 1e-3) / 12.0
@@ -223,7 +253,7 @@ class Servo(Device):
         t = self.table
         if self.plant_torque is not None:
             pass  # the physics plant moved the horn (plant_update)
-        elif self.powered and t[MX28.TORQUE_ENABLE]:
+        elif self.drives():
             goal = float(t[MX28.GOAL_POSITION])
             if self.sag_units:
                 # A P-only loop stands off its goal in proportion to the load over the gain.
@@ -235,8 +265,7 @@ class Servo(Device):
         else:
             self.velocity = 0.0
         self._heat(dt)
-        if self._shutdown_active():
-            t[MX28.TORQUE_ENABLE] = 0
+        self._shut_down_if_alarmed()
         self._sync_registers()
 
     def _heat(self, dt: float) -> None:
@@ -272,8 +301,8 @@ class Servo(Device):
         t[MX28.PRESENT_LOAD] = units.encode_signed_11bit(round(load_units))
         t[MX28.PRESENT_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
         t[MX28.PRESENT_TEMPERATURE] = max(0, min(255, round(self.temperature)))
-        moving = t[MX28.TORQUE_ENABLE] and abs(t[MX28.GOAL_POSITION] - self.position) >= 1.0
-        t[MX28.MOVING] = 1 if (self.powered and moving) else 0
+        moving = self.drives() and abs(t[MX28.GOAL_POSITION] - self.position) >= 1.0
+        t[MX28.MOVING] = 1 if moving else 0
 
 
 class CM730Device(Device):

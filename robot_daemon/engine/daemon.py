@@ -11,7 +11,8 @@ bus are refused with ``unavailable`` until it is back, and then the robot holds 
 in until someone commands it; every shutdown halts the motion and holds the pose before the bus
 is let go.
 
-Beside it: the bus's bring-up, loss and return (``bus_lifecycle.py``), the messages it publishes
+Beside it: the bus's bring-up, power, loss and return and the buttons (``bus_lifecycle.py``,
+a :class:`BusSupervisor` the daemon is composed of), the messages it publishes
 (``broadcast.py``), its Zenoh session (``zenoh_setup.py``), its states
 (``schemas/daemon_state.py``).
 """
@@ -32,10 +33,9 @@ from robot_daemon.arbiter.core import Arbiter
 from robot_daemon.arbiter.lease import Holder, Lease
 from robot_daemon.arbiter.registry import MotionContext
 from robot_daemon.arbiter.throttle import ArbiterLimits
-from robot_daemon.bus.power_watch import check_dxl_power
 from robot_daemon.bus.robot_bus import RobotBus
 from robot_daemon.engine.broadcast import imu_message, joints_message, status_message
-from robot_daemon.engine.bus_lifecycle import BusLifecycle
+from robot_daemon.engine.bus_lifecycle import BusSupervisor, Buttons
 from robot_daemon.engine.loop_stats import LoopStats
 from robot_daemon.engine.policy_link import PolicyLink, link_policy
 from robot_daemon.engine.power_actions import PowerGuard
@@ -79,7 +79,7 @@ class DaemonOptions:
     credentials: Credentials | None = None  # who this robot is to its router (--user…)
 
 
-class Daemon(BusLifecycle):
+class Daemon:
     def __init__(self, options: DaemonOptions, robot: RobotConfig, settings: dict[str, Any]):
         self.options = options
         self.robot = robot
@@ -93,8 +93,6 @@ class Daemon(BusLifecycle):
         self.telemetry = RateGate(
             check_rate(dcfg.get("telemetry_hz", 0.0), "daemon.telemetry_hz"), self.tick_s
         )
-        self.backoff_min = float(dcfg.get("reopen_backoff_min", 0.1))
-        self.backoff_max = float(dcfg.get("reopen_backoff_max", 5.0))
         self.realtime_priority = check_priority(
             dcfg.get("realtime_priority", 0), "daemon.realtime_priority"
         )
@@ -108,6 +106,16 @@ class Daemon(BusLifecycle):
         self.info = DaemonInfo(robot=options.robot, tick_ms=options.tick_ms)
         self.protocol = announced_protocol()
         self.guard = PowerGuard(robot, settings, self.manager, self.bus, self._emit)
+        self.supervisor = BusSupervisor(
+            self.bus,
+            self.manager,
+            self.guard,
+            self._emit,
+            self._set_state,
+            backoff_min=float(dcfg.get("reopen_backoff_min", 0.1)),
+            backoff_max=float(dcfg.get("reopen_backoff_max", 5.0)),
+            buttons=Buttons.from_config(dcfg.get("buttons")),
+        )
         self.tick = 0
         self.bus_errors = 0
         self.frame: JointFrame | None = None
@@ -117,8 +125,6 @@ class Daemon(BusLifecycle):
         self._safe_stop = threading.Event()
         self._status_dirty = True
         self._last_start: float | None = None  # start of the previous tick, for its real dt
-        self._bus_down = False  # port lost: commands that need the bus are refused
-        self._hold_on_return = False  # the first tick after the port is back holds the pose
         self._motion_thread: threading.Thread | None = None
         self.camera: CameraThread | None = None
         self.policy_link: PolicyLink | None = None
@@ -180,7 +186,7 @@ class Daemon(BusLifecycle):
             self.pub.event(kind, message, **data)
         self._early_events.clear()
         self.arbiter = Arbiter(self.session, self.keys, self.lease, limits=self.arbiter_limits)
-        self.arbiter.gate = self._outage_gate
+        self.arbiter.gate = self.supervisor.gate
         self.arbiter.on_wakeup = self._wake.set
         self._alive = self.session.liveliness().declare_token(self.keys.alive)
         self._alive_version = self.session.liveliness().declare_token(
@@ -195,7 +201,15 @@ class Daemon(BusLifecycle):
                 self.session, self.keys, self.options.camera, self.settings
             )
 
+    def connect_bus(self) -> None:
+        """Open the port, power the servos, scan, hold the present pose (the first start)."""
+        self.supervisor.connect(first=True)
+        self._update_state()
+
     def _update_state(self) -> None:
+        if self.supervisor.servos_off:
+            self._set_state(DaemonState.SERVOS_OFF)
+            return
         online = self.bus.state.online.tolist()
         healthy = self.bus.cm730_online and all(online[j] for j in self.robot.ids)
         self._set_state(DaemonState.RUNNING if healthy else DaemonState.DEGRADED)
@@ -207,7 +221,8 @@ class Daemon(BusLifecycle):
     def close(self) -> None:
         """Halt the motion and hold the pose, then let go of everything (the bus last)."""
         self._set_state(DaemonState.STOPPING)
-        self._halt_and_hold()
+        self.supervisor.halt_and_hold(self.tick, self.tick_s)
+        self._drain_events()
         self._publish_status(time.monotonic())
         if self.camera is not None:
             self.camera.close()
@@ -240,24 +255,50 @@ class Daemon(BusLifecycle):
                 self._reconnect()
                 continue
             try:
+                if self.supervisor.power_request is not None:
+                    self.supervisor.repower()  # outside the timed loop: it waits ~0.36 s
+                    self._update_state()
                 self._loop()
             except PortError as exc:
                 if self._stop.is_set():
                     return  # shutting down: the emulator may simply have stopped first
-                self._port_lost(exc)
+                self.supervisor.port_lost(exc)
             except Exception as exc:
                 # A failure nobody foresaw must not end the daemon: report it, start the bus
                 # over as if the port had gone.
                 log.exception("the motion loop failed")
                 if self._stop.is_set():
                     return
-                self._port_lost(exc)
+                self.supervisor.port_lost(exc)
+
+    def _reconnect(self) -> None:
+        """Try to reopen the port; while it fails, keep answering commands and status."""
+        wait = self.supervisor.try_reopen()
+        if wait is None:
+            self._update_state()
+            return
+        deadline = time.monotonic() + wait
+        while not self._stop.is_set() and time.monotonic() < deadline:
+            self._wake.clear()
+            if self.arbiter is not None:
+                # Answered at once: refused (the gate) or done without the bus (halt, lease).
+                self.arbiter.apply_pending(self._context(self.frame))
+            if self.lease.expire():
+                self._status_dirty = True
+            self._drain_events()
+            self._publish_status(time.monotonic())
+            self._wake.wait(min(self.status_period, max(0.0, deadline - time.monotonic())))
+
+    def _drain_events(self) -> None:
+        for kind, message, data in self.manager.drain_events():
+            self._emit(kind, message, **data)
 
     def _loop(self) -> None:
         next_deadline = time.monotonic()
         self._last_start = None
         self.stats.reset_period()
-        while not self._stop.is_set():
+        # Powering the servos (the verb, START) leaves the loop: it is done outside its timing.
+        while not self._stop.is_set() and self.supervisor.power_request is None:
             start = time.monotonic()
             try:
                 bus_s = self._one_tick(start)
@@ -283,7 +324,9 @@ class Daemon(BusLifecycle):
         """One tick; returns the time spent on the bus."""
         bus_t0 = time.monotonic()
         self.bus.read_sensors()
-        check_dxl_power(self.bus)  # raises DxlPowerLostError: halt, power on, scan, hold
+        supervisor = self.supervisor
+        supervisor.check_power()  # DXL power gone: halted, servos off until asked
+        supervisor.check_buttons()
         bus_read = time.monotonic() - bus_t0
         # Stamp the data when it was sampled, not when the tick got round to publishing it, so
         # stamp differences are the sampling interval whatever the tick's work took.
@@ -297,10 +340,7 @@ class Daemon(BusLifecycle):
         if self._safe_stop.is_set():
             self._safe_stop.clear()
             self.manager.stop_all()
-        if self._hold_on_return:
-            # The port is back: whatever goals the servos kept, hold the present pose.
-            self._hold_on_return = False
-            self.manager.hold_present(frame)
+        supervisor.hold_if_back(frame)
         assert self.arbiter is not None
         if self.arbiter.has_pending():  # most ticks have no command: no context to build
             self.arbiter.apply_pending(self._context(frame))
@@ -331,6 +371,7 @@ class Daemon(BusLifecycle):
             publish=self.pub.post if self.pub is not None else None,
             info=self.info,
             extras={"allow_eeprom": self.options.allow_eeprom, **self.options.extras},
+            power=self.supervisor,
         )
 
     # -- publication -------------------------------------------------------------------------

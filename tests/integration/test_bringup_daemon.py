@@ -3,6 +3,9 @@ get-up page, and the bulk read asks the CM-730 first once it answers."""
 
 from __future__ import annotations
 
+import pytest
+
+from schemas.errors import UnavailableError
 from schemas.sim_control import SimControl
 from tests.fixtures.system import start_system
 from tests.integration.test_motion_system import Events
@@ -31,7 +34,11 @@ def test_a_cm730_that_answers_late_makes_no_fall_and_starts_no_page() -> None:
         assert status.motion["imu"]["gyro_centre"][0] > 400  # measured on real readings
 
 
-def test_dxl_power_loss_halts_reports_and_powers_scans_and_holds_again() -> None:
+def test_the_reset_button_leaves_the_servos_off_until_asked_and_torque_returns_where_it_was(
+) -> None:
+    """The CM-730's reset button (DXL power off) is a stop: one event, the servos stay
+    unpowered (``servos_off``) and commands that would drive them are refused until `power`
+    op=on; then torque comes back only on the servos that had it, the limp arm stays limp."""
     with (
         start_system(gateway=False) as system,
         system.robot_client(name="power-loss") as robot,
@@ -40,14 +47,32 @@ def test_dxl_power_loss_halts_reports_and_powers_scans_and_holds_again() -> None
         sim = SimControl(robot.session, system.robot)
         events = Events(robot)
         try:
+            with robot.control():
+                robot.torque(False, [1, 3, 5])  # the right arm made limp
+            robot.wait_for("status", lambda s: {1, 3, 5} <= set(s.bus["torque_off"]), WAIT)
             sim.call("dxl_power_loss")
-            fault = events.wait(lambda e: e.kind == "fault" and "DXL power" in e.message)
-            assert "DXL_POWER 0" in fault.message and "powering them again" in fault.message
-            events.wait(lambda e: e.kind == "port" and "back" in e.message)
-            joints = robot.wait_for("joints", lambda j: all(j.torque_enabled), WAIT)
-            assert all(joints.online)
-            assert robot.wait_for("status", lambda s: s.state == "running", WAIT)
+            power = events.wait(lambda e: e.kind == "power")
+            assert "DXL_POWER 0" in power.message
+            assert "stay off until someone powers them" in power.message
+            status = robot.wait_for("status", lambda s: s.state == "servos_off", WAIT)
+            # Two seconds of ticks later nobody powered anything (it used to within 0.5 s).
+            tick = status.loop["ticks"]
+            robot.wait_for("status", lambda s: s.loop["ticks"] > tick + 250, WAIT)
             state = sim.call("state")
-            assert state["dxl_power"] and state["servo_power"]
+            assert not state["dxl_power"] and not state["servo_power"]
+            assert [e.kind for e in events.seen].count("power") == 1
+            assert not [e for e in events.seen if e.kind in ("port", "servo_offline")]
+            with robot.control():
+                with pytest.raises(UnavailableError, match="servos are off"):
+                    robot.joint("head_pan", 0.2)
+                done = robot.power(True)
+                assert done["changed"] and 1 not in done["torque"]
+            back = events.wait(lambda e: e.kind == "power" and "powered again" in e.message)
+            assert set(back.data["torque"]) == set(range(1, 21)) - {1, 3, 5}
+            robot.wait_for("status", lambda s: s.state == "running", WAIT)
+            joints = robot.wait_for("joints", lambda j: all(j.online), WAIT)
+            assert [i + 1 for i, on in enumerate(joints.torque_enabled) if not on] == [1, 3, 5]
+            servos = sim.call("state")["servos"]
+            assert [int(i) for i, s in servos.items() if not s["torque"]] == [1, 3, 5]
         finally:
             events.close()

@@ -1,4 +1,4 @@
-"""The basic verbs: lease, joint, pose, torque, led, halt, config, registers.
+"""The basic verbs: lease, joint, pose, torque, led, halt, power, config, registers.
 
 Every value is checked before anything is queued or written; a handler that raises ``Reject``
 has touched nothing. Bus failures become ``unavailable`` errors that say what to do.
@@ -137,10 +137,24 @@ def torque(req: Request, ctx: MotionContext) -> dict[str, Any]:
             if owned:
                 module.release(owned)
     try:
-        ctx.bus.set_torque(ids, enable)
+        refused = ctx.bus.set_torque(ids, enable) or {}
     except BusError as exc:
         raise _bus_error(exc) from None
-    return {"enable": enable, "ids": ids, "offline": offline}
+    if refused and len(refused) == len(ids):
+        # Nothing was enabled: saying "on" would be a lie about a limp joint.
+        raise Reject(
+            ErrorCode.REFUSED,
+            "; ".join(refused.values())
+            + ": torque not enabled (it would re-arm the alarm); let it cool or take the load "
+            "off, then ask again (status.alarms)",
+            "ids",
+        )
+    out: dict[str, Any] = {
+        "enable": enable, "ids": [j for j in ids if j not in refused], "offline": offline
+    }
+    if refused:
+        out["alarmed"] = {str(j): why for j, why in refused.items()}
+    return out
 
 
 @verb("led")
@@ -177,6 +191,17 @@ def halt(req: Request, ctx: MotionContext) -> dict[str, Any]:
     finishing = sorted(m.name for m in ctx.manager.modules if m.finishing)
     ctx.emit("halt", f"halt by {req.name!r}", client=req.client, finishing=finishing)
     return {"halted": True, "by": req.name, "finishing": finishing}
+
+
+@verb("power")
+def power(req: Request, ctx: MotionContext) -> dict[str, Any]:
+    op = F.text(req.fields, "op", {"on", "off"})
+    if ctx.power is None:
+        raise Reject(ErrorCode.UNAVAILABLE, "this daemon has no servo power switch")
+    try:
+        return {"op": op, **ctx.power.ask_power(op == "on", req.name)}
+    except BusError as exc:
+        raise _bus_error(exc) from None
 
 
 @verb("config")

@@ -1,0 +1,118 @@
+"""Nothing moves unless someone asked (issue 35), on the emulator through a real pty:
+
+* a servo in alarm shutdown (TORQUE_LIMIT 0, as the MX-28 does) survives a daemon restart
+  without being re-armed, is reported, and `torque` refuses it however often it is asked;
+* a servo found holding a far goal (a previous program's, crept towards at a slow speed) holds
+  where it is instead of rushing there when the RAM reset lifts the speed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import subprocess
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from clients.robot import Robot
+from robot_daemon.bus.tables import MX28
+from schemas.errors import CommandError
+from schemas.session import free_tcp_port, open_client
+from schemas.sim_control import SimControl
+from tests.fixtures.emulator import (
+    darwin_command,
+    open_sdk,
+    start_emulator_process,
+    stop_process,
+    wait_until,
+)
+from tests.integration.test_motion_system import Events
+
+WAIT = 30.0
+SIM = ("--no-wire-timing", "--power-on-delay", "0")
+KNEE = 13  # r_knee: a leg servo that shuts down on overload
+PAN = 19  # head_pan: a servo left creeping towards a far goal
+
+
+@contextlib.contextmanager
+def daemon(tmp_path: Path, port: str) -> Iterator[Robot]:
+    """``darwin daemon`` on ``port`` with a client connected once it listens."""
+    name = f"pw{uuid.uuid4().hex[:8]}"
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    log_path = tmp_path / f"daemon-{name}.log"
+    with log_path.open("w") as log:
+        proc = subprocess.Popen(
+            darwin_command("daemon", "--port", port, "--robot", name, "--camera", "none",
+                           "--listen", endpoint),
+            stdout=subprocess.PIPE, stderr=log, text=True,
+        )
+    try:
+        assert proc.stdout is not None
+        line = ""
+        while not line.startswith("zenoh: "):
+            line = proc.stdout.readline()
+            assert line, log_path.read_text()
+        with Robot(endpoint, name, name="power test", timeout=10.0) as robot:
+            yield robot
+    finally:
+        stop_process(proc)
+
+
+def test_an_alarmed_servo_survives_a_restart_without_re_arming_and_a_far_goal_is_not_chased(
+    tmp_path: Path,
+) -> None:
+    with (
+        start_emulator_process(*SIM, link_dir=tmp_path) as sim,
+        open_client(sim.endpoint) as session,
+    ):
+        control = SimControl(session, sim.robot)
+        # What a previous program left, DXL power on: the knee torqued and overloaded (the
+        # MX-28 shuts down: TORQUE_LIMIT 0), the head pan torqued at 0.114 rpm towards a goal
+        # 90° away.
+        port, ph = open_sdk(sim.port)
+        try:
+            for dxl_id in (KNEE, PAN):
+                ph.write1ByteTxRx(port, dxl_id, MX28.TORQUE_ENABLE.reg.address, 1)
+            ph.write2ByteTxRx(port, PAN, MX28.MOVING_SPEED.reg.address, 1)
+            start_raw = ph.read2ByteTxRx(port, PAN, MX28.PRESENT_POSITION.reg.address)[0]
+            ph.write2ByteTxRx(port, PAN, MX28.GOAL_POSITION.reg.address, start_raw + 1024)
+        finally:
+            port.closePort()
+        control.call("load", id=KNEE, fraction=1.0)
+        wait_until(
+            lambda: control.call("state")["servos"][str(KNEE)]["torque_limit"] == 0,
+            timeout=WAIT, what="the knee's overload shutdown in the emulator",
+        )
+        start = control.call("state")["servos"][str(PAN)]["position"]
+
+        with daemon(tmp_path, sim.port) as robot:
+            events = Events(robot)
+            try:
+                status = robot.wait_for(
+                    "status", lambda s: s.state in ("running", "degraded"), WAIT
+                )
+                assert any(a["id"] == KNEE for a in status.alarms)
+                assert KNEE in status.bus["torque_off"]
+                assert any(f"servo {KNEE} " in w and "alarm shutdown" in w
+                           for w in status.bus["warnings"])
+                # A flood of `torque` on the knee re-arms nothing.
+                with robot.control():
+                    for _ in range(20):
+                        with pytest.raises(CommandError) as err:
+                            robot.torque(True, [KNEE])
+                    assert "alarm" in str(err.value) and "not enabled" in str(err.value)
+                    tick = robot.wait_for("status", timeout=WAIT).loop["ticks"]
+                    robot.wait_for("status", lambda s: s.loop["ticks"] > tick + 125, WAIT)
+                state = control.call("state")["servos"]
+                assert state[str(KNEE)]["torque_limit"] == 0
+                assert KNEE in robot.wait_for("status", timeout=WAIT).bus["torque_off"]
+                # The head pan holds where it was found (within the sag bound), torque on.
+                pan = state[str(PAN)]
+                assert pan["torque"]
+                assert abs(pan["goal"] - start) < math.radians(5.0)
+                assert abs(pan["position"] - start) < math.radians(5.0)
+            finally:
+                events.close()
