@@ -170,6 +170,8 @@ class RobotBus(SensorRead):
         """Ping the CM-730 and every joint; check model, firmware and return delay (a servo with
         firmware < 27 is kept offline). Returns id → model number of what answered."""
         bus = self._bus()
+        # Bring-up's patience until initial_read ends (the servos powered again mid-run too).
+        bus.budget.margin_ms = self.start_margin_ms
         found: dict[int, int] = {}
         self.warnings = []
         self.refused = {}

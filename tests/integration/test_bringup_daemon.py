@@ -68,7 +68,9 @@ def test_the_reset_button_leaves_the_servos_off_until_asked_and_torque_returns_w
                 done = robot.power(True)
                 assert done["changed"] and 1 not in done["torque"]
             back = events.wait(lambda e: e.kind == "power" and "powered again" in e.message)
-            assert set(back.data["torque"]) == set(range(1, 21)) - {1, 3, 5}
+            assert set(back.data["torque"]) == set(range(1, 21)) - {1, 3, 5}, [
+                e.message for e in events.seen
+            ]
             robot.wait_for("status", lambda s: s.state == "running", WAIT)
             joints = robot.wait_for("joints", lambda j: all(j.online), WAIT)
             assert [i + 1 for i, on in enumerate(joints.torque_enabled) if not on] == [1, 3, 5]
