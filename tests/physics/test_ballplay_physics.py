@@ -5,8 +5,9 @@ MuJoCo (OpenCV where no GL), the daemon's ball finder, motion modules and bus co
 20 random starts (seeded): the ball 0.3–1.0 m away in any direction. A start counts when play
 ends "done", the robot never fell, a foot touched the ball (a MuJoCo contact: the kick moves the
 ball by contact, nothing places it), the ball lay still until the kick began and ended at least
-``MOVED_M`` from where it lay. At least 16 of 20 must count; the median time to the kick is
-printed (``-s``). The runs are independent and share the machine's cores (:mod:`.parallel`).
+``MOVED_M`` from where it lay. At least 16 of 20 must count (the long tier, ``-m long``; the
+default run plays the first 4 and needs 3); the median time to the kick is printed (``-s``).
+The runs are independent and share the machine's cores (:mod:`.parallel`).
 
 What made the robot kick standing (issue 18; before, 0 of 5): played from the walk-ready stance,
 the stock page 12 shifts the body's centre of mass to 17 mm inside the standing sole's centre
@@ -96,12 +97,21 @@ def one_run(seed: int, dist: float, bearing: float) -> Run:
 
 @pytest.mark.slow
 @pytest.mark.timeout(2400)
-def test_ball_play_kicks_the_ball_from_random_starts_in_physics() -> None:
+@pytest.mark.parametrize(
+    "count, needed",
+    # The first four of the same starts (near and far, ahead and behind) in the default run;
+    # all twenty in the long tier (-m long).
+    [
+        pytest.param(4, 3, id="four-starts"),
+        pytest.param(RUNS, NEEDED, id="twenty-starts", marks=pytest.mark.long),
+    ],
+)
+def test_ball_play_kicks_the_ball_from_random_starts_in_physics(count: int, needed: int) -> None:
     rng = np.random.default_rng(18)
     starts = [
         (1800 + k, float(rng.uniform(0.3, 1.0)), float(rng.uniform(-math.pi, math.pi)))
         for k in range(RUNS)
-    ]
+    ][:count]
     runs = tries(one_run, starts)
     wins = [r for r in runs if r.ok]
     kicks = [r.kick_s for r in wins]
@@ -114,4 +124,4 @@ def test_ball_play_kicks_the_ball_from_random_starts_in_physics() -> None:
             f"  run {k}: {r.phase}, falls {r.falls}, touches {r.touches}, "
             f"ball moved {r.moved_m:.2f} m, kick at {r.kick_s:.1f} s"
         )
-    assert len(wins) >= NEEDED, f"ball play kicked {len(wins)} of {len(runs)} starts in physics"
+    assert len(wins) >= needed, f"ball play kicked {len(wins)} of {len(runs)} starts in physics"

@@ -1,0 +1,57 @@
+"""A test run leaves nothing behind however it ends (tests/fixtures/leftovers.py): a pytest that
+holds a ``darwin up`` tree, a plain child and a temporary directory is stopped with Ctrl-C's
+SIGINT, with SIGTERM and with SIGKILL (a CI time limit), and every process, its run directory
+and the temporary directory are gone soon after."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.fixtures.emulator import wait_until
+from tests.fixtures.leftovers import alive
+from tests.fixtures.system import REPO
+
+PROBE = "tests/integration/leftover_probe.py"
+
+
+@pytest.mark.parametrize(
+    "sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL], ids=lambda s: s.name
+)
+def test_a_stopped_run_leaves_no_process_and_no_temporary_file(sig: signal.Signals) -> None:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pytest", "-q", "-s", "-p", "no:cacheprovider", "-p", "no:xdist",
+         PROBE],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=REPO, env=env,
+    )  # fmt: skip
+    assert proc.stdout is not None
+    seen: list[str] = []
+    try:
+        for line in proc.stdout:
+            seen.append(line)
+            if line.startswith("probe-ready: "):
+                break
+        else:
+            raise AssertionError("the probe never got ready:\n" + "".join(seen))
+        info = json.loads(line.removeprefix("probe-ready: "))
+        pids, run, tmp = info["pids"], Path(info["run"]), Path(info["tmp"])
+        assert len(pids) >= 3, info  # darwin up, at least one child of it, the plain child
+        assert tmp.is_relative_to(run), info  # tempfile lands in the run directory
+        proc.send_signal(sig)
+        proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    wait_until(
+        lambda: not any(map(alive, pids)) and not run.exists(),
+        timeout=60,
+        what=f"after {sig.name}: processes {[p for p in pids if alive(p)]} gone, {run} removed",
+    )
