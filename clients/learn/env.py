@@ -114,12 +114,15 @@ class DarwinStandEnv(gym.Env):
         leave it rocking, and an episode should start from rest."""
         hold = obs[_AT["last_action"]].astype(float)
         still = 0
-        for _ in range(int(SETTLE_S * self.rate_hz)):
+        # The stack places the robot upright on its soles and it then leans into the pose: a
+        # still moment before the lean is not rest.
+        at_least = int(getattr(self.backend, "settle_min_s", 0.0) * self.rate_hz)
+        for k in range(int(SETTLE_S * self.rate_hz)):
             self.backend.apply(hold)
             self.backend.advance(1.0 / self.rate_hz)
             obs = self._vector()
             still = still + 1 if np.max(np.abs(obs[_AT["gyro"]])) < 0.05 else 0
-            if still >= self.rate_hz / 2:
+            if still >= self.rate_hz / 2 and k >= at_least:
                 break
         return obs
 

@@ -21,6 +21,8 @@ WAIT = 10.0
 
 
 class StackBackend:
+    settle_min_s = 1.5  # the environment's settle holds at least this long after a reset
+
     def __init__(self, robot: Any, rate_hz: float = 50.0) -> None:
         from schemas.sim_control import SimControl
 
