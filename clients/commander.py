@@ -280,7 +280,7 @@ class Commander:
         eye: tuple[int, int, int] | None = None,
         panel: int | None = None,
     ) -> dict[str, Any]:
-        fields = {
+        fields: dict[str, Any] = {
             k: (list(v) if isinstance(v, tuple) else v)
             for k, v in (("head", head), ("eye", eye), ("panel", panel))
             if v is not None
@@ -305,8 +305,9 @@ class Commander:
 
     def action(self, page: int | str) -> dict[str, Any]:
         """Play an action page by number or by name (e.g. ``"sit down"``)."""
-        field_ = "page" if isinstance(page, int) else "name"
-        return self.command("action", op="play", **{field_: page})
+        if isinstance(page, int):
+            return self.command("action", op="play", page=page)
+        return self.command("action", op="play", name=page)
 
     def action_stop(self, brake: bool = False) -> dict[str, Any]:
         return self.command("action", op="brake" if brake else "stop")

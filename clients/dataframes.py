@@ -15,12 +15,15 @@ The index ``t`` is seconds since the first row's ``stamp``.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from schemas.extras import LazyModule, require
 from schemas.messages import Joints, Message
+
+if TYPE_CHECKING:
+    import pandas
 
 pd = LazyModule("pandas", "DataFrames")
 
@@ -64,7 +67,7 @@ def row(msg: Message) -> dict[str, Any]:
     return out
 
 
-def to_frame(topic: str, messages: Iterable[Message]) -> pd.DataFrame:
+def to_frame(topic: str, messages: Iterable[Message]) -> pandas.DataFrame:
     """A DataFrame with one row per message (see the module docstring for the columns)."""
     rows = [row(m) for m in messages]
     df = pd.DataFrame(rows)
@@ -76,7 +79,7 @@ def to_frame(topic: str, messages: Iterable[Message]) -> pd.DataFrame:
     return df
 
 
-def joint_columns(df: pd.DataFrame, field: str = "position") -> pd.DataFrame:
+def joint_columns(df: pandas.DataFrame, field: str = "position") -> pandas.DataFrame:
     """The ``<field>_<joint>`` columns of a joints frame, renamed to the joint names."""
     prefix = f"{field}_"
     names = [c for c in df.columns if c.startswith(prefix)]

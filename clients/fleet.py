@@ -129,7 +129,7 @@ def discover(
             name = robot_of(str(sample.key_expr))
             raw = decode_dict(sample.payload.to_bytes())
             check_daemon(raw, "darwin list")
-            msg = decode(sample.payload.to_bytes(), Status)  # type: ignore[assignment]
+            msg = decode(sample.payload.to_bytes(), Status)
         except IncompatibleProtocolError as exc:
             raw["_incompatible"] = str(exc)
         except (ProtocolError, ValueError):

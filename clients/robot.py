@@ -18,6 +18,7 @@ interpreter ends (:mod:`clients.commander`).
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import threading
 import time
@@ -40,6 +41,7 @@ from schemas.messages import (
     Event,
     Imu,
     Joints,
+    M,
     Message,
     Status,
     World,
@@ -105,7 +107,8 @@ class RobotState:
 class Subscription:
     """A callback subscription; ``close()`` (or leaving a ``with`` block) ends it."""
 
-    def __init__(self, robot: Robot, topic: str, callback: Callable[[Message], None]) -> None:
+    # The topic decides the message's type (TOPICS), so the callback takes that type.
+    def __init__(self, robot: Robot, topic: str, callback: Callable[[Any], None]) -> None:
         self._robot = robot
         self.topic = topic
         self._callback = callback
@@ -143,6 +146,8 @@ class Subscription:
 class Robot(Commander, TeachMixin):
     """Commands plus the robot's live state and subscriptions; action pages and teach mode
     (:mod:`clients.teach`)."""
+
+    protocol: ProtocolWatch  # a Robot always watches (made as it opens)
 
     def _open_extra(self) -> None:
         self._lock = threading.Lock()
@@ -228,16 +233,17 @@ class Robot(Commander, TeachMixin):
         if topic == "status":
             self.protocol.observe(vars(msg))
         with self._lock:
-            if topic == "joints":
-                self._state.joints = msg  # type: ignore[assignment]
-            elif topic == "imu":
-                self._state.imu = msg  # type: ignore[assignment]
-            elif topic == "status":
-                self._state.status = msg  # type: ignore[assignment]
-            elif topic == "vision":
-                self._state.ball = msg  # type: ignore[assignment]
-            elif topic == "world":
-                self._state.world = msg  # type: ignore[assignment]
+            # TOPICS gives each topic its one message type: the type says which state it is.
+            if isinstance(msg, Joints):
+                self._state.joints = msg
+            elif isinstance(msg, Imu):
+                self._state.imu = msg
+            elif isinstance(msg, Status):
+                self._state.status = msg
+            elif isinstance(msg, BallDetection):
+                self._state.ball = msg
+            elif isinstance(msg, World):
+                self._state.world = msg
             listeners = list(self._listeners.get(topic, ()))
         self._arrivals.add(topic, msg)
         for sub in listeners:
@@ -248,10 +254,10 @@ class Robot(Commander, TeachMixin):
             return
         key = topic_key(self.keys, topic)
         self._zsubs[topic] = self.session.declare_subscriber(
-            key, lambda s, t=topic: self._on_sample(t, s)
+            key, functools.partial(self._on_sample, topic)
         )
 
-    def subscribe(self, topic: str, callback: Callable[[Message], None]) -> Subscription:
+    def subscribe(self, topic: str, callback: Callable[[M], None]) -> Subscription:
         """Call ``callback(message)`` for every message on ``topic`` (a Zenoh thread calls it:
         keep it short, hand work to a queue)."""
         topic_key(self.keys, topic)
@@ -332,4 +338,4 @@ class Robot(Commander, TeachMixin):
             )
         from clients.dataframes import decode_jpeg
 
-        return decode_jpeg(frames[0].jpeg)  # type: ignore[attr-defined]
+        return decode_jpeg(frames[0].jpeg)  # type: ignore[attr-defined]  # a CameraFrame

@@ -24,7 +24,10 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
 
 from schemas.errors import ConfigError
 
@@ -104,7 +107,7 @@ def load_section(name: str, path: str | os.PathLike[str] | None = None) -> dict[
 
 
 # -- a config table → a settings dataclass ------------------------------------------------------
-T = TypeVar("T")
+T = TypeVar("T", bound="DataclassInstance")
 
 
 def nearest(name: str, known: Iterable[str], cutoff: float = 0.0) -> str | None:

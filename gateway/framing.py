@@ -23,7 +23,7 @@ import json
 import re
 from dataclasses import dataclass
 from enum import StrEnum
-from typing import Any
+from typing import Any, Literal
 
 from gateway.messages import LegacyError, MessageError, Request, parse_message
 from schemas.errors import ErrorCode
@@ -44,6 +44,11 @@ class ByteOrder(StrEnum):
     BIG = "big"
     LITTLE = "little"
     ASCII = "ascii"
+
+    @property
+    def byteorder(self) -> Literal["big", "little"]:
+        """``int.from_bytes``'s name for a binary order."""
+        return "little" if self is ByteOrder.LITTLE else "big"
 
 
 @dataclass(frozen=True)
@@ -101,7 +106,7 @@ def header_size(header: bytes, convention: Convention) -> int | None:
             return None
         size = int(header.decode("ascii"))
     else:
-        size = int.from_bytes(header, convention.order.value)
+        size = int.from_bytes(header, convention.order.byteorder)
     if convention.counted:
         size -= HEADER_SIZE
     return size if size >= 0 else None
@@ -133,7 +138,7 @@ def frame_body(
             )
         header = f"{size:04d}".encode("ascii")
     else:
-        header = size.to_bytes(HEADER_SIZE, convention.order.value)
+        header = size.to_bytes(HEADER_SIZE, convention.order.byteorder)
     return header + body
 
 

@@ -8,6 +8,7 @@ Every message is a JSON object with exactly one tag (``monitor``, ``operate``, `
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -194,11 +195,11 @@ def parse_led(value: Any) -> Led:
         raise MessageError(
             ErrorCode.INVALID, f"led: ledcolor must be [red, green, blue], got {_short(color)}"
         )
-    rgb = tuple(
+    r, g, b = (
         _integer("led", {part: c}, part, 0, 255)
         for part, c in zip(("ledcolor red", "ledcolor green", "ledcolor blue"), color, strict=True)
     )
-    return Led(LED_TARGETS[led_id], rgb)  # type: ignore[arg-type]
+    return Led(LED_TARGETS[led_id], (r, g, b))
 
 
 def _orchestrate_item(index: int, item: Any) -> OrchestrateItem:
@@ -257,7 +258,7 @@ def parse_playball(value: Any) -> Playball:
     return Playball(start=not _flag("playball", fields, "status"))
 
 
-_PARSERS = {
+_PARSERS: dict[str, Callable[[Any], Request]] = {
     "monitor": parse_monitor,
     "operate": parse_operate,
     "led": parse_led,

@@ -44,11 +44,13 @@ def motors_from_joints(joints: Joints) -> dict[int, MotorTuple]:
 
 
 def accelerometer_from_imu(imu: Imu) -> tuple[float, float, float]:
-    return tuple(_r(v, 2) for v in imu.accel[:3])  # type: ignore[return-value]
+    x, y, z = imu.accel[:3]
+    return _r(x, 2), _r(y, 2), _r(z, 2)
 
 
 def gyroscope_from_imu(imu: Imu) -> tuple[float, float, float]:
-    return tuple(_r(math.degrees(v), 1) for v in imu.gyro[:3])  # type: ignore[return-value]
+    x, y, z = (math.degrees(v) for v in imu.gyro[:3])
+    return _r(x, 1), _r(y, 1), _r(z, 1)
 
 
 @dataclass(frozen=True)

@@ -58,7 +58,7 @@ class Gateway:
         failed = f"gateway cannot open a Zenoh session to {self.target.endpoint}"
         self.session = await self.blocking(lambda: connect(self.target, failed))
         session = self.session
-        self._hub_robot = await self.blocking(
+        self._hub_robot = hub_robot = await self.blocking(
             lambda: Robot(
                 self.target.endpoint,
                 self.target.robot,
@@ -69,7 +69,7 @@ class Gateway:
             )
         )
         # The daemon's versions against ours: another protocol major refuses to start.
-        await self.blocking(lambda: self._hub_robot.check_protocol(3.0))
+        await self.blocking(lambda: hub_robot.check_protocol(3.0))
         self.hub = Hub(self._hub_robot, loop)
         host, port = self.settings.host_port
         self._server = await asyncio.start_server(self._accept, host, port, reuse_address=True)

@@ -27,7 +27,7 @@ class Command:
 
 def deg_to_rad(deg: float) -> float:
     """Degrees to rad at the servo's own resolution (the conversion the bus applies)."""
-    return units.raw_to_rad(units.deg_to_raw(deg))  # type: ignore[return-value]
+    return units.raw_to_rad(units.deg_to_raw(deg))
 
 
 def operate_command(req: Operate, all_duration: float) -> Command:

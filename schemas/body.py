@@ -34,9 +34,10 @@ centre). Boxes follow the sizes in HumaRobotics' commented primitives and Webots
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -85,6 +86,13 @@ class Joint:
     def fixed(self) -> bool:
         return self.axis is None
 
+    @property
+    def servo(self) -> int:
+        """The servo id of a servo joint (a fixed frame has none)."""
+        if self.servo_id is None:
+            raise ValueError(f"joint {self.name} has no servo")
+        return self.servo_id
+
     @cached_property
     def _origin(self) -> np.ndarray:
         return kin.transform(rpy_rotation(*self.rpy), self.xyz)
@@ -125,7 +133,7 @@ class Body:
 
     def servo_joints(self) -> list[Joint]:
         """The 20 servo joints, by servo id."""
-        return sorted((j for j in self.joints if j.servo_id is not None), key=lambda j: j.servo_id)
+        return sorted((j for j in self.joints if j.servo_id is not None), key=lambda j: j.servo)
 
     def joint_names(self) -> list[str]:
         return [j.name for j in self.servo_joints()]
@@ -164,23 +172,23 @@ def axis_rotation(axis: Iterable[float], angle: float) -> np.ndarray:
         return _PRINCIPAL[k](angle * axis[k])
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
-    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+    cross = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * cross + (1.0 - math.cos(angle)) * (cross @ cross)
 
 
-def limits_from_config(robot: object) -> list[JointLimits]:
+def limits_from_config(robot: Any) -> list[JointLimits]:
     """Joint limits from a :class:`config.loader.RobotConfig` (or anything with ``joints``
     carrying ``id``, ``urdf``, ``min_rad``, ``max_rad``)."""
     return [
-        JointLimits(j.id, j.urdf, j.min_rad, j.max_rad)  # type: ignore[attr-defined]
-        for j in robot.joints  # type: ignore[attr-defined]
+        JointLimits(j.id, j.urdf, j.min_rad, j.max_rad)
+        for j in robot.joints
     ]
 
 
-def limits_from_config_reply(reply: Mapping[str, object]) -> list[JointLimits]:
+def limits_from_config_reply(reply: Mapping[str, Any]) -> list[JointLimits]:
     """Joint limits from the arbiter's ``config`` verb reply (the running robot's config)."""
     out = []
-    for j in reply["joints"]:  # type: ignore[union-attr]
+    for j in reply["joints"]:
         out.append(JointLimits(int(j["id"]), str(j["urdf"]), float(j["min"]), float(j["max"])))
     return out
 
@@ -203,7 +211,14 @@ _MASS = {
 _FOOT_BOX = (0.105, 0.066, 0.013)
 
 
-def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str = "darwin_op"):
+def _xyz(v: Sequence[float]) -> tuple[float, float, float]:
+    x, y, z = v
+    return (float(x), float(y), float(z))
+
+
+def build_body(
+    limits: Iterable[JointLimits], max_speed: float = 5.65, name: str = "darwin_op"
+) -> Body:
     """The body for one robot config: 20 servo joints named and limited as configured."""
     by_id = {jl.id: jl for jl in limits}
     missing = sorted(set(range(1, 21)) - set(by_id))
@@ -218,10 +233,10 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
         jid: int,
         parent: str,
         child: Link,
-        xyz=(0.0, 0.0, 0.0),
-        rpy=(0.0, 0.0, 0.0),
-        axis=(0.0, 0.0, 1.0),
-    ):
+        xyz: Sequence[float] = (0.0, 0.0, 0.0),
+        rpy: Sequence[float] = (0.0, 0.0, 0.0),
+        axis: Sequence[float] = (0.0, 0.0, 1.0),
+    ) -> None:
         jl = by_id[jid]
         links.append(child)
         joints.append(
@@ -229,9 +244,9 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
                 jl.urdf,
                 parent,
                 child.name,
-                tuple(map(float, xyz)),
-                tuple(map(float, rpy)),
-                tuple(map(float, axis)),
+                _xyz(xyz),
+                _xyz(rpy),
+                _xyz(axis),
                 jid,
                 jl.lower,
                 jl.upper,
@@ -239,9 +254,15 @@ def build_body(limits: Iterable[JointLimits], max_speed: float = 5.65, name: str
             )
         )
 
-    def frame(jname: str, parent: str, child: str, xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)):
+    def frame(
+        jname: str,
+        parent: str,
+        child: str,
+        xyz: Sequence[float] = (0.0, 0.0, 0.0),
+        rpy: Sequence[float] = (0.0, 0.0, 0.0),
+    ) -> None:
         links.append(Link(child))
-        joints.append(Joint(jname, parent, child, tuple(map(float, xyz)), tuple(map(float, rpy))))
+        joints.append(Joint(jname, parent, child, _xyz(xyz), _xyz(rpy)))
 
     # Head: pan about z, tilt about -y (positive tilt looks up), camera pitched by the eye offset.
     servo(

@@ -110,7 +110,9 @@ def rot_z(a: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def transform(rotation: np.ndarray | None = None, translation: Sequence[float] = (0, 0, 0)):
+def transform(
+    rotation: np.ndarray | None = None, translation: Sequence[float] | np.ndarray = (0, 0, 0)
+) -> np.ndarray:
     """A 4×4 pose from a 3×3 rotation and a translation."""
     t = np.eye(4)
     if rotation is not None:

@@ -10,7 +10,7 @@ import dataclasses
 import functools
 import time
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, TypeVar
+from typing import Any, ClassVar, TypeVar, overload
 
 import msgpack
 
@@ -18,17 +18,15 @@ from schemas import SCHEMA_VERSION
 from schemas.errors import ErrorCode, ProtocolError
 
 # Status's typed sub-maps; importable from here as they always were.
-from schemas.status_maps import (
-    AlarmInfo,
-    BusInfo,
-    CameraInfo,
-    ChoreographyInfo,
-    LeaseInfo,
-    LedsInfo,
-    LoopInfo,
-    MotionInfo,
-    NetworkInfo,
-)
+from schemas.status_maps import AlarmInfo as AlarmInfo
+from schemas.status_maps import BusInfo as BusInfo
+from schemas.status_maps import CameraInfo as CameraInfo
+from schemas.status_maps import ChoreographyInfo as ChoreographyInfo
+from schemas.status_maps import LeaseInfo as LeaseInfo
+from schemas.status_maps import LedsInfo as LedsInfo
+from schemas.status_maps import LoopInfo as LoopInfo
+from schemas.status_maps import MotionInfo as MotionInfo
+from schemas.status_maps import NetworkInfo as NetworkInfo
 
 M = TypeVar("M", bound="Message")
 
@@ -51,7 +49,8 @@ class Message:
             _REGISTRY[cls.TYPE] = cls
 
     def to_dict(self) -> dict[str, Any]:
-        d = {name: getattr(self, name) for name in _field_names(type(self))}
+        cls: type = type(self)  # a dataclass's __hash__ is None to mypy; the class is hashable
+        d = {name: getattr(self, name) for name in _field_names(cls)}
         d["v"] = SCHEMA_VERSION
         d["type"] = self.TYPE
         return d
@@ -63,7 +62,8 @@ class Message:
 
 
 def encode(msg: Message) -> bytes:
-    return msgpack.packb(msg.to_dict(), use_bin_type=True)
+    payload: bytes = msgpack.packb(msg.to_dict(), use_bin_type=True)
+    return payload
 
 
 def decode_dict(payload: bytes) -> dict[str, Any]:
@@ -76,6 +76,10 @@ def decode_dict(payload: bytes) -> dict[str, Any]:
     return d
 
 
+@overload
+def decode(payload: bytes, expect: type[M]) -> M: ...
+@overload
+def decode(payload: bytes, expect: None = None) -> Message: ...
 def decode(payload: bytes, expect: type[M] | None = None) -> M | Message:
     d = decode_dict(payload)
     v = d.get("v")
@@ -224,10 +228,11 @@ class World(Message):
 
 
 def ok_reply(verb: str, applied: dict[str, Any] | None = None) -> bytes:
-    return msgpack.packb(
+    payload: bytes = msgpack.packb(
         {"v": SCHEMA_VERSION, "ok": True, "verb": verb, "applied": applied or {}},
         use_bin_type=True,
     )
+    return payload
 
 
 def error_reply(
@@ -248,9 +253,13 @@ def error_reply(
     }
     if retry_after is not None:
         d["retry_after"] = round(float(retry_after), 3)
-    return msgpack.packb(d, use_bin_type=True)
+    payload: bytes = msgpack.packb(d, use_bin_type=True)
+    return payload
 
 
 def command_payload(client: str, **fields: Any) -> bytes:
     """A command query payload: the fields of the verb plus the caller's client id."""
-    return msgpack.packb({"v": SCHEMA_VERSION, "client": client, **fields}, use_bin_type=True)
+    payload: bytes = msgpack.packb(
+        {"v": SCHEMA_VERSION, "client": client, **fields}, use_bin_type=True
+    )
+    return payload

@@ -117,7 +117,8 @@ def decode_strict(payload: bytes, cls: type[Message]) -> dict[str, Any]:
 
 def action_body(seq: int, obs_tick: int, action: list[float]) -> bytes:
     """The bytes the ``mac`` of an action authenticates."""
-    return msgpack.packb([seq, obs_tick, action], use_bin_type=True)
+    body: bytes = msgpack.packb([seq, obs_tick, action], use_bin_type=True)
+    return body
 
 
 def sign(stream_key: bytes, seq: int, obs_tick: int, action: list[float]) -> bytes:

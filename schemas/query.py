@@ -177,7 +177,7 @@ def serve(
     what: str,
     max_bytes: int = MAX_PAYLOAD,
     empty: dict[str, Any] | None = None,
-) -> zenoh.Queryable:
+) -> zenoh.Queryable[None]:
     """Declare a queryable on ``key`` that runs ``handle(request)`` in Zenoh's thread and
     replies ``ok_reply(what, applied)`` or the error. ``empty`` is the request an empty payload
     stands for (None: an empty payload is an error). Keep the returned object alive."""
@@ -196,7 +196,8 @@ def serve(
 
 def request_payload(**fields: Any) -> bytes:
     """A request map with the schema version."""
-    return msgpack.packb({"v": SCHEMA_VERSION, **fields}, use_bin_type=True)
+    payload: bytes = msgpack.packb({"v": SCHEMA_VERSION, **fields}, use_bin_type=True)
+    return payload
 
 
 def ask(

@@ -22,14 +22,12 @@ from pathlib import Path
 import zenoh
 
 # Who a client is: every client and the daemon take these from here, so they stay importable.
-from schemas.credentials import (
-    Credentials,
-    add_credential_arguments,
-    credentials,
-    credentials_from_args,
-)
+from schemas.credentials import Credentials as Credentials
+from schemas.credentials import add_credential_arguments as add_credential_arguments
 from schemas.credentials import credential_args as credential_args
 from schemas.credentials import credential_env as credential_env
+from schemas.credentials import credentials as credentials
+from schemas.credentials import credentials_from_args as credentials_from_args
 from schemas.credentials import login_free_env as login_free_env
 from schemas.credentials import login_hint as login_hint
 from schemas.errors import DarwinError, RobotUnreachableError
@@ -202,7 +200,8 @@ def open_client(
     endpoint: str | Target, lease_ms: int | None = 3000, creds: Credentials | None = None
 ) -> zenoh.Session:
     if isinstance(endpoint, Target):
-        endpoint, creds = endpoint.endpoint, creds or endpoint.credentials
+        creds = creds or endpoint.credentials
+        endpoint = endpoint.endpoint
     return zenoh.open(client_config(endpoint, lease_ms, creds))
 
 
@@ -248,7 +247,8 @@ def connect(
     """:func:`open_client` whose failure is a :class:`RobotUnreachableError` saying so in one
     line (``failed``, default "cannot open a Zenoh session to ENDPOINT"; the reason; ``hint``)."""
     if isinstance(endpoint, Target):
-        endpoint, creds = endpoint.endpoint, creds or endpoint.credentials
+        creds = creds or endpoint.credentials
+        endpoint = endpoint.endpoint
     conf = client_config(endpoint, lease_ms, creds)
     return open_session(conf, failed or f"cannot open a Zenoh session to {endpoint}", hint)
 
@@ -267,10 +267,10 @@ def free_tcp_port(host: str = "127.0.0.1") -> int:
                 s.bind((host, port))
             except OSError:
                 continue
-            return s.getsockname()[1]
+            return int(s.getsockname()[1])
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind((host, 0))
-        return s.getsockname()[1]
+        return int(s.getsockname()[1])
 
 
 def _ephemeral_low() -> int:

@@ -7,6 +7,7 @@ and mounting directions from the robot config are applied by the bus layer aroun
 from __future__ import annotations
 
 import math
+from typing import overload
 
 import numpy as np
 
@@ -37,7 +38,11 @@ ACCEL_G_PER_COUNT = 8.0 / IMU_MAX  # ±4 g full scale
 GYRO_DPS_FULL_SCALE = 500.0
 
 
-def raw_to_rad(raw: int | float | np.ndarray) -> float | np.ndarray:
+@overload
+def raw_to_rad(raw: float) -> float: ...
+@overload
+def raw_to_rad(raw: np.ndarray) -> np.ndarray: ...
+def raw_to_rad(raw: float | np.ndarray) -> float | np.ndarray:
     """Servo angle in rad for a raw position (scalar or array)."""
     return (raw - POSITION_CENTER) * RAD_PER_UNIT
 
@@ -81,8 +86,8 @@ def load_raw_to_fraction(raw: int | np.ndarray) -> float | np.ndarray:
 
 # The two conversions above as tables over every 11-bit word, for the loop: one indexing of a
 # table per tick instead of five array operations (index with ``raw & 0x7FF``).
-SPEED_RAD_S_TABLE = speed_raw_to_rad_s(np.arange(0x800))
-LOAD_FRACTION_TABLE = load_raw_to_fraction(np.arange(0x800))
+SPEED_RAD_S_TABLE: np.ndarray = np.asarray(speed_raw_to_rad_s(np.arange(0x800)))
+LOAD_FRACTION_TABLE: np.ndarray = np.asarray(load_raw_to_fraction(np.arange(0x800)))
 
 
 def voltage_raw_to_v(raw: int) -> float:

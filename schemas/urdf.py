@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
+from typing import Any
 
 from schemas.body import Body, build_body, limits_from_config_reply
 
@@ -72,7 +73,7 @@ def to_urdf(body: Body) -> str:
     return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 
 
-def body_from_config_reply(cfg: Mapping[str, object]) -> Body:
+def body_from_config_reply(cfg: Mapping[str, Any]) -> Body:
     speed = cfg.get("max_speed")
     max_speed = float(speed) if isinstance(speed, int | float) else 5.65
     return build_body(limits_from_config_reply(cfg), max_speed)

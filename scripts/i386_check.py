@@ -24,6 +24,7 @@ import tomllib
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
 DOC = REPO / "docs" / "robot.md"
@@ -87,7 +88,7 @@ def label(block: str) -> str:
     return first.lstrip("# ").strip() if first.startswith("#") else first
 
 
-def run(cmd: list[str], what: str, log: Path, **kw: object) -> subprocess.CompletedProcess[str]:
+def run(cmd: list[str], what: str, log: Path, **kw: Any) -> subprocess.CompletedProcess[str]:
     with log.open("a") as out:
         out.write(f"$ {shlex.join(cmd)}\n")
         out.flush()

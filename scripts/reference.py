@@ -14,6 +14,10 @@ from __future__ import annotations
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from schemas.commands import Verb
 
 REPO = Path(__file__).resolve().parent.parent
 PAGE = REPO / "docs" / "cli.md"
@@ -65,17 +69,17 @@ def render() -> str:
     return "".join(parts)
 
 
-def _lease(spec: object) -> str:
-    if not spec.lease:  # type: ignore[attr-defined]
+def _lease(spec: Verb) -> str:
+    if not spec.lease:
         return "no"
-    free = sorted(spec.free_ops)  # type: ignore[attr-defined]
+    free = sorted(spec.free_ops)
     return f"yes, but not {', '.join(free)}" if free else "yes"
 
 
-def _role(spec: object) -> str:
-    admin = sorted(spec.admin_ops)  # type: ignore[attr-defined]
-    reads = sorted(spec.read_ops)  # type: ignore[attr-defined]
-    role = "observer" if spec.read else "operator"  # type: ignore[attr-defined]
+def _role(spec: Verb) -> str:
+    admin = sorted(spec.admin_ops)
+    reads = sorted(spec.read_ops)
+    role = "observer" if spec.read else "operator"
     if reads:
         role += f" (observer: {', '.join(reads)})"
     if admin:

@@ -158,4 +158,4 @@ class DarwinStandEnv(gym.Env):
         self.backend.close()
 
 
-gym.register("darwin/Stand-v0", entry_point=DarwinStandEnv)
+gym.register("darwin/Stand-v0", entry_point="clients.learn.env:DarwinStandEnv")

@@ -268,7 +268,7 @@ class LiveRecorder:
         if due is None or obs.stamp >= due - 0.25 * self.period:
             # On the daemon's clock; after a gap (a restart, a stalled link) start again from now.
             restart = due is None or obs.stamp > due + self.period
-            self._next_stamp = (obs.stamp if restart else due) + self.period
+            self._next_stamp = (obs.stamp if due is None or restart else due) + self.period
             frame = _Frame(obs, self._image if self.camera else None)
             frame.action = self._early.pop(obs.tick, None)
             self._pending.append(frame)

@@ -137,7 +137,8 @@ def run_sim(
     period = int(2 * rate)
     for k in range(steps):
         if push and k % period == period // 2:
-            env.unwrapped.push((push * rng.choice([-1.0, 1.0]), 0.0, 0.0), 0.1)
+            stand: Any = env.unwrapped  # the DarwinStandEnv under gymnasium's wrappers
+            stand.push((push * rng.choice([-1.0, 1.0]), 0.0, 0.0), 0.1)
         obs, _, terminated, _, _ = env.step(_action(policy, obs))
         if terminated:
             env.close()

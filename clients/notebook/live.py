@@ -12,6 +12,7 @@ back up the browser. The camera is subscribed only while a ``LiveCamera`` runs.
 
 from __future__ import annotations
 
+import functools
 import io
 import threading
 from collections import deque
@@ -135,7 +136,7 @@ class LivePlot(_View):
         for topic in dict.fromkeys(t for t, _ in self.signals):
             columns = [c for t, c in self.signals if t == topic]
             self._subs.append(
-                self.robot.subscribe(topic, lambda m, t=topic, c=columns: self._on(t, c, m))
+                self.robot.subscribe(topic, functools.partial(self._on, topic, columns))
             )
 
     def _on(self, topic: str, columns: list[str], msg: Message) -> None:

@@ -17,6 +17,7 @@ recover it.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import os
@@ -287,7 +288,7 @@ class Recorder:
                 key = self.profile.key(keys, topic)
                 self._subs.append(
                     self._session.declare_subscriber(
-                        key, lambda s, t=topic: self._on_sample(t, s)
+                        key, functools.partial(self._on_sample, topic)
                     )
                 )
         return self
@@ -309,7 +310,7 @@ class Recorder:
                 try:
                     item = self._queue.get(timeout=max(0.0, next_flush - time.monotonic()))
                 except queue.Empty:
-                    item = ()  # type: ignore[assignment]
+                    item = ()  # type: ignore[assignment]  # nothing came: time to flush
                 if item is None:
                     break
                 if item:

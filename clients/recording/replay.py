@@ -263,9 +263,9 @@ class Replayer:
         if op == "resume":
             return self.resume()
         if op == "seek":
-            return self.seek(req.get("t"))  # type: ignore[arg-type]
+            return self.seek(req.get("t"))  # type: ignore[arg-type]  # seek() checks it
         if op == "rate":
-            return self.set_rate(req.get("rate"))  # type: ignore[arg-type]
+            return self.set_rate(req.get("rate"))  # type: ignore[arg-type]  # checked there
         if op == "status":
             return self.status()
         raise InvalidCommandError(

@@ -125,9 +125,12 @@ def run(args: argparse.Namespace) -> int:
         )
         for line in notices:
             print(f"darwin replay: {line}", file=sys.stderr, flush=True)
-        finished = threading.Thread(
-            target=lambda: (replayer.wait(), None if args.stay else stop.set()), daemon=True
-        )
+        def wait_then_stop() -> None:
+            replayer.wait()
+            if not args.stay:
+                stop.set()
+
+        finished = threading.Thread(target=wait_then_stop, daemon=True)
         finished.start()
         stop.wait()
         status = replayer.status()

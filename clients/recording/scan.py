@@ -275,7 +275,7 @@ class RecordScanner:
                 raise ValueError(f"zstd: {exc}") from exc
         elif chunk.compression == "lz4":
             try:
-                import lz4.frame  # type: ignore[import-not-found]
+                import lz4.frame
             except ImportError as exc:
                 raise ValueError("lz4-compressed chunk: install the lz4 package") from exc
             raw = lz4.frame.decompress(chunk.data)

@@ -48,9 +48,9 @@ class Adapter(RosCommands):
         self.session = ros_session
         cfg = robot.config()
         self.body: Body = body_from_config_reply(cfg)
-        self.names_by_id = {j.servo_id: j.name for j in self.body.servo_joints()}
+        self.names_by_id = {j.servo: j.name for j in self.body.servo_joints()}
         self.limits = {
-            j.name: convert.Limit(j.servo_id, j.lower, j.upper) for j in self.body.servo_joints()
+            j.name: convert.Limit(j.servo, j.lower, j.upper) for j in self.body.servo_joints()
         }
         self.node = RosNode(ros_session, options.domain, options.namespace, options.node_name)
         self._stop = threading.Event()

@@ -14,7 +14,7 @@ Written from rmw_zenoh_cpp ``src/detail/liveliness_utils.cpp`` (``TopicInfo``, `
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 
 from schemas.keys import ROS_LIVELINESS
@@ -192,7 +192,7 @@ def parse_token(key: str) -> Entity:
         kind = Kind(parts[5])
     except ValueError:
         raise ValueError(f"{key!r}: unknown entity kind {parts[5]!r}") from None
-    base = dict(
+    node = Entity(
         domain=int(parts[1]),
         zid=parts[2],
         nid=parts[3],
@@ -203,11 +203,11 @@ def parse_token(key: str) -> Entity:
         node=demangle(parts[8]),
     )
     if kind is Kind.NODE:
-        return Entity(**base)
+        return node
     if len(parts) < 13:
         raise ValueError(f"{key!r}: an endpoint token needs topic, type, hash and QoS")
-    return Entity(
-        **base,
+    return replace(
+        node,
         topic=demangle(parts[9]),
         dds_type=demangle(parts[10]),
         type_hash=demangle(parts[11]),

@@ -11,6 +11,7 @@ request's sequence number and the client's GID in its attachment (``rmw_service_
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import threading
 import time
@@ -97,7 +98,7 @@ class Subscription:
             h = type_hash(t)
             key = graph.data_key(node.domain, topic, dds_type(t), h)
             self._subs.append(
-                node.session.declare_subscriber(key, lambda s, t=t: self._on_sample(t, s))
+                node.session.declare_subscriber(key, functools.partial(self._on_sample, t))
             )
             tok = node.info.entity_token(
                 node.next_id(), graph.Kind.SUBSCRIPTION, topic, dds_type(t), h, qos

@@ -78,7 +78,7 @@ class CommandsMixin:
         for screen in self.screen_stack:
             for tab in screen.query(TabView):
                 if hasattr(tab, "robot"):
-                    tab.robot = robot  # type: ignore[attr-defined]
+                    tab.robot = robot
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         # Halt and the lease are command verbs: an observer sees them greyed out.

@@ -11,6 +11,7 @@ gave them (walk start before walk stop); ``halt`` skips the queue.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import queue
 import threading
@@ -23,6 +24,7 @@ from textual.message import Message
 
 from clients.robot import Robot, Subscription
 from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
+from schemas import messages as wire
 from schemas.errors import ClientError, DarwinError, IncompatibleProtocolError
 from schemas.roles import Role
 from schemas.session import Credentials, resolve
@@ -108,9 +110,12 @@ class Link:
             self._attach(robot)
             return
 
+    def _telemetry(self, topic: str, msg: wire.Message) -> None:
+        self.app.post_message(Telemetry(topic, msg))
+
     def _attach(self, robot: Robot) -> None:
         for topic in ("joints", "imu", "status", "events", "vision"):  # camera: watch_camera
-            robot.subscribe(topic, lambda m, t=topic: self.app.post_message(Telemetry(t, m)))
+            robot.subscribe(topic, functools.partial(self._telemetry, topic))
         ep, name = robot.target.endpoint, robot.target.robot
         try:
             self.role = robot.role  # asked here, off the UI thread, before CONNECTED is posted

@@ -10,7 +10,8 @@ from typing import Any
 from config.loader import JointConfig, RobotConfig
 from schemas.errors import ErrorCode, Reject, brief
 
-_MISSING = object()
+# Any, so that it may stand as the default of a typed parameter.
+_MISSING: Any = object()
 
 
 def present(fields: dict[str, Any], name: str) -> Any:
@@ -38,7 +39,7 @@ def number(
     name: str,
     low: float | None = None,
     high: float | None = None,
-    default: Any = _MISSING,
+    default: float = _MISSING,
 ) -> float:
     if _absent(fields, name, default):
         return default
@@ -54,7 +55,7 @@ def integer(
     name: str,
     low: int | None = None,
     high: int | None = None,
-    default: Any = _MISSING,
+    default: int = _MISSING,
 ) -> int:
     if _absent(fields, name, default):
         return default
@@ -70,14 +71,14 @@ def _within(name: str, value: float, low: float | None, high: float | None) -> N
         )
 
 
-def boolean(fields: dict[str, Any], name: str, default: Any = _MISSING) -> bool:
+def boolean(fields: dict[str, Any], name: str, default: bool = _MISSING) -> bool:
     if _absent(fields, name, default):
         return default
     return bool(_typed(fields, name, bool, "true or false"))
 
 
 def text(
-    fields: dict[str, Any], name: str, choices: set[str] | None = None, default: Any = _MISSING
+    fields: dict[str, Any], name: str, choices: set[str] | None = None, default: str = _MISSING
 ) -> str:
     if _absent(fields, name, default):
         return default
@@ -89,6 +90,13 @@ def text(
             name,
         )
     return value
+
+
+def optional_text(
+    fields: dict[str, Any], name: str, choices: set[str] | None = None
+) -> str | None:
+    """The field's text, or None when it is not given."""
+    return None if fields.get(name) is None else text(fields, name, choices)
 
 
 def joint_ref(robot: RobotConfig, value: Any, field_name: str) -> JointConfig:

@@ -22,15 +22,17 @@ from dynamixel_sdk import COMM_NOT_AVAILABLE, COMM_SUCCESS, GroupBulkRead
 from dynamixel_sdk.group_bulk_read import PARAM_NUM_DATA, PARAM_NUM_LENGTH
 
 
-class BulkRead(GroupBulkRead):
+class BulkRead(GroupBulkRead):  # type: ignore[misc]  # dynamixel-sdk ships no types
     def txPacket(self) -> int:
         if not self.data_dict:
-            return COMM_NOT_AVAILABLE
+            return int(COMM_NOT_AVAILABLE)
         if self.is_param_changed or not self.param:
             self.makeParam()
         if self.ph.getProtocolVersion() != 1.0:
-            return super().txPacket()
-        return self.ph.bulkReadTx(self.port, self.param, len(self.data_dict) * 3)
+            sent: int = super().txPacket()
+        else:
+            sent = self.ph.bulkReadTx(self.port, self.param, len(self.data_dict) * 3)
+        return sent
 
     def read(self) -> tuple[int, dict[int, bytes], dict[int, int]]:
         """One transaction: (result code, data by ID, error bits by ID) for the devices that

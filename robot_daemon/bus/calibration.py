@@ -19,9 +19,10 @@ from schemas import units
 Angles = TypeVar("Angles", float, np.ndarray)
 
 
-def servo_to_joint(raw: int | float | np.ndarray, direction: Angles, offset_rad: Angles) -> Angles:
+def servo_to_joint(raw: Angles, direction: Angles, offset_rad: Angles) -> Angles:
     """Joint angle (rad) for a raw servo position (one joint, or arrays of every joint)."""
-    return direction * (units.raw_to_rad(raw) - offset_rad)
+    angle: Angles = direction * (units.raw_to_rad(raw) - offset_rad)
+    return angle
 
 
 def joint_to_servo(rad: float, direction: float, offset_rad: float) -> int:

@@ -89,7 +89,8 @@ class DxlBus:
 
     @property
     def name(self) -> str:
-        return self.port.port_name
+        name: str = self.port.port_name
+        return name
 
     def _check(self, result: int, what: str, dxl_id: int) -> None:
         if result == COMM_SUCCESS:

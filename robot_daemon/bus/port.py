@@ -144,7 +144,7 @@ class BlockingPortHandler(Transport):
     # -- the SDK's I/O hooks ---------------------------------------------------------------
     def readPort(self, length: int) -> bytes:
         try:
-            data = self.ser.read(length)
+            data: bytes = self.ser.read(length)
             if data:
                 self.bytes_read += len(data)
                 return data

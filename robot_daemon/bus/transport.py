@@ -19,8 +19,10 @@ from dynamixel_sdk import PortHandler
 from schemas import units
 
 
-class Transport(PortHandler, ABC):
+class Transport(PortHandler, ABC):  # type: ignore[misc]  # dynamixel-sdk ships no types
     """Bytes in and out; subclasses implement the SDK's I/O hooks and :meth:`open`."""
+
+    is_open: bool  # the SDK's PortHandler sets it
 
     def __init__(self, port_name: str) -> None:
         super().__init__(port_name)
@@ -60,4 +62,5 @@ class Transport(PortHandler, ABC):
         b"" when nothing came by then. The bulk read's receive path: one call per arriving
         chunk (a USB packet on an FTDI, a write on the emulator's pty), not one per packet."""
         self.setPacketTimeoutMillis(deadline_ms - self.getCurrentTime())
-        return self.readPort(4096)
+        chunk: bytes = self.readPort(4096)
+        return chunk

@@ -89,8 +89,8 @@ def gather(args: argparse.Namespace) -> tuple[list[C.Check], str]:
     facts, endpoint, robot = _daemon_facts(args, ids)
     running = facts is not None
     local = os.path.exists(port)
-    if running and not local:
-        where = facts.port or port  # type: ignore[union-attr]
+    if facts is not None and not local:
+        where = facts.port or port
         out.append(C.Check("serial", C.SKIP, f"{where} is on the daemon's computer"))
     else:
         out.append(C.serial_device(port))
@@ -124,7 +124,7 @@ def gather(args: argparse.Namespace) -> tuple[list[C.Check], str]:
     )
     out.append(C.disk(Path(s.recordings_dir or "."), s.disk_min_mb))
     out.append(C.loop_headroom(facts.loop if facts else None, s.loop_headroom_min))
-    out.append(C.zenoh_reach(endpoint, robot, running, facts.state if running else None))
+    out.append(C.zenoh_reach(endpoint, robot, running, facts.state if facts else None))
     out.append(C.versions(client_version(), facts.daemon_version if facts else None))
     return out, facts.source if facts else "none"
 

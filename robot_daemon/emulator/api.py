@@ -23,10 +23,10 @@ BUTTONS = {"mode": 0x01, "start": 0x02}
 
 
 def _vector(name: str, value: Sequence[float]) -> tuple[float, float, float]:
-    values = tuple(float(v) for v in value)
+    values = [float(v) for v in value]
     if len(values) != 3:
         raise ValueError(f"{name} needs 3 values (x, y, z in robot axes), got {len(values)}")
-    return values  # type: ignore[return-value]
+    return values[0], values[1], values[2]
 
 
 class EmulatorApi:

@@ -71,7 +71,7 @@ class EmulatorClock:
         # the emulator methods a hook calls take the lock themselves.
         for hook in list(self._hooks):
             try:
-                hook(dt, self)
+                hook(dt, self)  # type: ignore[arg-type]  # mixed into the Emulator
             except Exception:
                 self._hook_failures += 1
                 if self._hook_failures <= 3:

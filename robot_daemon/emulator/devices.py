@@ -76,7 +76,8 @@ class Device:
 
     def __init__(self, table: ControlTable, env: Environment) -> None:
         self.table = table
-        self.regs = table.kind  # MX28 or CM730, which both have ID and the reply settings
+        # MX28 or CM730, which both have ID and the reply settings.
+        self.regs: type[MX28] | type[CM730] = table.kind  # type: ignore[assignment]
         self.env = env
 
     @property

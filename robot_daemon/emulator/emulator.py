@@ -58,7 +58,8 @@ class Emulator(EmulatorClock, EmulatorApi):
             setattr(s, key, value)
         check_priority(s.realtime_priority, "emulator realtime_priority")
         self.settings = s
-        self.seed = s.seed or int(np.random.SeedSequence().entropy % 2**32)
+        # A fresh SeedSequence's entropy is an int (typed wider, for a given one).
+        self.seed = s.seed or int(np.random.SeedSequence().entropy % 2**32)  # type: ignore[operator]
         self.rng = np.random.default_rng(self.seed)
         self.lock = threading.RLock()
         self.env = Environment(s.voltage, s.ambient_c, s.heat_gain_c, s.thermal_tau_s)
@@ -195,7 +196,8 @@ class Emulator(EmulatorClock, EmulatorApi):
             log.info("emulator: %s", warning)
         while not self._stopping.is_set():
             with self.lock:
-                fds = [self._wake_r] + ([self.link.master] if self.link.is_open else [])
+                master = self.link.master
+                fds = [self._wake_r] + ([master] if master is not None else [])
                 timeout = self._timeout()
             try:
                 readable, _, _ = select.select(fds, [], [], timeout)

@@ -7,11 +7,12 @@ Built from the bus state and the frame of a tick;
 from __future__ import annotations
 
 import functools
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from schemas.messages import Imu, Joints, NetworkInfo, Status
+from schemas.messages import Imu, Joints, Status
+from schemas.status_maps import AlarmInfo, BusInfo, LeaseInfo, LoopInfo, MotionInfo, NetworkInfo
 from schemas.versions import package_version
 
 if TYPE_CHECKING:
@@ -74,30 +75,34 @@ def status_message(daemon: Daemon) -> Status:
     bus = daemon.bus
     cm = bus.cm730_status()
     st = bus.state
-    alarms = [{"id": j, "bits": int(st.alarm[j])} for j in daemon.robot.ids if st.alarm[j]]
+    alarms = [AlarmInfo(id=j, bits=int(st.alarm[j])) for j in daemon.robot.ids if st.alarm[j]]
     extra: dict[str, Any] = {}
     if daemon.camera is not None:
         extra["camera"] = daemon.camera.status()
     else:
         extra["camera"] = {"source": "none", "captured": 0, "subscribed": False, "capturing": False}
+    # The parts build their maps as plain dicts; the casts name the key sets they promise
+    # (schemas/status_maps.py, documented key by key in docs/daemon.md).
+    bus_info: dict[str, Any] = {
+        **bus.status(),
+        "bus_errors": daemon.bus_errors,
+        "arbiter": daemon.arbiter.counts if daemon.arbiter else {},
+    }
+    loop_info: dict[str, Any] = {
+        **daemon.stats.summary(),
+        "scheduling": daemon.scheduling,
+        "telemetry_hz": daemon.telemetry.hz,
+        "events_dropped": daemon.pub.dropped_events if daemon.pub is not None else 0,
+    }
     return Status(
         state=str(daemon.state),
         robot=daemon.options.robot,
-        lease=daemon.lease.status(),
-        motion=daemon.manager.status(),
+        lease=cast("LeaseInfo | None", daemon.lease.status()),
+        motion=cast(MotionInfo, daemon.manager.status()),
         leds=cm["leds"],
         buttons=cm["buttons"],
-        bus={
-            **bus.status(),
-            "bus_errors": daemon.bus_errors,
-            "arbiter": daemon.arbiter.counts if daemon.arbiter else {},
-        },
-        loop={
-            **daemon.stats.summary(),
-            "scheduling": daemon.scheduling,
-            "telemetry_hz": daemon.telemetry.hz,
-            "events_dropped": daemon.pub.dropped_events if daemon.pub is not None else 0,
-        },
+        bus=cast(BusInfo, bus_info),
+        loop=cast(LoopInfo, loop_info),
         voltage=cm["voltage"],
         alarms=alarms,
         network=network_info(daemon.options.router, daemon.options.listen),

@@ -100,7 +100,8 @@ class CameraThread:
             keys.camera_jpeg, **qos.for_key(keys.camera_jpeg).kwargs()
         )
         self._listener = self._pub.declare_matching_listener(self._on_matching)
-        self._subscribed = self._pub.matching_status.matching
+        # zenoh's stubs type matching_status as a bool; it is a MatchingStatus.
+        self._subscribed = bool(self._pub.matching_status.matching)  # type: ignore[attr-defined]
         self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
         self._thread.start()
 

@@ -101,11 +101,14 @@ class PolicyLink:
         return ""
 
     def close(self) -> None:
-        for x in (self._sub, self._refusals):
-            try:
-                x.undeclare()
-            except Exception:
-                log.debug("undeclare failed at shutdown", exc_info=True)
+        try:
+            self._sub.undeclare()
+        except Exception:
+            log.debug("undeclare failed at shutdown", exc_info=True)
+        try:
+            self._refusals.undeclare()
+        except Exception:
+            log.debug("undeclare failed at shutdown", exc_info=True)
 
 
 def _seq_of(payload: bytes) -> int:

@@ -101,7 +101,8 @@ class Publishers:
 
         try:
             self._listeners.append(pub.declare_matching_listener(changed))
-            self._matching[topic] = bool(pub.matching_status.matching)
+            # zenoh's stubs type matching_status as a bool; it is a MatchingStatus.
+            self._matching[topic] = bool(pub.matching_status.matching)  # type: ignore[attr-defined]
         except Exception:  # no listener: publish always, as when someone listens
             log.debug("no matching listener for %s", topic, exc_info=True)
 

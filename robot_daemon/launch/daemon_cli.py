@@ -250,7 +250,7 @@ def run(args: argparse.Namespace) -> int:
 
         def on_signal(signum: int, _frame: object) -> None:
             log.info("signal %d: stopping", signum)
-            daemon.stop()  # type: ignore[union-attr]
+            daemon.stop()
 
         signal.signal(signal.SIGTERM, on_signal)
         signal.signal(signal.SIGINT, on_signal)
@@ -268,8 +268,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"port: {port}", flush=True)
         print(f"robot: {daemon.options.robot}", flush=True)
         # Where clients connect: the router first (what `darwin up` passes on), then our own.
-        router = [daemon.options.router] if daemon.options.router else []
-        for ep in [*router, *daemon.options.listen]:
+        routers = [daemon.options.router] if daemon.options.router else []
+        for ep in [*routers, *daemon.options.listen]:
             print(f"zenoh: {ep}", flush=True)
         daemon.run()
         return 0

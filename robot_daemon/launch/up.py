@@ -202,8 +202,8 @@ def run(args: argparse.Namespace) -> int:
         if args.listen or not router:
             # Joined to a router, the daemon listens only where told (see `darwin daemon`).
             default_listen = settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]
-            listen = secure_listen([args.listen or default_listen], security, bool(args.listen))
-            listen = _resolve_listen(listen)[0]
+            wanted_listen = [args.listen or default_listen]
+            listen = _resolve_listen(secure_listen(wanted_listen, security, bool(args.listen)))[0]
             check_listen([listen], security)  # a tcp/ endpoint under --secure, before anything
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
@@ -284,20 +284,20 @@ def _run(
             children.append(child)
             adapters.append(Adapter(child))
             print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
-        if ui is not None:
+        if ui is not None and ui_adapter is not None:
             # The UI is a person (adapter_logins.ui_login), never the robot; under --secure it
             # trusts the installation's CA unless told otherwise.
-            login = list(ui.args)
-            if internal is not None and internal.security.tls and "--ca" not in login:
-                login += ["--ca", str(ca_paths(internal.security.certs_dir).cert)]
-            return run_tui(endpoint, robot, login, ui.env(), ui_adapter.name)
+            ui_args = list(ui.args)
+            if internal is not None and internal.security.tls and "--ca" not in ui_args:
+                ui_args += ["--ca", str(ca_paths(internal.security.certs_dir).cert)]
+            return run_tui(endpoint, robot, ui_args, ui.env(), ui_adapter.name)
         # Run until a signal or the daemon's death; adapters that die are started again.
         while not stop.wait(0.5):
             if not daemon.running():
                 say(f"the daemon exited with {daemon.proc.returncode}; stopping")
                 return 1
-            for adapter in adapters:
-                tend(adapter, children, relay)
+            for running in adapters:
+                tend(running, children, relay)
         return 0
     except ChildError as exc:
         print(f"darwin up: {exc}", file=sys.stderr, flush=True)

@@ -13,7 +13,11 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
 from schemas.units import GRAVITY
+
+Vector = Sequence[float] | np.ndarray  # three components, body frame
 
 
 class GravityFilter:
@@ -23,19 +27,19 @@ class GravityFilter:
         self.g = [0.0, 0.0, -1.0]  # unit gravity direction, body frame; upright
         self._started = False
 
-    def reset(self, accel: Sequence[float] | None = None) -> None:
+    def reset(self, accel: Vector | None = None) -> None:
         self._started = False
         self.g = [0.0, 0.0, -1.0]
         if accel is not None:
             self.update((0.0, 0.0, 0.0), accel, 0.0)
 
-    def set(self, g: Sequence[float]) -> None:
+    def set(self, g: Vector) -> None:
         """Start from a known gravity direction (a simulator's true attitude)."""
         n = math.sqrt(sum(float(v) ** 2 for v in g)) or 1.0
         self.g = [float(v) / n for v in g]
         self._started = True
 
-    def update(self, gyro: Sequence[float], accel: Sequence[float], dt: float) -> list[float]:
+    def update(self, gyro: Vector, accel: Vector, dt: float) -> list[float]:
         gx, gy, gz = self.g
         wx, wy, wz = float(gyro[0]), float(gyro[1]), float(gyro[2])
         # g ← g − dt (ω × g)

@@ -205,7 +205,7 @@ class FallMonitor(MotionModule):
         recovering = False
         if why is None and action is not None:
             try:
-                action.play(page)  # type: ignore[attr-defined]
+                action.play(page)  # type: ignore[attr-defined]  # the action player's
                 recovering = True
                 self._get_up = page
             except (KeyError, ValueError) as exc:

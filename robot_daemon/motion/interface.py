@@ -5,6 +5,7 @@ The frame it sees and the targets it returns are in ``robot_daemon/frames.py``.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 from robot_daemon.frames import JointFrame
@@ -80,7 +81,7 @@ class MotionModule:
         assert self.manager is not None, f"{self.name} is not attached to a manager"
         self.manager.claim(self.name, set(ids))
 
-    def release(self, ids: set[int] | list[int] | tuple[int, ...] | None = None) -> None:
+    def release(self, ids: Iterable[int] | None = None) -> None:
         if self.manager is not None:
             self.manager.release(self.name, set(ids) if ids is not None else None)
 

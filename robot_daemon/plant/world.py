@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -93,7 +93,7 @@ class SimWorld(WorldViews):
             emu.set_body_motion(gyro.tolist(), accel.tolist())
 
         emulator.add_physics_hook(hook)
-        self._hook = hook
+        self._hook: Callable[[float, Emulator], None] | None = hook
 
     def detach(self, emulator: Emulator) -> None:
         hook = getattr(self, "_hook", None)

@@ -124,6 +124,7 @@ class WorldLink:
         delay = 0.05
         while not self._stop.is_set():
             try:
+                # _open runs only with an endpoint to connect to (see start()).
                 session = open_client(self.connect)  # type: ignore[arg-type]
             except Exception as exc:  # the daemon is not listening yet
                 log.debug("world: %s not reachable yet (%s)", self.connect, exc)

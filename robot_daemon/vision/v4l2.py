@@ -332,8 +332,8 @@ class V4L2Source:
         return JpegFrame(data, self.width, self.height)
 
     def close(self) -> None:
-        fd = getattr(self, "fd", None)
-        if fd is None:
+        fd = getattr(self, "fd", -1)  # -1: never opened, or closed
+        if fd < 0:
             return
         if self._streaming:
             with _quiet():
@@ -346,7 +346,7 @@ class V4L2Source:
         self._maps.clear()
         with _quiet():
             self.dev.close(fd)
-        self.fd = None
+        self.fd = -1
 
 
 def _quiet() -> contextlib.AbstractContextManager[None]:

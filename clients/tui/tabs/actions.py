@@ -101,7 +101,9 @@ class ActionsTab(PageEditView):
 
     # -- drawing ---------------------------------------------------------------------------------
     def refresh_view(self, model: Model) -> None:
-        if not self.st.requested and self.app.link_info.state is LinkState.CONNECTED:  # type: ignore[attr-defined]
+        # self.app is the DarwinApp, which holds the link's state.
+        connected = self.app.link_info.state is LinkState.CONNECTED  # type: ignore[attr-defined]
+        if not self.st.requested and connected:
             self.st.requested = True
             self.action_refresh()
         self.show_status()

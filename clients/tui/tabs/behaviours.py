@@ -236,13 +236,14 @@ class BehavioursTab(TabView):
 
     def action_save(self) -> None:
         path = self._path()
-        doc = {"format": FILE_FORMAT, "version": 1, "items": self.model.edits.choreography}
+        items = self.model.edits.choreography
+        doc = {"format": FILE_FORMAT, "version": 1, "items": items}
         try:
             path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
         except OSError as exc:
             self.notify_error(_("Cannot save {path}: {error}").format(path=path, error=exc))
             return
-        self.app.notify(_("Saved {n} items to {path}").format(n=len(doc["items"]), path=path))
+        self.app.notify(_("Saved {n} items to {path}").format(n=len(items), path=path))
 
     def action_load(self) -> None:
         path = self._path()

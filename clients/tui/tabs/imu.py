@@ -23,12 +23,12 @@ class ImuTab(TabView):
     ImuTab #imu-fall { width: auto; }
     """
     BINDINGS = [
-        Binding("x", "toggle('accel', 0)", N_("accel x"), show=False),
-        Binding("y", "toggle('accel', 1)", N_("accel y"), show=False),
-        Binding("z", "toggle('accel', 2)", N_("accel z"), show=False),
-        Binding("X", "toggle('gyro', 0)", N_("gyro x"), show=False),
-        Binding("Y", "toggle('gyro', 1)", N_("gyro y"), show=False),
-        Binding("Z", "toggle('gyro', 2)", N_("gyro z"), show=False),
+        Binding("x", "toggle_axis('accel', 0)", N_("accel x"), show=False),
+        Binding("y", "toggle_axis('accel', 1)", N_("accel y"), show=False),
+        Binding("z", "toggle_axis('accel', 2)", N_("accel z"), show=False),
+        Binding("X", "toggle_axis('gyro', 0)", N_("gyro x"), show=False),
+        Binding("Y", "toggle_axis('gyro', 1)", N_("gyro y"), show=False),
+        Binding("Z", "toggle_axis('gyro', 2)", N_("gyro z"), show=False),
         Binding("plus,equals_sign", "zoom(-1)", N_("Zoom in")),
         Binding("minus", "zoom(1)", N_("Zoom out")),
     ]
@@ -46,7 +46,7 @@ class ImuTab(TabView):
     def on_mount(self) -> None:
         self.refresh_view(self.model)
 
-    def action_toggle(self, kind: str, axis: int) -> None:
+    def action_toggle_axis(self, kind: str, axis: int) -> None:
         box = self.query_one(f"#{kind}-{AXES[axis]}", Checkbox)
         box.value = not box.value
 
@@ -60,10 +60,10 @@ class ImuTab(TabView):
     def refresh_view(self, model: Model) -> None:
         hist = list(model.imu_hist)
         times = [t for t, _a, _g in hist]
-        for kind, col in (("accel", 1), ("gyro", 2)):
+        for kind in ("accel", "gyro"):
             series = []
             for i, axis in enumerate(AXES):
-                values = [sample[col][i] for sample in hist]
+                values = [(a if kind == "accel" else g)[i] for _t, a, g in hist]
                 visible = self.query_one(f"#{kind}-{axis}", Checkbox).value
                 series.append(Series(axis, COLOURS[i], times, values, visible))
             self.query_one(f"#{kind}-plot", Plot).show(series)

@@ -117,8 +117,8 @@ class MotorsTab(TabView):
         for slot, jid in self.plotted.items():
             plot = self.query_one(f"#plot-{slot}", Plot)
             plot.border_title = f"{slot.upper()}: {jid} {self.robot.joint(jid).name}"
-            i = model.joint_index(jid)
-            values = [p[i] for _t, p in hist] if i is not None else []
+            col = model.joint_index(jid)
+            values = [p[col] for _t, p in hist] if col is not None else []
             plot.show([Series(_("position"), "yellow", times if values else [], values)])
 
     # -- actions ---------------------------------------------------------------------------------

@@ -8,7 +8,7 @@ are :class:`clients.tui.tabs.actions.ActionsTab`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -105,7 +105,9 @@ class PageEditView(TabView):
     # -- drawing ---------------------------------------------------------------------------------
     def show_status(self) -> None:
         parts = []
-        action = (self.model.status.motion.get("action") if self.model.status else None) or {}
+        action: Mapping[str, Any] = (
+            self.model.status.motion.get("action") if self.model.status else None
+        ) or {}
         if action.get("playing"):
             parts.append(_("playing page {page} step {step}").format(
                 page=action.get("page"), step=action.get("step")))
@@ -270,7 +272,10 @@ class PageEditView(TabView):
         if what != "all" and joint is None:
             self.notify_error(_("Put the cursor on a joint's column first."))
             return
-        names = joints_of("all" if what == "all" else joint if what == "joint" else limb_of(joint))
+        if what == "all" or joint is None:
+            names = joints_of("all")
+        else:
+            names = joints_of(joint if what == "joint" else limb_of(joint))
         holding = [j for j in names if j in LEGS and self.torque_on().get(j, True)]
 
         def go(yes: bool | None = True) -> None:
@@ -312,6 +317,7 @@ class PageEditView(TabView):
 
     def action_by_hand(self, sign: int) -> None:
         """Push the cursor's joint as a hand would: the emulator's control API (simulator)."""
+        # self.app is the DarwinApp, which holds the link.
         joint, robot = self.cursor_joint(), self.app.link.robot  # type: ignore[attr-defined]
         if joint is None or robot is None:
             return

@@ -3,12 +3,14 @@ start/stop with its phase; the gait parameters as an editable form (``walk_param
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from rich.text import Text
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical, VerticalScroll
+from textual.widget import Widget
 from textual.widgets import Button, Input, Label, Static
 
 from clients.tui.i18n import N_, _
@@ -33,7 +35,7 @@ def describe(value: Any) -> str:
     return "—" if value in (None, "") else str(value)
 
 
-def walking_state(motion: dict[str, Any]) -> str:
+def walking_state(motion: Mapping[str, Any]) -> str:
     """The walking module's status (``status.motion["walking"]``) in a few words."""
     state = motion.get("walking", motion.get("walk"))
     if not isinstance(state, dict):
@@ -46,7 +48,7 @@ def walking_state(motion: dict[str, Any]) -> str:
     return words + (" (" + _("stopping") + ")" if state.get("stopping") else "")
 
 
-def ball_phase(motion: dict[str, Any]) -> str:
+def ball_phase(motion: Mapping[str, Any]) -> str:
     ball = motion.get("ball", motion.get("playball"))
     if isinstance(ball, dict):
         if not ball.get("active", ball.get("running", True)):
@@ -110,7 +112,7 @@ class WalkTab(TabView):
     def build_form(self) -> None:
         form = self.query_one("#params-form", VerticalScroll)
         form.remove_children()
-        rows = []
+        rows: list[Widget] = []
         for name, value in sorted(self.model.edits.walk_params.items()):
             if isinstance(value, bool) or not isinstance(value, int | float):
                 continue

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+import numpy as np
 from rich.text import Text
 from textual.widget import Widget
 
@@ -34,12 +35,12 @@ def draw(positions: Mapping[int, float], columns: int, rows: int) -> Text:
     # Braille dots are about square, so one scale for both axes keeps the figure's proportions.
     scale = min((half - 4) / (2 * HALF_SPAN), (canvas.height - 5) / (Z_TOP - Z_BOTTOM))
 
-    def front(p: object) -> tuple[float, float]:
-        _x, y, z = p  # type: ignore[misc]
+    def front(p: np.ndarray) -> tuple[float, float]:
+        _x, y, z = p
         return half / 2 + y * scale, 4 + (Z_TOP - z) * scale
 
-    def side(p: object) -> tuple[float, float]:
-        x, _y, z = p  # type: ignore[misc]
+    def side(p: np.ndarray) -> tuple[float, float]:
+        x, _y, z = p
         return half + half / 2 + x * scale, 4 + (Z_TOP - z) * scale
 
     for a, b in SKELETON_BONES:

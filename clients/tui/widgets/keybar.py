@@ -15,8 +15,11 @@ class KeyBar(Widget):
     """
 
     def on_mount(self) -> None:
-        self.watch(self.screen, "focused", lambda _w: self.refresh(), init=False)
+        self.watch(self.screen, "focused", self._focus_moved, init=False)
         self.set_interval(0.5, self.refresh)  # tab switches change the active bindings too
+
+    def _focus_moved(self, _focused: Widget | None) -> None:
+        self.refresh()
 
     def render(self) -> Text:
         out = Text(no_wrap=True, overflow="ellipsis")

@@ -286,7 +286,7 @@ def registers(req: Request, ctx: MotionContext) -> dict[str, Any]:
         raise Reject(
             ErrorCode.OUT_OF_RANGE, f"{len(data)} bytes from {address} run past {size}", "data"
         )
-    touched = [reg for reg in table if reg.reg.address < end and address < reg.reg.end]  # type: ignore[attr-defined]
+    touched = [reg for reg in table if reg.reg.address < end and address < reg.reg.end]
     for reg in touched:
         r = reg.reg
         if r.access.value == "r":
@@ -309,7 +309,7 @@ def registers(req: Request, ctx: MotionContext) -> dict[str, Any]:
     goal = MX28.GOAL_POSITION.reg.address
     if table is MX28 and address < goal + 2 and end > goal:
         _check_goal_write(ctx, dxl_id, address, bytes(data))
-    id_reg = table.ID.reg  # type: ignore[attr-defined]
+    id_reg = table.ID.reg
     new_id = data[id_reg.address - address] if address <= id_reg.address < end else dxl_id
     if new_id != dxl_id and (new_id in ctx.robot.by_id or new_id == ctx.robot.cm730_id):
         raise Reject(

@@ -259,9 +259,9 @@ def choreography(req: Request, ctx: MotionContext) -> dict[str, Any]:
 @verb("sound")
 def sound(req: Request, ctx: MotionContext) -> dict[str, Any]:
     choreo: ChoreographyModule = ctx.module("choreography", ChoreographyModule)
-    file = F.text(req.fields, "file", default=None)
-    say = F.text(req.fields, "say", default=None)
-    lang = F.text(req.fields, "lang", {"en", "pt"}, default=None)
+    file = F.optional_text(req.fields, "file")
+    say = F.optional_text(req.fields, "say")
+    lang = F.optional_text(req.fields, "lang", {"en", "pt"})
     if not file and not say:
         raise Reject(ErrorCode.INVALID, "sound needs a file or a phrase (say)", "say")
     if say is not None and len(say) > 500:

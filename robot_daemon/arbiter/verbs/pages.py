@@ -127,12 +127,12 @@ def pages(req: Request, ctx: MotionContext) -> dict[str, Any]:
     number = _number(req, player)
     step = F.integer(req.fields, "step", 1, 255, default=1)
     try:
-        page = player.play(number, step)
+        played = player.play(number, step)
     except KeyError as exc:
         raise Reject(ErrorCode.UNKNOWN, str(exc.args[0]), "step") from None
     except ValueError as exc:
         raise Reject(ErrorCode.OUT_OF_RANGE, str(exc), "number") from None
-    return {"op": op, "number": page.number, "name": page.name, "step": step}
+    return {"op": op, "number": played.number, "name": played.name, "step": step}
 
 
 def _put(

@@ -182,7 +182,7 @@ class BallPlayModule(MotionModule):
             page = f.left_kick_page if self._kick_side > 0 else f.right_kick_page
             self._kick_playing = True  # before play(): it takes the head, on_released gives it back
             try:
-                action.play(page)  # type: ignore[attr-defined]
+                action.play(page)  # type: ignore[attr-defined]  # the action player's
             except KeyError:
                 self._kick_playing = False
                 self._finish("stopped", f"cannot kick: no action page {page}", walk)

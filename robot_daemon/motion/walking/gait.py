@@ -44,7 +44,9 @@ def amplitudes_from_si(x: float, y: float, turn: float, period_ms: float) -> tup
     return (x * t * 1000 / 4, y * t * 1000 / 2, math.degrees(turn * t / 2))
 
 
-def si_from_amplitudes(x_mm: float, y_mm: float, a_deg: float, period_ms: float):
+def si_from_amplitudes(
+    x_mm: float, y_mm: float, a_deg: float, period_ms: float
+) -> tuple[float, float, float]:
     t = period_ms / 1000.0
     return (x_mm * 4 / 1000 / t, y_mm * 2 / 1000 / t, math.radians(a_deg) * 2 / t)
 
@@ -404,7 +406,8 @@ class WalkingModule(WalkReady, MotionModule):
         return self._gains
 
     def status(self) -> dict[str, Any]:
-        x, y, a = si_from_amplitudes(*self.latched, self.params.period_time)
+        lx, ly, la = self.latched
+        x, y, a = si_from_amplitudes(lx, ly, la, self.params.period_time)
         return {
             "active": self.active,
             "walking": self.running,

@@ -23,7 +23,7 @@ READY_PAGE = 9
 HEAD_IDS = (19, 20)
 
 
-class WalkReady:
+class WalkReady(MotionModule):
     """Mixed into the walking module (which holds ``running``, ``ctrl_running``, ``steps``)."""
 
     manager: MotionManager | None
@@ -41,6 +41,7 @@ class WalkReady:
         assert action is not None and self.manager is not None
         body = {j for j in self.manager.robot.ids if j not in HEAD_IDS}
         try:
+            # The manager hands back a MotionModule; the one named "action" is the player.
             action.play(READY_PAGE, joints=body)  # type: ignore[attr-defined]
         except (KeyError, ValueError):
             return False  # no such page in this library: blend from the present pose

@@ -98,7 +98,7 @@ class MujocoWorld(WorldViews):
         self._hook: Any = None
         m = self.model
         servos = self.body_description.servo_joints()
-        self.servo_ids = [j.servo_id for j in servos]
+        self.servo_ids = [j.servo_id for j in servos if j.servo_id is not None]
         jids = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, j.name) for j in servos]
         self._qadr = np.array([m.jnt_qposadr[j] for j in jids])
         self._dadr = np.array([m.jnt_dofadr[j] for j in jids])
