@@ -231,7 +231,9 @@ def load_onnx(
     ort: Any = None
     if engine in ("auto", "onnxruntime"):
         try:
-            import onnxruntime as ort
+            import onnxruntime
+
+            ort = onnxruntime
         except ImportError:
             if engine == "onnxruntime":
                 raise PolicyLoadError(

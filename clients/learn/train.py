@@ -172,7 +172,7 @@ class PPO:
             - 0.5 * N_JOINTS * math.log(2 * math.pi)
         )
 
-    def update(self, x, a, logp_old, adv, ret) -> dict[str, float]:  # type: ignore[no-untyped-def]
+    def update(self, x, a, logp_old, adv, ret) -> dict[str, float]:
         s, n = self.s, len(x)
         size = n // s.minibatches
         stats: dict[str, float] = {"clipfrac": 0.0, "vloss": 0.0}
