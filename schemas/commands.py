@@ -49,9 +49,11 @@ with ``--allow-hardware-writes``; other EEPROM needs ``--allow-eeprom``. A write
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
+from typing import Any, Literal
+
+from schemas.errors import ErrorCode, Reject
 
 
 class LeaseOp(StrEnum):
@@ -59,15 +61,6 @@ class LeaseOp(StrEnum):
     RELEASE = "release"
     RENEW = "renew"
     STATUS = "status"
-
-
-class MotionOp(StrEnum):
-    PLAY = "play"
-    START = "start"
-    SET = "set"
-    STOP = "stop"
-    BRAKE = "brake"
-    HOME = "home"
 
 
 # Fields of every command that are not the verb's own.
@@ -89,10 +82,6 @@ class Field:
     choices: tuple[str, ...] | None = None
 
 
-def _op(*choices: str) -> Field:
-    return Field("str", 16, choices)
-
-
 NUMBER = Field("number")
 INT = Field("int")
 BOOL = Field("bool")
@@ -100,184 +89,275 @@ REF = Field("ref", 32)
 RGB = Field("rgb")
 LANG = Field("str", 8, ("en", "pt"))
 
+# Who may send an operation: ``observer`` (a read: it never changes anything), ``operator``,
+# ``admin`` (served on ``admin/<verb>``). schemas.roles turns these into keys and roles.
+Access = Literal["observer", "operator", "admin"]
+
+
+@dataclass(frozen=True)
+class Op:
+    """One operation of a verb, declared once: the verb's fields it takes, whether it needs the
+    control lease, and who may send it. A verb without an ``op`` field has one operation named
+    "" (or operations chosen by a field's presence: ``when``)."""
+
+    name: str
+    fields: tuple[str, ...] = ()
+    lease: bool = True
+    access: Access = "operator"
+    when: str | None = None  # chosen when this field is present and no ``op`` is given
+
+    @property
+    def label(self) -> str:
+        return self.name or "(no op)"
+
 
 @dataclass(frozen=True)
 class Verb:
-    """Everything about one verb, declared once.
-
-    ``lease``: whether it ever needs the control lease; ``free_ops`` are its ops that do not
-    (stopping is always allowed). ``read``: an observer may query it on ``cmd/<verb>`` (it never
-    changes anything). ``read_ops``: its read-only ops, sent on ``read/<verb>`` so access
-    control can let observers have them while the writes stay on ``cmd/<verb>``. ``admin_ops``:
-    ops only an admin may send, on ``admin/<verb>``. ``bus``: a bus transaction in the motion
-    thread, inside the arbiter's per-tick bus budget. ``help``: what the docs' verb table says
-    of its fields. ``default_op``: what a command without ``op`` does (its handler's default)."""
+    """Everything about one verb, declared once: its fields, its operations (:class:`Op`),
+    the one a command without ``op`` does (``default_op``), whether it is a bus transaction
+    in the motion thread (inside the arbiter's per-tick bus budget), and what the docs' verb
+    table says of its fields (``help``). The lease and role tables are derived from the ops."""
 
     name: str
     fields: dict[str, Field]
     help: str
-    lease: bool = True
-    free_ops: frozenset[str] = frozenset()
-    read: bool = False
-    read_ops: frozenset[str] = frozenset()
-    admin_ops: frozenset[str] = frozenset()
+    ops: tuple[Op, ...]
+    default_op: str = ""
     bus: bool = False
-    default_op: str = ""  # the op a command without one does
+    by_name: dict[str, Op] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "by_name", {o.name: o for o in self.ops})
+        for o in self.ops:
+            named = (*o.fields, o.when) if o.when else o.fields
+            unknown = [f for f in named if f not in self.fields]
+            if unknown:
+                raise ValueError(f"{self.name} {o.label} names undeclared fields {unknown}")
+
+    @property
+    def lease(self) -> bool:
+        """Some operation needs the control lease."""
+        return any(o.lease for o in self.ops)
+
+    @property
+    def free_ops(self) -> frozenset[str]:
+        """Operations that do not need the lease, of a verb that otherwise does."""
+        return frozenset(o.name for o in self.ops if not o.lease) if self.lease else frozenset()
+
+    @property
+    def read(self) -> bool:
+        """Every operation is a read: an observer may query it on ``cmd/<verb>``."""
+        return all(o.access == "observer" for o in self.ops)
+
+    @property
+    def read_ops(self) -> frozenset[str]:
+        """The read operations of a verb whose other operations change the robot (they travel
+        on ``read/<verb>``, so access control lets observers have them alone)."""
+        if self.read:
+            return frozenset()
+        return frozenset(o.name for o in self.ops if o.access == "observer")
+
+    @property
+    def admin_ops(self) -> frozenset[str]:
+        """Operations only an admin may send, on ``admin/<verb>``."""
+        return frozenset(o.name for o in self.ops if o.access == "admin")
 
 
-def _ops(*ops: str) -> frozenset[str]:
-    return frozenset(ops)
+def _only(*fields: str, lease: bool = True, access: Access = "operator") -> tuple[Op, ...]:
+    """The one operation of a verb without ``op``."""
+    return (Op("", fields, lease, access),)
 
+
+def _verb(
+    name: str,
+    fields: dict[str, Field],
+    help: str,
+    ops: tuple[Op, ...],
+    op_field: bool = True,
+    **kw: Any,
+) -> Verb:
+    """A verb whose ``op`` field (when it has named operations and takes one) lists exactly
+    its operations."""
+    if op_field and any(o.name for o in ops):
+        fields = {"op": Field("str", 16, tuple(o.name for o in ops)), **fields}
+    return Verb(name, fields, help, ops, **kw)
+
+
+_PLAY_FIELDS = ("page", "name", "behaviour")
+_WALK_FIELDS = ("x", "y", "turn")
 
 # The verbs, in the order the docs list them.
 SPEC: dict[str, Verb] = {
     v.name: v
     for v in (
-        Verb(
+        _verb(
             "lease",
-            {"op": _op(*(o.value for o in LeaseOp)), "name": Field("str", MAX_NAME)},
+            {"name": Field("str", MAX_NAME)},
             "`op`: acquire \\| release \\| renew \\| status, `name` (the holder's human name)",
-            lease=False,
+            tuple(Op(o.value, ("name",), lease=False) for o in LeaseOp),
+            default_op=LeaseOp.STATUS.value,
         ),
-        Verb(
+        _verb(
             "joint",
             {"id": REF, "name": REF, "position": NUMBER, "speed": NUMBER},
             "`id` or `name`, `position` rad (inside the joint's limits, never clamped), `speed` "
             "rad/s (0 or absent = the servo's maximum)",
+            _only("id", "name", "position", "speed"),
         ),
-        Verb(
+        _verb(
             "pose",
             {"positions": Field("map", 32), "duration": NUMBER},
             "`positions` {joint: rad}, `duration` s (cosine-interpolated)",
+            _only("positions", "duration"),
         ),
-        Verb(
+        _verb(
             "torque",
             {"enable": BOOL, "ids": Field("list", 32)},
             "`enable`, `ids` (absent = all; enabling holds the present position first)",
+            _only("enable", "ids"),
             bus=True,
         ),
-        Verb(
+        _verb(
             "led",
             {"head": RGB, "eye": RGB, "panel": INT},
             "`head` / `eye` [r,g,b] 0..255, `panel` 0..7 (each optional, one at least)",
+            _only("head", "eye", "panel"),
             bus=True,
         ),
-        Verb(
+        _verb(
             "halt",
             {},
             "— stop every module and hold (a walk ends at its next double support, within half "
             "a gait period; the rest at once); always taken",
-            lease=False,
+            _only(lease=False),
         ),
-        Verb(
+        _verb(
             "power",
-            {"op": _op("on", "off")},
+            {},
             "`op`: on (the servos after the reset button: torque back on those that had it, "
             "holding where they are) \\| off (cut DXL power: every servo limp at once)",
-            admin_ops=_ops("on", "off"),
+            (Op("on", access="admin"), Op("off", access="admin")),
             bus=True,
         ),
-        Verb(
+        _verb(
             "config",
             {},
             "— joints, limits, offsets, gains, tick, walking and IMU settings, robot name",
-            lease=False,
-            read=True,
+            _only(lease=False, access="observer"),
         ),
-        Verb(
+        _verb(
             "registers",
             {"id": INT, "address": INT, "length": INT, "data": Field("list", 128)},
             "`id`, `address`, `length` (read) or `data` (write RAM; EEPROM only with "
             "`--allow-eeprom`; goal writes still inside the limits)",
-            free_ops=_ops("read"),
-            admin_ops=_ops("write"),
+            (
+                Op("read", ("id", "address", "length"), lease=False),
+                Op("write", ("id", "address", "data"), access="admin", when="data"),
+            ),
+            op_field=False,
+            default_op="read",
             bus=True,
         ),
-        Verb(
+        _verb(
             "action",
-            {"op": _op("play", "stop", "brake"), "page": INT, "name": Field("str", 64),
-             "behaviour": REF},
+            {"page": INT, "name": Field("str", 64), "behaviour": REF},
             "`op`: play \\| stop \\| brake, `page` number or `name`, or `behaviour` id",
-            free_ops=_ops("stop", "brake"),
+            (Op("play", _PLAY_FIELDS), Op("stop", lease=False), Op("brake", lease=False)),
+            default_op="play",
         ),
-        Verb(
+        _verb(
             "walk",
-            {"op": _op("start", "set", "stop"), "x": NUMBER, "y": NUMBER, "turn": NUMBER},
+            {"x": NUMBER, "y": NUMBER, "turn": NUMBER},
             "`op`: start \\| set \\| stop, `x`, `y` m/s, `turn` rad/s (within the gait's limits)",
-            free_ops=_ops("stop"),
+            (Op("start", _WALK_FIELDS), Op("set", _WALK_FIELDS), Op("stop", lease=False)),
+            default_op="start",
         ),
-        Verb(
+        _verb(
             "walk_params",
             {"set": Field("map", 64)},
             "`set` {name: value} in `config/walking.toml` names and units; absent = read (also "
             "on `read/walk_params`, for observers)",
-            free_ops=_ops("read"),
-            read_ops=_ops("read"),
+            (Op("read", lease=False, access="observer"), Op("set", ("set",), when="set")),
+            op_field=False,
+            default_op="read",
         ),
-        Verb(
+        _verb(
             "trajectory",
-            {"op": _op("play", "stop"), "joints": Field("list", 20),
-             "points": Field("list", 1000)},
+            {"joints": Field("list", 20), "points": Field("list", 1000)},
             "`joints` [id-or-name…], `points` [{`t` s from the start, `positions` [rad…]}…] "
             "(checked whole, played in the loop, linear between points) \\| `op`: stop",
-            free_ops=_ops("stop"),
+            (Op("play", ("joints", "points")), Op("stop", lease=False)),
+            default_op="play",
         ),
-        Verb(
+        _verb(
             "head",
-            {"op": _op("home"), "pan": NUMBER, "tilt": NUMBER, "track": Field("map", 2)},
+            {"pan": NUMBER, "tilt": NUMBER, "track": Field("map", 2)},
             "`pan`, `tilt` rad \\| `track` {pan_error, tilt_error} \\| `op`: home",
+            (Op("move", ("pan", "tilt")), Op("track", ("track",), when="track"), Op("home")),
+            default_op="move",
         ),
-        Verb(
+        _verb(
             "choreography",
-            {"op": _op("play", "stop"), "items": Field("list", 256), "lang": LANG},
+            {"items": Field("list", 256), "lang": LANG},
             "`op`: play with `items` [item…] (`lang` en \\| pt) \\| stop",
-            free_ops=_ops("stop"),
+            (Op("play", ("items", "lang")), Op("stop", lease=False)),
+            default_op="play",
         ),
-        Verb(
+        _verb(
             "sound",
             {"file": Field("str", 256), "say": Field("str", 500), "lang": LANG},
             "`file` path \\| `say` text (`lang` en \\| pt)",
+            _only("file", "say", "lang"),
         ),
-        Verb(
+        _verb(
             "playball",
-            {"op": _op("start", "stop"), "color": Field("str", 32)},
+            {"color": Field("str", 32)},
             "`op`: start \\| stop, `color` name (default red; needs a camera)",
-            free_ops=_ops("stop"),
+            (Op("start", ("color",)), Op("stop", lease=False)),
         ),
-        Verb(
+        _verb(
             "offsets",
-            {"op": _op("get", "set"), "offsets": Field("map", 32)},
+            {"offsets": Field("map", 32)},
             "`op`: get (default) \\| set with `offsets` {joint: degrees} (applied live, from "
             "the next goal; the client saves them to the user's config)",
-            free_ops=_ops("get"),
-            read_ops=_ops("get"),
-            admin_ops=_ops("set"),
+            (Op("get", lease=False, access="observer"), Op("set", ("offsets",), access="admin")),
             default_op="get",
         ),
-        Verb(
+        _verb(
             "policy",
-            {"op": _op("start", "command", "stop", "status"), "rate_hz": NUMBER,
-             "mode": Field("str", 16, ("offset", "absolute")), "scale": NUMBER, "x": NUMBER,
-             "y": NUMBER, "turn": NUMBER},
+            {"rate_hz": NUMBER, "mode": Field("str", 16, ("offset", "absolute")),
+             "scale": NUMBER, "x": NUMBER, "y": NUMBER, "turn": NUMBER},
             "`op`: start (`rate_hz`, `mode` offset \\| absolute, `scale`: answers the holder a "
-            "stream key) \\| command (`x`, `y`, `turn`) \\| stop \\| status (docs/learning.md)",
-            free_ops=_ops("stop", "status"),
+            "stream key) \\| command (`x`, `y`, `turn`) \\| stop \\| status (default; "
+            "docs/learning.md)",
+            (
+                Op("start", ("rate_hz", "mode", "scale")),
+                Op("command", _WALK_FIELDS),
+                Op("stop", lease=False),
+                Op("status", lease=False),
+            ),
+            default_op="status",
         ),
-        Verb(
+        _verb(
             "behaviours",
             {},
             "— the behaviour library and the legacy `type` table",
-            lease=False,
-            read=True,
+            _only(lease=False, access="observer"),
         ),
-        Verb(
+        _verb(
             "pages",
-            {"op": _op("list", "get", "put", "delete", "reload", "export", "play"),
-             "number": INT, "step": INT, "page": Field("map", 16)},
+            {"number": INT, "step": INT, "page": Field("map", 16)},
             "`op`: list \\| get \\| put \\| delete \\| reload \\| export \\| play, `number`, "
             "`page`, `step` (the action-page library: files on the robot)",
-            free_ops=_ops("list", "get", "export"),
-            admin_ops=_ops("put", "delete", "reload"),
+            (
+                Op("list", lease=False),
+                Op("get", ("number",), lease=False),
+                Op("put", ("page",), access="admin"),
+                Op("delete", ("number",), access="admin"),
+                Op("reload", access="admin"),
+                Op("export", lease=False),
+                Op("play", ("number", "step")),
+            ),
         ),
     )
 }
@@ -287,18 +367,51 @@ SPEC: dict[str, Verb] = {
 COMMAND_FIELDS: dict[str, dict[str, Field]] = {name: v.fields for name, v in SPEC.items()}
 
 
-def op_of(verb: str, fields: dict[str, Any]) -> str:
-    """The operation a command does: its ``op`` field, or for the verbs whose op is implied by
-    a field, ``read``/``write`` (registers) and ``read``/``set`` (walk_params)."""
-    if verb == "registers":
-        return "write" if fields.get("data") is not None else "read"
-    if verb == "walk_params":
-        return "set" if fields.get("set") is not None else "read"
-    op = fields.get("op")
-    if isinstance(op, str):
-        return op
+def _select(spec: Verb, fields: dict[str, Any]) -> Op | None:
+    named = fields.get("op")
+    if isinstance(named, str):
+        return spec.by_name.get(named)
+    for o in spec.ops:
+        if o.when is not None and fields.get(o.when) is not None:
+            return o
+    return spec.by_name.get(spec.default_op)
+
+
+def operation(verb: str, fields: dict[str, Any]) -> Op:
+    """The operation a command does, checked once (the arbiter does it before the lease check
+    and hands the result to the handler): its ``op`` field, else the one its fields choose
+    (``Op.when``), else the verb's default; and every field it carries must be one of that
+    operation's. ``Reject`` names what is wrong."""
     spec = SPEC.get(verb)
-    return spec.default_op if spec is not None else ""
+    if spec is None:
+        return Op("", tuple(fields))  # a verb outside the contract (registry.verb(fields=…))
+    chosen = _select(spec, fields)
+    if chosen is None:
+        names = " | ".join(o.name for o in spec.ops if not o.when)
+        given = fields.get("op")
+        what = f"unknown op {given!r}" if given is not None else "no op"
+        raise Reject(ErrorCode.INVALID, f"{verb}: {what}; op is one of {names}", "op")
+    extra = sorted(k for k, v in fields.items() if v is not None and k != "op"
+                   and k not in chosen.fields)
+    if extra:
+        takes = ", ".join(chosen.fields) or "none"
+        raise Reject(
+            ErrorCode.INVALID,
+            f"{verb} {chosen.label} takes no field {extra[0]!r} (its fields: {takes})",
+            extra[0],
+        )
+    return chosen
+
+
+def op_of(verb: str, fields: dict[str, Any]) -> str:
+    """The name of the operation a command does (its ``op``, the one its fields choose, or
+    the verb's default), unchecked: "" when there is none."""
+    spec = SPEC.get(verb)
+    chosen = _select(spec, fields) if spec is not None else None
+    if chosen is not None:
+        return chosen.name
+    named = fields.get("op")
+    return named if isinstance(named, str) else ""
 
 
 def needs_lease(verb: str, fields: dict[str, Any]) -> bool:
@@ -308,7 +421,5 @@ def needs_lease(verb: str, fields: dict[str, Any]) -> bool:
     spec = SPEC.get(verb)
     if spec is None:
         return True
-    if not spec.lease:
-        return False
-    op = op_of(verb, fields)
-    return not op or op not in spec.free_ops
+    chosen = _select(spec, fields)
+    return chosen.lease if chosen is not None else spec.lease

@@ -16,7 +16,10 @@ Each verb's fields are declared once, in ``schemas.commands.COMMAND_FIELDS`` (or
 ``@verb(name, fields={...})`` for a verb that is not in the contract yet). :func:`check_fields`
 runs before anything else: an undeclared field, a wrong type or an over-long string/list is
 refused naming the field, so a handler only ever sees declared fields of the declared kinds.
-Whether a call needs the lease is decided next, before the handler runs (``needs_lease``).
+Its operation is worked out next, once (``schemas.commands.operation``: the ``op`` field, the
+field that implies one, or the verb's default; a field the operation does not take is refused),
+and whether it needs the lease is the operation's (``Op.lease``), checked before the handler
+runs. The handler gets the operation as ``req.op`` and never parses ``op`` itself.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from config.loader import nearest
-from schemas.commands import COMMAND_FIELDS, Field, needs_lease
+from schemas.commands import COMMAND_FIELDS, Field, Op, needs_lease, operation
 from schemas.errors import ErrorCode, Reject, brief
 
 if TYPE_CHECKING:
@@ -41,19 +44,31 @@ if TYPE_CHECKING:
 
 
 __all__ = [
-    "REGISTRY", "BusCommands", "MotionContext", "Reject", "Request", "needs_lease", "verb",
+    "REGISTRY", "BusCommands", "MotionContext", "Op", "Reject", "Request", "needs_lease", "verb",
 ]
 
 M = TypeVar("M")
 
 
+_UNRESOLVED = Op("?")
+
+
 @dataclass
 class Request:
+    """A checked command. ``op`` is its operation, worked out once from the spec
+    (:func:`schemas.commands.operation`): handlers branch on ``req.op.name`` and never read
+    the ``op`` field."""
+
     verb: str
     client: str  # client id (its liveliness token is …/clients/<client>)
     name: str  # human name of the client
     fields: dict[str, Any] = field(default_factory=dict)
     token: str | None = None  # the lease secret, when the caller holds the lease
+    op: Op = _UNRESOLVED  # worked out from the fields when not given
+
+    def __post_init__(self) -> None:
+        if self.op is _UNRESOLVED:
+            self.op = operation(self.verb, self.fields)
 
 
 class BusCommands(Protocol):

@@ -12,7 +12,6 @@ from robot_daemon.arbiter.registry import (
     Reject,
     Request,
     check_fields,
-    needs_lease,
 )
 from schemas.commands import ENVELOPE, MAX_CLIENT_ID, MAX_NAME
 from schemas.errors import CommandError, ErrorCode
@@ -62,6 +61,6 @@ def execute(req: Request, ctx: MotionContext, lease: Lease) -> dict[str, Any]:
     handler = REGISTRY.get(req.verb)
     if handler is None:
         raise Reject(ErrorCode.UNAVAILABLE, f"verb {req.verb!r} is not available in this build")
-    if needs_lease(req.verb, req.fields):
+    if req.op.lease:
         lease.check(req.client, req.token)
     return handler(req, ctx)

@@ -15,9 +15,10 @@ from robot_daemon.arbiter.protected import PROTECTED
 from robot_daemon.arbiter.registry import REGISTRY, SPECS, Reject, Request
 from robot_daemon.bus.tables import CM730, MX28
 from robot_daemon.motion.manager import MotionManager
-from schemas.commands import COMMAND_FIELDS, SPEC, needs_lease
-from schemas.keys import LEASE_FREE_VERBS, VERBS
-from schemas.roles import ADMIN_OPS, READ_VERBS
+from schemas.commands import COMMAND_FIELDS, SPEC, Field, Op, Verb, needs_lease, operation
+from schemas.errors import ErrorCode
+from schemas.keys import LEASE_FREE_VERBS, VERBS, Keys
+from schemas.roles import ADMIN_OPS, READ_VERBS, Role, command_key, required_role
 from tests.unit.arbiter_rig import ArbiterRig
 
 REPO = Path(__file__).resolve().parents[2]
@@ -71,6 +72,88 @@ def test_the_spec_decides_the_lease_the_roles_and_the_bus_budget() -> None:
         assert Command(verb, fields).needs_lease is expected, (verb, fields)
     for verb, spec in SPEC.items():
         assert all(not needs_lease(verb, {"op": op}) for op in spec.free_ops if op != "read")
+
+
+# A value of each field kind that passes the kind check (the handler may still refuse it).
+_SAMPLE = {"int": 1, "number": 0.0, "bool": True, "ref": 1, "rgb": [0, 0, 0], "list": [],
+           "map": {}}
+
+
+def _sample(f: Field) -> object:
+    return f.choices[0] if f.choices else _SAMPLE.get(f.kind, "x")
+
+
+def _chooser(spec: Verb, op: Op) -> dict[str, object]:
+    """The fields that choose ``op``: its name, or the field whose presence implies it."""
+    if op.when is not None:
+        return {op.when: _sample(spec.fields[op.when])}
+    return {"op": op.name} if "op" in spec.fields else {}
+
+
+_VERB_OPS = [(v.name, o) for v in SPEC.values() for o in v.ops]
+
+
+@pytest.mark.parametrize(("verb", "op"), _VERB_OPS, ids=[f"{v}-{o.label}" for v, o in _VERB_OPS])
+def test_every_operation_behaves_as_its_spec_says(verb: str, op: Op) -> None:
+    """Spec and behaviour agree for each verb × op: the arbiter works the op out as declared
+    (and hands it to the handler), refuses it without the lease exactly when it needs the lease,
+    routes and roles it as declared, and takes exactly its declared fields. (The spec once said
+    `policy` without an op needed the lease while its handler did a status read.)"""
+    spec = SPEC[verb]
+    chooser = _chooser(spec, op)
+    assert operation(verb, chooser) == op
+    # the lease: the arbiter's check and every adapter's rule (needs_lease) agree with the op
+    assert needs_lease(verb, chooser) is op.lease
+    assert Command(verb, chooser).needs_lease is op.lease
+    rig = ArbiterRig()
+    try:
+        reply = rig.send(verb, client="nolease", **chooser)
+    except Reject as exc:
+        # (The lease verb's own renew and release are refused to a client that holds none.)
+        refused = exc.code == ErrorCode.NO_LEASE and verb != "lease"
+        assert refused is op.lease, exc.message
+    else:
+        assert not op.lease, f"{verb} {op.label} ran without the lease"
+        assert reply.get("op", op.name) == op.name
+    # the role and the key it travels on
+    want = {"observer": Role.OBSERVER, "operator": Role.OPERATOR, "admin": Role.ADMIN}[op.access]
+    assert required_role(verb, chooser) == want
+    keys = Keys("op1")
+    where = {Role.ADMIN: keys.admin(verb), Role.OPERATOR: keys.cmd(verb)}.get(
+        want, keys.cmd(verb) if spec.read else keys.read(verb)
+    )
+    assert command_key(keys, verb, chooser) == where
+    # the fields: each of its own is taken, each other field of the verb is refused naming it
+    for name in op.fields:
+        assert operation(verb, {**chooser, name: _sample(spec.fields[name])}) == op
+    choosers = {"op"} | {o.when for o in spec.ops if o.when}
+    for name in set(spec.fields) - set(op.fields) - choosers:
+        with pytest.raises(Reject) as info:
+            operation(verb, {**chooser, name: _sample(spec.fields[name])})
+        assert info.value.field == name and "takes no field" in info.value.message
+
+
+def test_a_policy_status_read_needs_no_lease(rig: ArbiterRig) -> None:
+    """`policy` without an op is its status read, to the spec as to the handler."""
+    assert operation("policy", {}).name == "status" and not needs_lease("policy", {})
+    try:
+        reply = rig.send("policy", client="nolease")
+    except Reject as exc:  # a daemon without the policy loop says so; never "needs the lease"
+        assert exc.code == ErrorCode.UNAVAILABLE, exc.message
+    else:
+        assert reply["op"] == "status"
+
+
+def test_handlers_never_parse_op() -> None:
+    """The arbiter works the operation out once (req.op); no handler reads the op field."""
+    verbs = REPO / "robot_daemon" / "arbiter" / "verbs"
+    for path in verbs.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        reply_keys = {id(k) for d in ast.walk(tree) if isinstance(d, ast.Dict) for k in d.keys}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and node.value == "op":
+                # "op" only as a key of a reply ({"op": ...}), never read from the fields
+                assert id(node) in reply_keys, f"{path.name}:{node.lineno} reads the op field"
 
 
 @pytest.mark.parametrize(

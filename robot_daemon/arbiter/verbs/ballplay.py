@@ -31,7 +31,7 @@ def _stop_vision(module: BallPlayModule) -> None:
 
 @verb("playball")
 def playball(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    op = F.text(req.fields, "op", {"start", "stop"})
+    op = req.op.name
     module = ctx.module("ball", BallPlayModule, "ball play")
     if op == "stop":
         module.stop()

@@ -48,7 +48,7 @@ def _check_online(ctx: MotionContext, jid: int, field_name: str) -> None:
 
 @verb("lease")
 def lease(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    op = F.text(req.fields, "op", {o.value for o in LeaseOp}, default=LeaseOp.STATUS.value)
+    op = req.op.name
     state: Lease | None = ctx.lease
     if state is None:
         raise Reject(ErrorCode.UNAVAILABLE, "this daemon has no control lease")
@@ -195,7 +195,7 @@ def halt(req: Request, ctx: MotionContext) -> dict[str, Any]:
 
 @verb("power")
 def power(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    op = F.text(req.fields, "op", {"on", "off"})
+    op = req.op.name
     if ctx.power is None:
         raise Reject(ErrorCode.UNAVAILABLE, "this daemon has no servo power switch")
     try:
@@ -265,7 +265,7 @@ def registers(req: Request, ctx: MotionContext) -> dict[str, Any]:
     dxl_id = F.integer(req.fields, "id", 0, 253)
     table, size = _table(ctx, dxl_id)
     address = F.integer(req.fields, "address", 0, size - 1)
-    if req.fields.get("data") is None:
+    if req.op.name == "read":
         length = F.integer(req.fields, "length", 1, size - address, default=1)
         try:
             data = ctx.bus.read_registers(dxl_id, address, length)

@@ -32,7 +32,7 @@ def _behaviour_error(exc: BehaviourError, prefix: str = "") -> Reject:
 @verb("action")
 def action(req: Request, ctx: MotionContext) -> dict[str, Any]:
     player: ActionModule = ctx.module("action", ActionModule)
-    op = F.text(req.fields, "op", {"play", "stop", "brake"}, default="play")
+    op = req.op.name
     if op == "stop":
         player.stop()
         return {"op": op, "playing": player.playing}
@@ -89,7 +89,7 @@ def _speed_limits(walking: WalkingModule) -> tuple[float, float, float]:
 @verb("walk")
 def walk(req: Request, ctx: MotionContext) -> dict[str, Any]:
     walking: WalkingModule = ctx.module("walking", WalkingModule)
-    op = F.text(req.fields, "op", {"start", "set", "stop"}, default="start")
+    op = req.op.name
     if op == "stop":
         walking.stop()
         # steps: step boundaries so far; the `walk` "stopped" event carries the count at the end
@@ -122,7 +122,7 @@ def walk_params(req: Request, ctx: MotionContext) -> dict[str, Any]:
     walking: WalkingModule = ctx.module("walking", WalkingModule)
     changes = req.fields.get("set")
     changed: dict[str, Any] = {}
-    if changes is not None:
+    if req.op.name == "set":
         if not isinstance(changes, dict) or not changes:
             raise Reject(ErrorCode.INVALID, "set must be a map {name: value}", "set")
         try:
@@ -146,11 +146,10 @@ def head(req: Request, ctx: MotionContext) -> dict[str, Any]:
     module: HeadModule = ctx.module("head", HeadModule)
     f = req.fields
     try:
-        if f.get("op") is not None:
-            F.text(f, "op", {"home"})
+        if req.op.name == "home":
             pan, tilt = module.home()
             mode = "home"
-        elif f.get("track") is not None:
+        elif req.op.name == "track":
             track = f["track"]
             if not isinstance(track, dict):
                 raise Reject(ErrorCode.INVALID, "track must be {pan_error, tilt_error}", "track")
@@ -208,7 +207,7 @@ def _is_walk(item: dict[str, Any], choreo: ChoreographyModule) -> bool:
 @verb("choreography")
 def choreography(req: Request, ctx: MotionContext) -> dict[str, Any]:
     choreo: ChoreographyModule = ctx.module("choreography", ChoreographyModule)
-    op = F.text(req.fields, "op", {"play", "stop"}, default="play")
+    op = req.op.name
     if op == "stop":
         was = choreo.playing
         choreo.stop()

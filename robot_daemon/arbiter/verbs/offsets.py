@@ -42,11 +42,9 @@ def _apply(robot: RobotConfig, changes: dict[int, float]) -> None:
 
 @verb("offsets")
 def offsets(req: Request, ctx: MotionContext) -> dict[str, Any]:
-    op = F.text(req.fields, "op", {"get", "set"}, default="get")
+    op = req.op.name
     given = req.fields.get("offsets")
     if op == "get":
-        if given is not None:
-            raise Reject(ErrorCode.INVALID, "offsets are sent with op 'set'", "op")
         return {"offsets": current(ctx.robot)}
     if not isinstance(given, dict) or not given:
         raise Reject(

@@ -29,16 +29,6 @@ from robot_daemon.motion.action.player import ActionModule
 from robot_daemon.motion.action.store import PageStore
 from schemas.errors import ErrorCode
 
-FIELDS: dict[str, frozenset[str]] = {
-    "list": frozenset({"op"}),
-    "get": frozenset({"op", "number"}),
-    "put": frozenset({"op", "page"}),
-    "delete": frozenset({"op", "number"}),
-    "reload": frozenset({"op"}),
-    "export": frozenset({"op"}),
-    "play": frozenset({"op", "number", "step"}),
-}
-
 
 def _parts(ctx: MotionContext) -> tuple[ActionModule, PageStore]:
     player = ctx.manager.get("action")
@@ -85,14 +75,7 @@ def _use(player: ActionModule, store: PageStore) -> None:
 @verb("pages")
 def pages(req: Request, ctx: MotionContext) -> dict[str, Any]:
     player, store = _parts(ctx)
-    op = F.text(req.fields, "op", set(FIELDS))
-    extra = sorted(set(req.fields) - FIELDS[op])
-    if extra:
-        raise Reject(
-            ErrorCode.INVALID,
-            f"pages {op} takes no field {extra[0]!r} (its fields: {', '.join(sorted(FIELDS[op]))})",
-            extra[0],
-        )
+    op = req.op.name
     if op == "list":
         return {
             "op": op,

@@ -22,7 +22,7 @@ MAX_COMMAND = 2.0  # |x|, |y| m/s and |turn| rad/s of the command the policy obs
 @verb("policy")
 def policy(req: Request, ctx: MotionContext) -> dict[str, Any]:
     module: PolicyModule = ctx.module("policy", PolicyModule, "the policy loop")
-    op = F.text(req.fields, "op", {"start", "command", "stop", "status"}, default="status")
+    op = req.op.name
     if op == "status":
         st = dataclasses.asdict(module.policy_status())
         return {"op": op, **st}

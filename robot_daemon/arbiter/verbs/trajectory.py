@@ -89,7 +89,7 @@ def check_trajectory(req: Request, ctx: MotionContext) -> Trajectory:
 @verb("trajectory")
 def trajectory(req: Request, ctx: MotionContext) -> dict[str, Any]:
     direct = _direct(ctx)
-    if req.fields.get("op") == "stop":
+    if req.op.name == "stop":
         return {"stopped": direct.stop_trajectory()}
     traj = check_trajectory(req, ctx)
     direct.set_trajectory(traj)
