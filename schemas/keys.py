@@ -22,7 +22,7 @@ LEASE_FREE_VERBS: frozenset[str] = frozenset(v.name for v in SPEC.values() if no
 # The policy stream's keys under ``…/policy/`` (schemas/policy.py).
 POLICY_TOPICS: tuple[str, ...] = ("obs", "action", "applied", "status", "dry_run")
 
-# rmw_zenoh's key space (``clients/ros2/graph.py``), beside ours on the same routers: liveliness
+# rmw_zenoh's key space (``clients/rmw/graph.py``), beside ours on the same routers: liveliness
 # tokens under ``@ros2_lv/<domain>/…``, data and services under ``<domain>/…``.
 ROS_LIVELINESS = "@ros2_lv"
 ROS_DOMAINS = range(233)  # ROS domain ids 0..232

@@ -5,7 +5,7 @@ no adapter needs to run: ``<ns>/joint_states`` and ``<ns>/tf`` from ``joints``, 
 from ``imu``, ``<ns>/diagnostics`` from ``status`` (with the latest joints), ``odom → base_link``
 on ``<ns>/tf`` from ``world``, ``<ns>/camera/image_raw/compressed`` from ``camera``, and at the
 start of every file (segment) the latched ``<ns>/robot_description`` and ``<ns>/tf_static``.
-Every conversion is :mod:`clients.ros2.convert` and every byte of CDR :mod:`clients.ros2.types`.
+Every conversion is :mod:`clients.rmw.convert` and every byte of CDR :mod:`clients.rmw.types`.
 
 Layout, as rosbag2_storage_mcap writes it: header profile ``ros2``; one schema per type named
 ``pkg/msg/Type`` with encoding ``ros2msg`` and the complete .msg text (the type, then each
@@ -16,7 +16,6 @@ channel per ROS topic with message encoding ``cdr`` and the metadata ``offered_q
 
 from __future__ import annotations
 
-import importlib
 import logging
 import time
 from collections.abc import Callable
@@ -52,17 +51,16 @@ SENSOR = {"imu/data", "camera/image_raw/compressed"}  # best effort, as the adap
 
 @cache
 def _ros() -> tuple[ModuleType, ModuleType]:
-    """clients.ros2's convert and types, imported on first use: rosbags is the ros2 extra."""
+    """The rmw wire library's convert and types, imported on first use: rosbags is the ros2
+    extra."""
     try:
-        return (
-            importlib.import_module("clients.ros2.convert"),
-            importlib.import_module("clients.ros2.types"),
-        )
+        from clients.rmw import convert, types
     except ImportError as exc:
         raise ClientError(
             f"the ros2 recording profile needs the ros2 extra ({exc.name} is missing): "
             "pip install -e '.[ros2]' in the project's clone"
         ) from exc
+    return convert, types
 
 
 def encode(msg: Any, ros_type: str) -> bytes:

@@ -1,2 +1,2 @@
-"""ROS 2 without ROS: rmw_zenoh's wire format (keys, liveliness tokens, attachments, CDR) and the
-``darwin ros2`` adapter that makes the robot a native ROS 2 node."""
+"""ROS 2 without ROS: the ``darwin ros2`` adapter that makes the robot a native ROS 2 node, on
+rmw_zenoh's wire format (:mod:`clients.rmw`)."""

@@ -18,11 +18,11 @@ from typing import Any
 
 import zenoh
 
+from clients.rmw import convert, graph
+from clients.rmw.types import msg_class
 from clients.robot import Robot
-from clients.ros2 import convert, graph
 from clients.ros2.commands import RosCommands
 from clients.ros2.node import GraphWatch, RosNode
-from clients.ros2.types import msg_class
 from schemas.body import Body
 from schemas.messages import CameraFrame, Imu, Joints, World
 from schemas.urdf import body_from_config_reply, to_urdf

@@ -83,9 +83,9 @@ def ros_credentials(
 
 
 def run(args: argparse.Namespace) -> int:
+    from clients.rmw.graph import check_namespace
     from clients.robot import Robot
     from clients.ros2.adapter import Adapter, Options
-    from clients.ros2.graph import check_namespace
     from schemas.errors import DarwinError, RobotUnreachableError
     from schemas.session import check_endpoint, client_config, login_hint, open_session
 

@@ -14,10 +14,10 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from clients.adapter_core import Action, AdapterCore
+from clients.rmw import convert, graph
+from clients.rmw.types import msg_class
 from clients.robot import Robot
-from clients.ros2 import convert, graph
 from clients.ros2.node import RosNode
-from clients.ros2.types import msg_class
 from schemas import qos
 from schemas.errors import (
     AdapterInputError,

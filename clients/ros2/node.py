@@ -21,9 +21,9 @@ from typing import Any
 import zenoh
 import zenoh.ext as zx
 
-from clients.ros2 import graph
-from clients.ros2.attachment import Attachment, AttachmentError, Sequencer, gid_of
-from clients.ros2.types import CdrError, dds_type, decode, encode, type_hash
+from clients.rmw import graph
+from clients.rmw.attachment import Attachment, AttachmentError, Sequencer, gid_of
+from clients.rmw.types import CdrError, dds_type, decode, encode, type_hash
 
 log = logging.getLogger("darwin.ros2")
 

@@ -19,6 +19,7 @@ from config.loader import load_all, section_to
 from robot_daemon.bus.preflight import MIN_MX28_FIRMWARE
 from robot_daemon.bus.tables import SERVO_IDS
 from robot_daemon.doctor import checks as C
+from robot_daemon.doctor.daemon_link import DaemonLink
 from robot_daemon.doctor.probe import Facts, from_bus, from_daemon
 from robot_daemon.power_policy import load_settings as load_power_settings
 from schemas.errors import DarwinError, PortError
@@ -57,19 +58,11 @@ def _daemon_facts(args: argparse.Namespace, ids: list[int]) -> tuple[Facts | Non
     target = resolve_args(args)
     if args.no_daemon:
         return None, target.endpoint, target.robot
-    from clients.robot import Robot  # a client of the key space only when one is asked
-
     try:
-        with Robot(
-            target.endpoint,
-            target.robot,
-            name="darwin doctor",
-            timeout=2.0,
-            credentials=target.credentials,
-        ) as robot:
-            if not robot.alive(timeout=1.5):
+        with DaemonLink(target) as link:
+            if not link.alive(timeout=1.5):
                 return None, target.endpoint, target.robot
-            return from_daemon(robot, ids), target.endpoint, target.robot
+            return from_daemon(link, ids), target.endpoint, target.robot
     except DarwinError:
         return None, target.endpoint, target.robot
 

@@ -13,7 +13,9 @@ from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.scan import describe
 from robot_daemon.bus.tables import CM730, CM730_ID, MX28, STANDARD_BAUDS
 from robot_daemon.doctor.checks import ServoInfo
+from robot_daemon.doctor.daemon_link import DaemonLink
 from schemas.errors import BusError, DarwinError
+from schemas.messages import Joints, Status
 
 
 @dataclass
@@ -31,10 +33,10 @@ class Facts:
     port: str = ""
 
 
-def from_daemon(robot: Any, ids: list[int], timeout: float = 3.0) -> Facts:
-    """Facts from a connected :class:`clients.robot.Robot` (nothing is commanded)."""
-    status = robot.wait_for("status", fresh=False, timeout=timeout)
-    joints = robot.wait_for("joints", fresh=False, timeout=timeout)
+def from_daemon(link: DaemonLink, ids: list[int], timeout: float = 3.0) -> Facts:
+    """Facts from a running daemon (nothing is commanded)."""
+    status = link.latest(Status, timeout)
+    joints = link.latest(Joints, timeout)
     facts = Facts("daemon", state=status.state, port=str(status.bus.get("port", "")))
     facts.voltage = status.voltage or None
     facts.loop = dict(status.loop)
@@ -46,7 +48,7 @@ def from_daemon(robot: Any, ids: list[int], timeout: float = 3.0) -> Facts:
             continue
         firmware = None
         with contextlib.suppress(DarwinError):  # an observer may not read registers
-            firmware = robot.registers(jid, MX28.FIRMWARE_VERSION.reg.address, 1)["data"][0]
+            firmware = link.registers(jid, MX28.FIRMWARE_VERSION.reg.address, 1)["data"][0]
         facts.servos[jid] = ServoInfo(jid, "MX-28", firmware)
         facts.temperatures[jid] = float(joints.temperature[i])
     facts.devices = len(facts.servos) + (1 if status.bus.get("cm730_online") else 0)

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from clients.ros2 import convert
-from clients.ros2.types import decode, encode, msg_class
+from clients.rmw import convert
+from clients.rmw.types import decode, encode, msg_class
 from config.body import default_body
 from schemas.errors import AdapterInputError
 from schemas.messages import Imu, Joints

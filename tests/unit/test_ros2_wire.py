@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import xxhash
 
-from clients.ros2 import graph
-from clients.ros2.attachment import SIZE, Attachment, AttachmentError, Sequencer, gid_of
-from clients.ros2.types import CdrError, dds_type, decode, encode, msg_class, type_hash
+from clients.rmw import graph
+from clients.rmw.attachment import SIZE, Attachment, AttachmentError, Sequencer, gid_of
+from clients.rmw.types import CdrError, dds_type, decode, encode, msg_class, type_hash
 
 ZID = "8fa1c2d3e4f5061728394a5b6c7d8e9f"
 
