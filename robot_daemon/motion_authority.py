@@ -45,6 +45,7 @@ RECOVERS_FROM_FALLS_WORDS = "walk, ball play, behaviour or policy loop"
 MOVE_HOLD = "hold"
 MOVE_WALK_LAST_STEP = "walk_last_step"
 MOVE_FALL_RECOVERY = "fall_recovery"
+MOVE_LIMP_JOINT_STOP = "limp_joint_stop"
 MOVE_POWER_SIT = "power_sit"
 MOVE_POWER_OFF = "power_off"
 MOVE_SERVO_SHUTDOWN = "servo_shutdown"
@@ -62,7 +63,7 @@ MOVES_BY_ITSELF: tuple[SelfMove, ...] = (
         MOVE_WALK_LAST_STEP,
         "a walk ends its step: to the next double support after `halt` (at most half a gait "
         "period), the current step and at most one more after `walk` op=stop or the lease's end",
-        "`halt`, `walk` op=stop, the lease ending",
+        "`halt`, `walk` op=stop, the lease ending, a limp driven joint",
         "none: stopped mid-step the robot stands on one foot and falls; `torque` "
         "enable=false or the reset button go limp at once",
         "robot_daemon/motion/walking/gait.py",
@@ -75,6 +76,14 @@ MOVES_BY_ITSELF: tuple[SelfMove, ...] = (
         "start-up, nor with nobody's motion running (then it lies still and says so)",
         "`[fall] recover = false` (config/motion.toml)",
         "robot_daemon/motion/fall.py",
+    ),
+    SelfMove(
+        MOVE_LIMP_JOINT_STOP,
+        "a motion stops safely (a walk at its next double support, the rest holding) when a "
+        "joint it drives goes offline, into alarm or torque off",
+        "a driven servo's alarm shutdown, missed replies, a `torque` off",
+        "none: a motion on a limp joint is what it prevents",
+        "robot_daemon/motion/manager.py",
     ),
     SelfMove(
         MOVE_POWER_SIT,

@@ -340,7 +340,7 @@ class RobotBus(SensorRead):
         if not targets.goal:
             return
         st = self.state
-        online, torque = st.online.tolist(), st.torque.tolist()
+        torque = st.torque.tolist()
         goal_raw = self.calibration.goal_raw
         default, gains = self._gain_rows, targets.gains
         row: list[int] = []  # the packet's rows: id, D, I, P, 0, goal low, goal high
@@ -349,7 +349,10 @@ class RobotBus(SensorRead):
         # One plain loop over the goals (about 20): numpy's per-call cost is more than the
         # work on arrays this small.
         for jid, rad in targets.goal.items():
-            if not (online[jid] and torque[jid]):
+            # An offline joint that had torque keeps getting its goal, as ROBOTIS's framework
+            # writes every enabled joint every tick whatever the replies: a servo whose replies
+            # are lost may still hear, and fed no goal it jumped to the newest one on return.
+            if not torque[jid]:
                 continue
             # The arbiter rejects out-of-range commands; the clamp guards module bugs.
             raw, clamped = goal_raw(jid, rad)

@@ -47,6 +47,10 @@ class ChoreographyModule(MotionModule):
         return self.playing
 
     @property
+    def sequencing(self) -> bool:
+        return self.playing
+
+    @property
     def playing(self) -> bool:
         return self._state != "idle" or self._pending is not None
 

@@ -126,6 +126,15 @@ class DirectModule(MotionModule):
         for j in ids:
             self._moves.pop(j, None)
 
+    def on_limp(self, ids: set[int]) -> None:
+        # Only what moves those joints stops: a trajectory through them ends where it is (its
+        # other joints hold), the moves of the limp joints are dropped, the rest go on.
+        if self._trajectory is not None and ids & set(self._trajectory[0].ids):
+            self._end_trajectory()
+        for j in ids:
+            self._moves.pop(j, None)
+        self.release(ids)
+
     def halt(self) -> None:
         self._moves.clear()
         self._pending.clear()

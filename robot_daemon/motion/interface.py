@@ -56,6 +56,19 @@ class MotionModule:
         (``halt``); the walk ends at its next double support (motion/walking/gait.py)."""
         self.halt()
 
+    def on_limp(self, ids: set[int]) -> None:
+        """Joints this module drives went limp (offline, torque off, alarm): stop as the
+        ``halt`` verb would (a walk at its next double support) and give the joints back,
+        unless still finishing. ``MotionManager.stop_limp`` calls it."""
+        self.halt_safely()
+        if not self.finishing:
+            self.release()
+
+    @property
+    def sequencing(self) -> bool:
+        """Drives other modules now (ball play, a choreography, a walk's walk-ready page)."""
+        return False
+
     @property
     def in_motion(self) -> bool:
         """Runs a motion now: not a halted walk's last step, not a stopped walk's hand-back."""

@@ -12,6 +12,8 @@ from __future__ import annotations
 from collections import deque
 from typing import Any
 
+import numpy as np
+
 from config.loader import RobotConfig
 from robot_daemon.frames import JointFrame, Targets
 from robot_daemon.motion.interface import MotionModule
@@ -100,6 +102,9 @@ class MotionManager:
     # -- the tick ----------------------------------------------------------------------------
     def step(self, frame: JointFrame) -> Targets:
         self.last_frame = frame
+        limp = ~(frame.online & frame.torque_enabled)
+        if limp[1:].any():  # slot 0 is unused; most ticks every servo holds
+            self.stop_limp(frame, limp)
         targets = Targets()
         for m in self.modules:
             m.observe(frame)
@@ -158,14 +163,51 @@ class MotionManager:
 
     def hold_present(self, frame: JointFrame) -> None:
         """Hold the pose on every joint nobody owns (halt, shutdown, the port came back): the
-        last goal of a joint whose torque is on; a joint without torque has no goal to keep
-        (enabling it holds where it is, bus/robot_bus.py). The one move of ``MOVE_HOLD``
+        last goal of a joint whose torque is on, offline or not (its replies may be lost while
+        it still hears); a joint without torque has no goal to keep (enabling it holds where
+        it is, bus/robot_bus.py). The one move of ``MOVE_HOLD``
         (robot_daemon/motion_authority.py)."""
         self._hold = {
             j: self._last_goal[j]
             for j, o in self._owner.items()
-            if o is None and frame.online[j] and frame.torque_enabled[j] and j in self._last_goal
+            if o is None and frame.torque_enabled[j] and j in self._last_goal
         }
+
+    def stop_limp(self, frame: JointFrame, limp: np.ndarray) -> None:
+        """No motion on a limp joint (``MOVE_LIMP_JOINT_STOP``, robot_daemon/
+        motion_authority.py): a module driving a joint that went offline or torque off (its
+        alarm shutdown, a ``torque`` command) stops as ``halt`` stops it, and so do the modules
+        that sequence it. One event says which servo and what stopped."""
+        hit: dict[str, list[int]] = {}
+        for j in np.flatnonzero(limp).tolist():
+            owner = self._owner.get(j)
+            if owner is not None and self._by_name[owner].in_motion:
+                hit.setdefault(owner, []).append(j)
+        if not hit:
+            return
+        stopped = list(hit)
+        # What drives the stopped module (ball play the walk, a choreography its items, a walk
+        # its walk-ready page) stops too, or it would start it again on the limp joint.
+        for m in self.modules:
+            if m.sequencing and m.name not in hit:
+                m.halt()
+                stopped.append(m.name)
+        for name, ids in hit.items():
+            self._by_name[name].on_limp(set(ids))
+        ids = sorted(j for js in hit.values() for j in js)
+        names = self.robot.by_id
+        servos = ", ".join(
+            f"servo {j} ({names[j].name}) {'offline' if not frame.online[j] else 'torque off'}"
+            for j in ids
+        )
+        finishing = [n for n in stopped if self._by_name[n].finishing]
+        self.emit(
+            "motion_stopped",
+            f"{', '.join(stopped)} stopped: {servos}"
+            + ("; the walk ends at its next double support" if finishing else "; holding"),
+            modules=stopped,
+            ids=ids,
+        )
 
     def stop_all(self) -> None:
         """Ask every module to stop gracefully (lease loss, fall)."""

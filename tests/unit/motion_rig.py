@@ -19,9 +19,10 @@ class PerfectServos:
         self.tick = 0
 
     def frame(self) -> JointFrame:
-        """The next tick's frame: every servo online, where it was last sent."""
+        """The next tick's frame: every servo online and torqued, where it was last sent."""
         f = JointFrame(self.tick, self.tick * DT, DT, position=self.pos.copy())
         f.online[:] = True
+        f.torque_enabled[:] = True
         return f
 
     def step(self, frame: JointFrame | None = None) -> Targets:

@@ -129,6 +129,7 @@ class Rig:
             self.tick += 1
             f = JointFrame(self.tick, self.tick * DT, DT, position=self.pos.copy())
             f.online[:] = True
+            f.torque_enabled[:] = True
             f.accel = self.accel.copy()
             goals = self.manager.step(f).goal
             for j, g in goals.items():

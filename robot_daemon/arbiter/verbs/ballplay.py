@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from robot_daemon.arbiter import fields as F
+from robot_daemon.arbiter.limp import refuse_limp
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, verb
 from robot_daemon.motion.ball.module import BallPlayModule
 from robot_daemon.vision.ball_finder import BallFinder, FinderSettings, color_names
@@ -54,6 +55,8 @@ def playball(req: Request, ctx: MotionContext) -> dict[str, Any]:
             "ball play needs a camera: start the daemon with --camera sim (simulator) or "
             "--camera 0 (the robot's webcam)",
         )
+    # It walks, turns the head and kicks (a page on the whole body): every joint takes part.
+    refuse_limp(ctx, ctx.robot.ids, "ball play", "op")
     _stop_vision(module)
     module.start(color)
     publish = ctx.publish

@@ -10,6 +10,7 @@ from typing import Any
 
 from robot_daemon.arbiter import fields as F
 from robot_daemon.arbiter.lease import Lease
+from robot_daemon.arbiter.limp import refuse_limp
 from robot_daemon.arbiter.protected import is_protected
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, verb
 from robot_daemon.bus.calibration import joint_angle
@@ -30,20 +31,8 @@ def _direct(ctx: MotionContext) -> DirectModule:
     return ctx.module("direct", DirectModule, "direct joint control")
 
 
-def _check_online(ctx: MotionContext, jid: int, field_name: str) -> None:
-    frame = ctx.frame
-    if frame is None:
-        return
-    for ok, why in (
-        (frame.online, "is offline: not moved (see status.bus.offline)"),
-        (frame.torque_enabled, "has torque off: enable it first (`torque` enable=true)"),
-    ):
-        if not ok[jid]:
-            raise Reject(
-                ErrorCode.UNAVAILABLE,
-                f"joint {ctx.robot.by_id[jid].name} (id {jid}) {why}",
-                field_name,
-            )
+def _check_online(ctx: MotionContext, jid: int, field_name: str, what: str) -> None:
+    refuse_limp(ctx, (jid,), what, field_name)
 
 
 @verb("lease")
@@ -84,7 +73,7 @@ def joint(req: Request, ctx: MotionContext) -> dict[str, Any]:
     j = F.joint_ref(ctx.robot, F.present(req.fields, key), key)
     position = F.joint_position(j, req.fields.get("position"), "position")
     speed = F.number(req.fields, "speed", 0.0, ctx.robot.max_speed, default=0.0)
-    _check_online(ctx, j.id, key)
+    _check_online(ctx, j.id, key, "joint")
     # 0 (or absent) is the servo's maximum, as documented: say so explicitly, never let the
     # module's own default (a gentler speed for poses) stand in for it.
     applied_speed = speed or ctx.robot.max_speed
@@ -109,7 +98,7 @@ def pose(req: Request, ctx: MotionContext) -> dict[str, Any]:
         field_name = f"positions.{k}"
         j = F.joint_ref(ctx.robot, k, field_name)
         targets[j.id] = F.joint_position(j, v, field_name)
-        _check_online(ctx, j.id, field_name)
+        _check_online(ctx, j.id, field_name, "pose")
     _direct(ctx).set_pose(targets, duration)
     return {
         "positions": {ctx.robot.by_id[i].name: p for i, p in sorted(targets.items())},
@@ -130,12 +119,8 @@ def torque(req: Request, ctx: MotionContext) -> dict[str, Any]:
     frame = ctx.frame
     offline = [j for j in ids if frame is not None and not frame.online[j]]
     ids = [j for j in ids if j not in offline]
-    if not enable:
-        # A joint without torque must not keep an owner that would write goals to it.
-        for module in ctx.manager.modules:
-            owned = module.owned() & set(ids)
-            if owned:
-                module.release(owned)
+    # Torque off on a joint a motion drives stops that motion at the next tick, as any joint
+    # going limp does (MotionManager.stop_limp); no goal is written to a torque-off joint.
     try:
         refused = ctx.bus.set_torque(ids, enable) or {}
     except BusError as exc:

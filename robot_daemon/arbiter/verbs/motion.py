@@ -12,12 +12,14 @@ import math
 from typing import Any
 
 from robot_daemon.arbiter import fields as F
+from robot_daemon.arbiter.limp import refuse_limp
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, verb
-from robot_daemon.motion.action.player import ActionModule
+from robot_daemon.motion.action.player import ActionModule, page_joints
 from robot_daemon.motion.behaviours import BehaviourError, Item
 from robot_daemon.motion.choreography import ChoreographyModule
 from robot_daemon.motion.head import HeadModule
-from robot_daemon.motion.walking.gait import WalkingModule, si_from_amplitudes
+from robot_daemon.motion.walking.gait import WALK_IDS, WalkingModule, si_from_amplitudes
+from robot_daemon.motion.walking.ready import HEAD_IDS
 from schemas.errors import ErrorCode
 
 MAX_ITEMS = 256
@@ -62,6 +64,7 @@ def action(req: Request, ctx: MotionContext) -> dict[str, Any]:
     else:
         raise Reject(ErrorCode.INVALID, "play needs a page, a name or a behaviour", "page")
     try:
+        refuse_limp(ctx, _page_joints(player, ref), f"page {ref}", field)
         page = player.play(ref)
     except KeyError as exc:
         raise Reject(ErrorCode.UNKNOWN, str(exc.args[0]), field) from None
@@ -78,6 +81,12 @@ def action(req: Request, ctx: MotionContext) -> dict[str, Any]:
         choreo = ctx.module("choreography", ChoreographyModule)
         applied["sound"] = choreo.sound.play(ctx.emit, say=say)
     return applied
+
+
+def _page_joints(player: ActionModule, ref: int | str) -> set[int]:
+    """Every joint a page drives, and the pages it chains to (``KeyError``: no such page)."""
+    lib = player.library
+    return {j for n in lib.chain(lib.page(ref).number) for j in page_joints(lib.pages[n])}
 
 
 # -- walking -----------------------------------------------------------------------------------
@@ -104,6 +113,7 @@ def walk(req: Request, ctx: MotionContext) -> dict[str, Any]:
     y = F.number(req.fields, "y", -ym, ym, default=0.0)
     turn = F.number(req.fields, "turn", -tm, tm, default=0.0)
     if op == "start":
+        refuse_limp(ctx, WALK_IDS, "walk", "op")
         amp = walking.start(x, y, turn)
     else:
         amp = walking.set_speed(x, y, turn)
@@ -249,6 +259,10 @@ def choreography(req: Request, ctx: MotionContext) -> dict[str, Any]:
             bad = player.library.violations(ctx.robot, player.library.chain(p["page"]))
             if bad:
                 raise Reject(ErrorCode.OUT_OF_RANGE, f"{where}{bad[0]}", "page")
+        driven = {"walk": WALK_IDS, "head": HEAD_IDS}.get(item.kind, ())
+        if item.kind == "action":
+            driven = _page_joints(player, p["page"])
+        refuse_limp(ctx, driven, f"choreography {where}{item.kind}", "items")
         items.append(item)
     choreo.led_writer = lambda head_word, eye_word: ctx.bus.set_leds(head_word, eye_word, None)
     run = choreo.play(items)

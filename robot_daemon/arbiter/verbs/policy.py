@@ -10,9 +10,10 @@ import dataclasses
 from typing import Any
 
 from robot_daemon.arbiter import fields as F
+from robot_daemon.arbiter.limp import refuse_limp
 from robot_daemon.arbiter.registry import MotionContext, Request, verb
 from robot_daemon.motion.policy import PolicyModule
-from schemas.joints import JOINT_NAMES
+from schemas.joints import JOINT_IDS, JOINT_NAMES
 from schemas.keys import Keys
 from schemas.policy import DEFAULT_POSE, MODES, RATE_RANGE
 
@@ -41,6 +42,7 @@ def policy(req: Request, ctx: MotionContext) -> dict[str, Any]:
     rate = F.number(req.fields, "rate_hz", RATE_RANGE[0], min(RATE_RANGE[1], tick_hz), s.rate_hz)
     mode = F.text(req.fields, "mode", set(MODES), default="offset")
     scale = F.number(req.fields, "scale", 0.01, 1.0, default=s.scale)
+    refuse_limp(ctx, JOINT_IDS, "the policy loop", "op")  # it drives all 20 joints
     key = module.start(req.client, rate, mode, scale)
     keys = Keys(ctx.info.robot) if ctx.info is not None else None
     return {

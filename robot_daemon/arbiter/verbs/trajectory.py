@@ -54,7 +54,7 @@ def check_trajectory(req: Request, ctx: MotionContext) -> Trajectory:
     if len(set(ids)) != len(ids):
         raise Reject(ErrorCode.INVALID, "joints names a joint twice", "joints")
     for i, jid in enumerate(ids):
-        _check_online(ctx, jid, f"joints[{i}]")
+        _check_online(ctx, jid, f"joints[{i}]", "trajectory")
     raw_points = _list(req.fields.get("points"), "points")
     times: list[float] = []
     rows: list[list[float]] = []

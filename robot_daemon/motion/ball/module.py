@@ -96,6 +96,10 @@ class BallPlayModule(MotionModule):
     def playing(self) -> bool:
         return self.phase in ACTIVE_PHASES
 
+    @property
+    def sequencing(self) -> bool:
+        return self.playing
+
     def offer(self, detection: BallDetection) -> None:
         """Hand over a detection (any thread). Only the newest is kept."""
         with self._slot_lock:

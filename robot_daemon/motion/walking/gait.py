@@ -151,6 +151,10 @@ class WalkingModule(WalkReady, MotionModule):
     def in_motion(self) -> bool:
         return self.running and not self._halting
 
+    @property
+    def sequencing(self) -> bool:
+        return bool(self._readying)  # the walk-ready page plays for it
+
     def halt(self) -> None:
         self._halting = False
         self._readying = ""
