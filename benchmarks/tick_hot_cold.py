@@ -27,9 +27,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from robot_daemon.bus.tables import Instruction
 from robot_daemon.bus.transport import Transport
-from robot_daemon.engine.broadcast import imu_message, joints_message
+from robot_daemon.engine.broadcast import JointsEncoder, imu_payload
+from robot_daemon.engine.snapshot import take
 from robot_daemon.motion.fall import FallMonitor
-from schemas.messages import encode
 from tests.fixtures.sim_rig import SimRig
 
 PHASES = ("read_sensors", "frame", "step", "write_targets", "messages")
@@ -86,15 +86,16 @@ class Replay(Transport):
         return chunk
 
 
-def walking_rig() -> tuple[SimRig, Replay]:
+def walking_rig(walking: bool = True, seconds: float = 3.0) -> tuple[SimRig, Replay]:
     rig = SimRig(seed=1)
     replay = Replay(rig.link)
     rig.bus.dxl.port = replay  # type: ignore[union-attr]
     rig.bus.handler = replay  # type: ignore[assignment]
     if not rig.calibrated():
         raise SystemExit("tick_hot_cold: the simulated gyro never calibrated")
-    rig.manager.module("walking").start(0.05, 0.0, 0.0)
-    rig.run(3.0)  # every slow-read and probe variant of the bulk read recorded, the walk going
+    if walking:
+        rig.manager.module("walking").start(0.05, 0.0, 0.0)
+    rig.run(seconds)  # every slow-read and probe variant of the bulk read recorded, the walk going
     replay.recording = False
     return rig, replay
 
@@ -106,6 +107,7 @@ def run(rig: SimRig, ticks: int, tick_s: float, paced: bool) -> dict[str, float]
     acc = dict.fromkeys(PHASES, 0.0)
     clock = time.thread_time
     deadline = time.monotonic()
+    joints = JointsEncoder(rig.robot)
     for _ in range(ticks):
         if paced:
             deadline += tick_s
@@ -119,8 +121,9 @@ def run(rig: SimRig, ticks: int, tick_s: float, paced: bool) -> dict[str, float]
         t3 = clock()
         bus.write_targets(targets)
         t4 = clock()
-        encode(joints_message(rig.robot, bus, frame, rig.time, rig.tick))
-        encode(imu_message(frame, fall, rig.time, rig.tick))
+        snap = take(bus, frame, rig.time, rig.tick, fall.direction if fall else "none")
+        joints.encode(snap)
+        imu_payload(snap)
         t5 = clock()
         rig.tick += 1
         rig.time += tick_s

@@ -77,6 +77,13 @@ class Calibration:
         """Joint angles of every slot at once (slot 0 is unused and stays meaningless)."""
         return servo_to_joint(raw, self.sign, self.offset)
 
+    def positions_list(self, raw: list[int]) -> list[float]:
+        """:meth:`positions` on plain lists (every slot), in the same order of operations, so
+        the same bits: on 21 values, cheaper than one numpy operation."""
+        k, c = units.RAD_PER_UNIT, units.POSITION_CENTER
+        pairs = zip(raw, self._sign, self._offset, strict=True)
+        return [s * ((r - c) * k - o) for r, s, o in pairs]
+
     def goal_raw(self, jid: int, rad: float) -> tuple[int, bool]:
         """A goal to write: (raw position, whether it was outside the joint's limits and
         clamped). The same conversion as :meth:`to_raw` after :meth:`clamp` (``round`` is

@@ -1,116 +1,167 @@
 """The messages the daemon broadcasts: joints and IMU each tick, status at its rate.
 
-Built from the bus state and the frame of a tick;
-:class:`~robot_daemon.engine.publishers.Publishers` sends them off the motion thread.
+Each is built from the tick's :class:`~robot_daemon.engine.snapshot.TickSnapshot`; status also
+from a :class:`StatusSources`, the few long-lived parts it reports on (not the daemon). Joints
+and IMU go out every tick, so their bytes come from a layout packed once
+(:class:`schemas.packed.Prepacked`: the bytes ``encode`` would give, at a fraction of the cost).
 """
 
 from __future__ import annotations
 
-import functools
+import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
-import numpy as np
-
-from schemas.messages import Imu, Joints, Status
+from robot_daemon.bus.state import cm730_status
+from schemas.messages import Imu, Joints, Status, encode
+from schemas.packed import Prepacked
 from schemas.status_maps import AlarmInfo, BusInfo, LeaseInfo, LoopInfo, MotionInfo, NetworkInfo
 from schemas.versions import package_version
 
 if TYPE_CHECKING:
     from config.loader import RobotConfig
+    from robot_daemon.arbiter.core import Arbiter
+    from robot_daemon.arbiter.lease import Lease
     from robot_daemon.bus.robot_bus import RobotBus
-    from robot_daemon.engine.daemon import Daemon
-    from robot_daemon.frames import JointFrame
-    from robot_daemon.motion.fall import FallMonitor
+    from robot_daemon.engine.camera import CameraThread
+    from robot_daemon.engine.loop_stats import LoopStats
+    from robot_daemon.engine.power_actions import PowerGuard
+    from robot_daemon.engine.snapshot import TickSnapshot
+    from robot_daemon.motion.manager import MotionManager
+
+_DEG = 180.0 / math.pi
+_NO_CAMERA = {"source": "none", "captured": 0, "subscribed": False, "capturing": False}
 
 
-def joints_message(
-    robot: RobotConfig, bus: RobotBus, frame: JointFrame, stamp: float, tick: int
-) -> Joints:
-    # Whole arrays, each taken once by the joint IDs (a slice when they run in a row, as the
-    # DARwIn-OP's 1…20 do: cheaper than indexing by a list): this runs every tick.
-    st = bus.state
-    ids = robot.ids
-    sel = _selection(ids)
-    pos = frame.position[sel]
-    return Joints(
-        id=list(ids),
-        name=list(robot.names),
-        position=pos.tolist(),
-        position_deg=np.degrees(pos).tolist(),
-        goal=bus.calibration.positions(st.goal)[sel].tolist(),
-        velocity=frame.velocity[sel].tolist(),
-        load=frame.load[sel].tolist(),
-        temperature=st.temperature[sel].astype(float).tolist(),
-        voltage=st.voltage[sel].astype(float).tolist(),
-        torque_enabled=st.torque[sel].astype(bool).tolist(),
-        online=st.online[sel].astype(bool).tolist(),
-        alarm=st.alarm[sel].astype(int).tolist(),
-        stamp=stamp,
-        tick=tick,
-    )
+class JointsEncoder:
+    """The joints message of a snapshot, for one robot's joints: as bytes each tick."""
+
+    def __init__(self, robot: RobotConfig) -> None:
+        ids = robot.ids
+        # A run of IDs (the DARwIn-OP's 1…20) is a slice of every list; else a pick by id.
+        run = bool(ids) and ids == tuple(range(ids[0], ids[-1] + 1))
+        self.at: slice | list[int] = slice(ids[0], ids[-1] + 1) if run else list(ids)
+        self.ids, self.names = list(ids), list(robot.names)
+        self.layout = Prepacked(Joints, {"id": self.ids, "name": self.names})
+
+    def _pick(self, values: list[Any]) -> list[Any]:
+        at = self.at
+        return values[at] if isinstance(at, slice) else [values[j] for j in at]
+
+    def values(self, snap: TickSnapshot) -> dict[str, Any]:
+        pick = self._pick
+        pos = pick(snap.position)
+        return {
+            "position": pos,
+            "position_deg": [p * _DEG for p in pos],
+            "goal": pick(snap.goal),
+            "velocity": pick(snap.velocity),
+            "load": pick(snap.load),
+            "temperature": pick(snap.temperature),
+            "voltage": pick(snap.voltage),
+            "torque_enabled": pick(snap.torque),
+            "online": pick(snap.online),
+            "alarm": pick(snap.alarm),
+            "stamp": snap.stamp,
+            "tick": snap.tick,
+        }
+
+    def message(self, snap: TickSnapshot) -> Joints:
+        return Joints(id=list(self.ids), name=list(self.names), **self.values(snap))
+
+    def encode(self, snap: TickSnapshot) -> bytes:
+        values = self.values(snap)
+        return self.layout.pack([values[f] for f in self.layout.fields])
 
 
-@functools.lru_cache(maxsize=8)
-def _selection(ids: tuple[int, ...]) -> slice | np.ndarray:
-    if ids and ids == tuple(range(ids[0], ids[-1] + 1)):
-        return slice(ids[0], ids[-1] + 1)
-    return np.array(ids, dtype=int)
+_IMU_LAYOUT = Prepacked(Imu, {})
 
 
-def imu_message(frame: JointFrame, fall: FallMonitor | None, stamp: float, tick: int) -> Imu:
-    # The fall monitor (a motion module) classified this frame in manager.step.
-    direction = fall.direction if fall is not None else "none"
+def imu_message(snap: TickSnapshot) -> Imu:
     return Imu(
-        gyro=[float(v) for v in frame.gyro],
-        accel=[float(v) for v in frame.accel],
-        gyro_raw=[int(v) for v in frame.gyro_raw],
-        accel_raw=[int(v) for v in frame.accel_raw],
-        fall=direction,
-        stamp=stamp,
-        tick=tick,
+        gyro=list(snap.gyro),
+        accel=list(snap.accel),
+        gyro_raw=list(snap.gyro_raw),
+        accel_raw=list(snap.accel_raw),
+        fall=snap.fall,
+        stamp=snap.stamp,
+        tick=snap.tick,
     )
 
 
-def status_message(daemon: Daemon) -> Status:
-    bus = daemon.bus
-    cm = bus.cm730_status()
-    st = bus.state
-    alarms = [AlarmInfo(id=j, bits=int(st.alarm[j])) for j in daemon.robot.ids if st.alarm[j]]
-    extra: dict[str, Any] = {}
-    if daemon.camera is not None:
-        extra["camera"] = daemon.camera.status()
-    else:
-        extra["camera"] = {"source": "none", "captured": 0, "subscribed": False, "capturing": False}
-    # The parts build their maps as plain dicts; the casts name the key sets they promise
+def imu_payload(snap: TickSnapshot) -> bytes:
+    """:func:`imu_message`'s bytes, from the packed layout (the motion thread's only)."""
+    return _IMU_LAYOUT.pack(
+        [snap.gyro, snap.accel, snap.gyro_raw, snap.accel_raw, snap.fall, snap.stamp, snap.tick]
+    )
+
+
+@dataclass(frozen=True)
+class StatusSources:
+    """What status reports on besides the tick's snapshot: the parts, each asked for its own
+    status, and the facts fixed at start."""
+
+    robot: RobotConfig
+    name: str  # the robot's name in the key space
+    protocol: tuple[int, int]
+    network: NetworkInfo
+    lease: Lease
+    manager: MotionManager
+    bus: RobotBus
+    stats: LoopStats
+    guard: PowerGuard
+    telemetry_hz: float
+    camera: CameraThread | None = None
+    arbiter: Arbiter | None = None
+
+
+@dataclass(frozen=True)
+class LoopFacts:
+    """What changes while the daemon runs and is not in a snapshot."""
+
+    state: str
+    bus_errors: int
+    scheduling: str
+    events_dropped: int
+
+
+def status_message(src: StatusSources, snap: TickSnapshot | None, facts: LoopFacts) -> Status:
+    cm = cm730_status(snap.cm730 if snap is not None else b"")
+    alarms: list[AlarmInfo] = []
+    if snap is not None:
+        alarm = snap.alarm
+        alarms = [{"id": j, "bits": int(alarm[j])} for j in src.robot.ids if alarm[j]]
+    power, heat = src.guard.status()
+    # The sub-maps are built as plain dicts and typed as the TypedDicts they are
     # (schemas/status_maps.py, documented key by key in docs/daemon.md).
     bus_info: dict[str, Any] = {
-        **bus.status(),
-        "bus_errors": daemon.bus_errors,
-        "arbiter": daemon.arbiter.counts if daemon.arbiter else {},
+        **src.bus.status(),
+        "bus_errors": facts.bus_errors,
+        "arbiter": src.arbiter.counts if src.arbiter else {},
     }
     loop_info: dict[str, Any] = {
-        **daemon.stats.summary(),
-        "scheduling": daemon.scheduling,
-        "telemetry_hz": daemon.telemetry.hz,
-        "events_dropped": daemon.pub.dropped_events if daemon.pub is not None else 0,
+        **src.stats.summary(now=snap.time if snap is not None else None),
+        "scheduling": facts.scheduling,
+        "telemetry_hz": src.telemetry_hz,
+        "events_dropped": facts.events_dropped,
     }
     return Status(
-        state=str(daemon.state),
-        robot=daemon.options.robot,
-        lease=cast("LeaseInfo | None", daemon.lease.status()),
-        motion=cast(MotionInfo, daemon.manager.status()),
+        state=facts.state,
+        robot=src.name,
+        lease=cast("LeaseInfo | None", src.lease.status()),
+        motion=cast(MotionInfo, src.manager.status()),
         leds=cm["leds"],
         buttons=cm["buttons"],
         bus=cast(BusInfo, bus_info),
         loop=cast(LoopInfo, loop_info),
         voltage=cm["voltage"],
         alarms=alarms,
-        network=network_info(daemon.options.router, daemon.options.listen),
+        network=src.network,
         version=package_version(),
-        power=daemon.guard.status()[0],
-        heat=daemon.guard.status()[1],
-        protocol=list(daemon.protocol),
-        **extra,
+        power=power,
+        heat=heat,
+        protocol=list(src.protocol),
+        camera=src.camera.status() if src.camera is not None else dict(_NO_CAMERA),
     )
 
 
@@ -119,3 +170,7 @@ def network_info(router: str | None, listen: list[str]) -> NetworkInfo:
     return NetworkInfo(
         endpoint=router or (listen[0] if listen else ""), router=router, listen=listen
     )
+
+
+def as_payload(msg: Any) -> bytes:
+    return encode(msg)

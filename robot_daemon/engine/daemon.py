@@ -20,6 +20,7 @@ a :class:`BusSupervisor` the daemon is composed of), the messages it publishes
 from __future__ import annotations
 
 import contextlib
+import gc
 import logging
 import threading
 import time
@@ -34,12 +35,20 @@ from robot_daemon.arbiter.lease import Holder, Lease
 from robot_daemon.arbiter.registry import MotionContext
 from robot_daemon.arbiter.throttle import ArbiterLimits
 from robot_daemon.bus.robot_bus import RobotBus
-from robot_daemon.engine.broadcast import imu_message, joints_message, status_message
+from robot_daemon.engine.broadcast import (
+    JointsEncoder,
+    LoopFacts,
+    StatusSources,
+    imu_payload,
+    network_info,
+    status_message,
+)
 from robot_daemon.engine.bus_lifecycle import BusSupervisor, Buttons
 from robot_daemon.engine.loop_stats import LoopStats
 from robot_daemon.engine.policy_link import PolicyLink, link_policy
 from robot_daemon.engine.power_actions import PowerGuard
 from robot_daemon.engine.publishers import Publishers
+from robot_daemon.engine.snapshot import TickSnapshot, take
 from robot_daemon.engine.telemetry_rate import RateGate, check_rate
 from robot_daemon.engine.zenoh_setup import open_session
 from robot_daemon.frames import JointFrame, Targets
@@ -119,6 +128,9 @@ class Daemon:
         self.tick = 0
         self.bus_errors = 0
         self.frame: JointFrame | None = None
+        self.snapshot: TickSnapshot | None = None  # the last tick's, every message's source
+        self.joints_encoder = JointsEncoder(robot)
+        self.status_sources: StatusSources | None = None
         self._sampled_at = time.time()
         self._stop = threading.Event()
         self._wake = threading.Event()  # a command arrived (the port-lost wait ends at once)
@@ -200,17 +212,31 @@ class Daemon:
             self.camera = CameraThread.from_settings(
                 self.session, self.keys, self.options.camera, self.settings
             )
+        self.status_sources = StatusSources(
+            robot=self.robot,
+            name=self.options.robot,
+            protocol=self.protocol,
+            network=network_info(self.options.router, self.options.listen),
+            lease=self.lease,
+            manager=self.manager,
+            bus=self.bus,
+            stats=self.stats,
+            guard=self.guard,
+            telemetry_hz=self.telemetry.hz,
+            camera=self.camera,
+            arbiter=self.arbiter,
+        )
 
     def connect_bus(self) -> None:
         """Open the port, power the servos, scan, hold the present pose (the first start)."""
         self.supervisor.connect(first=True)
         self._update_state()
 
-    def _update_state(self) -> None:
+    def _update_state(self, snap: TickSnapshot | None = None) -> None:
         if self.supervisor.servos_off:
             self._set_state(DaemonState.SERVOS_OFF)
             return
-        online = self.bus.state.online.tolist()
+        online = snap.online if snap is not None else self.bus.state.online.tolist()
         healthy = self.bus.cm730_online and all(online[j] for j in self.robot.ids)
         self._set_state(DaemonState.RUNNING if healthy else DaemonState.DEGRADED)
 
@@ -250,6 +276,12 @@ class Daemon:
             log.warning("%s", warning)
             self._emit("warning", warning)
         self.scheduling = current_policy()
+        # Start-up's objects (modules, configs, the Zenoh session) are frozen out of the
+        # collector once, here where a pause hurts nobody: a full collection in the loop then
+        # scans only what came after (a few k instructions instead of ~10 M, two ticks of the
+        # Atom), and start-up's garbage is not left for the loop to collect (docs/loop-cpu.md).
+        gc.collect()
+        gc.freeze()
         while not self._stop.is_set():
             if not self.bus.is_open:
                 self._reconnect()
@@ -355,7 +387,9 @@ class Daemon:
         bus_t1 = time.monotonic()
         self.bus.write_targets(targets)
         bus_write = time.monotonic() - bus_t1
-        self._publish(frame, targets, start)
+        fall = self.fall.direction if self.fall is not None else "none"
+        self.snapshot = snap = take(self.bus, frame, self._sampled_at, self.tick, fall)
+        self._publish(snap, start)
         return bus_read + bus_write
 
     def _context(self, frame: JointFrame | None) -> MotionContext:
@@ -375,7 +409,7 @@ class Daemon:
         )
 
     # -- publication -------------------------------------------------------------------------
-    def _publish(self, frame: JointFrame, targets: Targets, now: float) -> None:
+    def _publish(self, snap: TickSnapshot, now: float) -> None:
         assert self.pub is not None
         for kind, message, data in self.manager.drain_events():
             self.pub.event(kind, message, **data)
@@ -383,24 +417,32 @@ class Daemon:
         # Sent from this thread, after the goals are written (publishers.py says why).
         if self.telemetry.open(now):
             if self.pub.wanted("joints"):
-                msg = joints_message(self.robot, self.bus, frame, self._sampled_at, self.tick)
-                self.pub.send("joints", msg)
+                self.pub.send_payload("joints", self.joints_encoder.encode(snap))
             if self.pub.wanted("imu"):
-                self.pub.send("imu", imu_message(frame, self.fall, self._sampled_at, self.tick))
-        self._update_state()
+                self.pub.send_payload("imu", imu_payload(snap))
+        self._update_state(snap)
         # Every tick (a lock and a clock read): a silent holder's lease ends within one tick of
         # heartbeat_timeout after its last renewal, so a cut link stops the robot within it.
         if self.lease.expire():
             self._status_dirty = True
         if self._status_dirty or now - self._last_status >= self.status_period:
             # The battery and heat policy at the status rate (10 Hz), not per tick.
-            st = self.bus.state
-            self.guard.check(self.bus.cm730_status()["voltage"], st.temperature, st.online, now)
-            self._publish_status(now)
+            cm_voltage = self.bus.cm730_status()["voltage"]
+            self.guard.check(cm_voltage, snap.temperature, snap.online, now)
+            self._publish_status(now, snap)
 
-    def _publish_status(self, now: float) -> None:
-        if self.pub is None:
+    def _publish_status(self, now: float, snap: TickSnapshot | None = None) -> None:
+        if self.pub is None or self.status_sources is None:
             return
         self._status_dirty = False
         self._last_status = now
-        self.pub.post("status", status_message(self))
+        if snap is None and self.frame is not None:  # outside a tick: the bus as it is now
+            fall = self.fall.direction if self.fall is not None else "none"
+            snap = take(self.bus, self.frame, self._sampled_at, self.tick, fall)
+        facts = LoopFacts(
+            state=str(self.state),
+            bus_errors=self.bus_errors,
+            scheduling=self.scheduling,
+            events_dropped=self.pub.dropped_events,
+        )
+        self.pub.post("status", status_message(self.status_sources, snap, facts))

@@ -90,10 +90,10 @@ class LoopStats:
         """Forget the last start (after a pause such as a port reopen)."""
         self._last_start = None
 
-    def summary(self, max_age: float = 0.5) -> dict[str, Any]:
-        """The figures, recomputed at most every ``max_age`` s (percentiles over the window
-        are the costly part); counters are always current."""
-        now = time.monotonic()
+    def summary(self, max_age: float = 0.5, now: float | None = None) -> dict[str, Any]:
+        """The figures, recomputed at most every ``max_age`` s of the loop's clock (``now``;
+        the percentiles over the window are the costly part); counters are always current."""
+        now = time.monotonic() if now is None else now
         if self._cached is None or now - self._cached_at >= max_age:
             self._cached, self._cached_at = self._compute(), now
         return {

@@ -93,6 +93,17 @@ class Publishers:
             )
         self._put(topic, msg)
 
+    def send_payload(self, topic: str, payload: bytes) -> None:
+        """:meth:`send` of a message already encoded (``schemas/packed.py``)."""
+        if topic not in self._droppable:
+            raise ValueError(
+                f"{topic!r} is not a droppable newest-only topic: post() it to the publisher thread"
+            )
+        try:
+            self._pubs[topic].put(payload)
+        except Exception:  # a closed session at shutdown
+            log.exception("publishing %s failed", topic)
+
     def _watch(self, topic: str) -> None:
         pub = self._pubs[topic]
 

@@ -1,0 +1,486 @@
+"""Count, don't clock: instructions and Atom-geometry cache misses of the motion tick under
+callgrind, and the time they model on the robot's Atom Z530.
+
+    python benchmarks/tick_count.py tick [--ticks 40]        # the tick's own work, hot and cold
+    python benchmarks/tick_count.py breakdown                # where the walking tick's go
+    python benchmarks/tick_count.py guard                    # CI: within 3 % of the record?
+    python benchmarks/tick_count.py record                   # record this interpreter's figure
+    python benchmarks/tick_count.py calibrate                # measured ÷ modelled, on this CPU
+
+Each mode runs itself again under ``valgrind --tool=callgrind`` with the Z530's caches (32 KB
+8-way L1i, 24 KB 6-way L1d, 512 KB 8-way L2, 64-byte lines: Intel's Z5xx datasheet) and counts
+exactly the ticks it is asked for: the child zeroes, toggles and dumps callgrind's counts at the
+start and end of each tick through client requests (``callgrind_requests.py``), so start-up,
+imports and warm-up ticks are never counted. Counts repeat to ±0.1 % whatever the machine's
+load: a figure from a loaded two-core VM is the figure of a quiet robot.
+
+- ``tick``: ``Daemon._one_tick`` and the loop's bookkeeping, walking, with the bus answering
+  from replies recorded off the emulator and a publisher that encodes every message it is handed
+  (joints and IMU each tick, status at 10 Hz) but puts nothing: the daemon's own Python, no
+  Zenoh, no waiting. **hot**: ticks back to back; **cold**: each tick after a sweep that leaves
+  every cache empty (64 KB of code run, 2 MB of data moved), as after a deep C-state.
+
+The model (``z530_us``): time = Ir × CPI + L1 misses × 15 cycles + L2 misses × 200 cycles, at
+1.6 GHz. Sources and uncertainty in docs/loop-cpu.md; ``calibrate`` measures the ratio of thread
+CPU to modelled time on the machine it runs on (on the robot: the model's correction factor).
+
+``--python`` runs the child under another interpreter. In the i386 root the whole script runs
+inside the root with its Python (valgrind installed there with apt), as docs/loop-cpu.md shows.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import ctypes
+import gc
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from callgrind_requests import Callgrind  # noqa: E402
+
+# Intel Atom Z5xx datasheet (document 319535): 32 KB 8-way L1i, 24 KB 6-way L1d, 512 KB 8-way
+# L2, 64-byte lines.
+ATOM_CACHES = ["--I1=32768,8,64", "--D1=24576,6,64", "--LL=524288,8,64"]
+CLOCK_HZ = 1.6e9  # Z530
+CPI = 1.0  # cycles per instruction before misses: assumed (0.8–1.5, docs/loop-cpu.md)
+L1_MISS_CYCLES = 15  # L2 hit latency (Intel's Atom optimisation guide, Agner Fog: 15–16)
+L2_MISS_CYCLES = 200  # DRAM through the 533 MT/s FSB: ~100–125 ns at 1.6 GHz
+EVENTS = ("Ir", "Dr", "Dw", "I1mr", "D1mr", "D1mw", "ILmr", "DLmr", "DLmw")
+TICK_S = 0.008
+STATUS_EVERY = 12.5  # ticks between status messages at 10 Hz
+
+
+@dataclass
+class Count:
+    """Events per unit (a tick, a frame) over ``units`` units."""
+
+    name: str
+    units: int
+    ir: float
+    l1_misses: float
+    ll_misses: float
+
+    @classmethod
+    def from_events(cls, name: str, units: int, ev: dict[str, int]) -> Count:
+        l1 = ev.get("I1mr", 0) + ev.get("D1mr", 0) + ev.get("D1mw", 0)
+        ll = ev.get("ILmr", 0) + ev.get("DLmr", 0) + ev.get("DLmw", 0)
+        n = max(1, units)
+        return cls(name, units, ev.get("Ir", 0) / n, l1 / n, ll / n)
+
+    def minus(self, other: Count) -> Count:
+        return Count(self.name, self.units, self.ir - other.ir, self.l1_misses - other.l1_misses,
+                     self.ll_misses - other.ll_misses)
+
+    def z530_us(self, cpi: float = CPI) -> float:
+        cycles = self.ir * cpi + self.l1_misses * L1_MISS_CYCLES + self.ll_misses * L2_MISS_CYCLES
+        return cycles / CLOCK_HZ * 1e6
+
+    def line(self, period_ms: float | None = 8.0) -> str:
+        us = self.z530_us()
+        share = f"  {us / (period_ms * 10):5.1f} % of {period_ms:g} ms" if period_ms else ""
+        return (f"{self.name:34}{self.ir / 1e3:10.1f} k Ir{self.l1_misses:9.0f} L1m"
+                f"{self.ll_misses:8.0f} LLm {us:8.0f} µs Z530{share}")
+
+
+# -- parsing callgrind's output --------------------------------------------------------------
+
+
+def parts(out_prefix: Path) -> dict[str, dict[str, int]]:
+    """Each dump's label → its event totals (callgrind.out.N files of one run)."""
+    found: dict[str, dict[str, int]] = {}
+    for path in sorted(out_prefix.parent.glob(out_prefix.name + "*")):
+        text = path.read_text(errors="replace")
+        trigger = re.search(r"^desc: Trigger: Client Request: (.+)$", text, re.M)
+        events = re.search(r"^events: (.+)$", text, re.M)
+        totals = re.search(r"^totals: (.+)$", text, re.M) or re.search(r"^summary: (.+)$",
+                                                                       text, re.M)
+        if not (trigger and events and totals):
+            continue
+        values = [int(v) for v in totals.group(1).split()]
+        names = events.group(1).split()
+        found[trigger.group(1).strip()] = dict(zip(names, values + [0] * len(names), strict=False))
+    return found
+
+
+def valgrind(child: list[str], python: str, out: Path, instr_at_start: bool = False) -> None:
+    if shutil.which("valgrind") is None:
+        raise SystemExit("tick_count: valgrind is not installed: apt-get install valgrind")
+    cmd = [
+        "valgrind", "--tool=callgrind", "--cache-sim=yes", *ATOM_CACHES,
+        "--collect-atstart=no", f"--instr-atstart={'yes' if instr_at_start else 'no'}",
+        f"--callgrind-out-file={out}", "--log-file=" + str(out) + ".log",
+        python, str(Path(__file__).resolve()), *child,
+    ]
+    env = dict(os.environ, PYTHONHASHSEED="0", PYTHONDONTWRITEBYTECODE="1")
+    proc = subprocess.run(cmd, env=env, cwd=ROOT)
+    if proc.returncode != 0:
+        log = Path(str(out) + ".log")
+        tail = log.read_text(errors="replace").splitlines()[-5:] if log.exists() else []
+        raise SystemExit(f"tick_count: the counted child failed ({proc.returncode}): {tail}")
+
+
+# -- the tick's own work ------------------------------------------------------------------------
+
+
+class _CountingPublisher:
+    """The daemon's publisher without Zenoh: every message handed to it is encoded, as the
+    motion thread (joints, IMU) and the publisher thread (status, events) would, and dropped."""
+
+    def __init__(self) -> None:
+        from schemas.messages import encode
+
+        self.encode = encode
+        self.dropped_events = 0
+
+    def wanted(self, topic: str) -> bool:
+        return True
+
+    def send(self, topic: str, msg: Any) -> None:
+        self.encode(msg)
+
+    def send_payload(self, topic: str, payload: bytes) -> None:
+        pass
+
+    def post(self, topic: str, msg: Any) -> None:
+        self.encode(msg)
+
+    def event(self, kind: str, message: str, **data: Any) -> None:
+        from schemas.messages import Event
+
+        self.encode(Event(kind=kind, message=message, data=data, seq=0))
+
+
+class _NoCommands:
+    counts: dict[str, int] = {}
+
+    def has_pending(self) -> bool:
+        return False
+
+
+def tick_daemon(walking: bool = True, seconds: float = 3.0) -> Any:
+    """A Daemon whose bus answers from recorded replies (benchmarks/tick_hot_cold.py's rig)."""
+    from tick_hot_cold import walking_rig
+
+    from config.loader import load_all, robot_from_dict
+    from robot_daemon.engine.daemon import Daemon, DaemonOptions
+    from robot_daemon.engine.power_actions import PowerGuard
+    from robot_daemon.motion.fall import FallMonitor
+
+    rig, _ = walking_rig(walking, seconds)
+    settings = copy.deepcopy(rig.settings)
+    daemon = Daemon(DaemonOptions(robot="count", port="replay", listen=[]),
+                    robot_from_dict(settings["robot"]), settings)
+    del load_all
+    daemon.bus = rig.bus
+    daemon.bus.emit = daemon._emit
+    daemon.manager = rig.manager
+    fall = rig.manager.get("fall")
+    daemon.fall = fall if isinstance(fall, FallMonitor) else None
+    daemon.guard = PowerGuard(daemon.robot, settings, daemon.manager, daemon.bus, daemon._emit)
+    daemon.pub = _CountingPublisher()
+    daemon.arbiter = _NoCommands()
+    daemon._last_status = 0.0
+    daemon._motion_thread = __import__("threading").current_thread()
+    daemon.clock = 0.0
+    if hasattr(daemon, "status_sources"):  # status at 10 Hz, as start_network would set it
+        from robot_daemon.engine.broadcast import StatusSources, network_info
+
+        daemon.status_sources = StatusSources(
+            robot=daemon.robot, name="count", protocol=daemon.protocol,
+            network=network_info(None, []), lease=daemon.lease, manager=daemon.manager,
+            bus=daemon.bus, stats=daemon.stats, guard=daemon.guard,
+            telemetry_hz=daemon.telemetry.hz, arbiter=None,
+        )
+    return daemon
+
+
+def one_tick(daemon: Any) -> None:
+    """What ``Daemon._loop`` does around a tick, on a simulated clock (8 ms a tick)."""
+    start = daemon.clock
+    bus_s = daemon._one_tick(start)
+    daemon.stats.tick(start, bus_s, 0.001)
+    daemon.clock = start + TICK_S
+
+
+class Sweep:
+    """Leaves every cache empty, as a deep C-state does: 64 KB of straight-line code run (twice
+    the L1i) and 2 MB of data moved (four times the L2)."""
+
+    def __init__(self) -> None:
+        import mmap
+
+        size = 64 * 1024
+        self._code = mmap.mmap(-1, size + mmap.PAGESIZE,
+                               prot=mmap.PROT_READ | mmap.PROT_WRITE | mmap.PROT_EXEC)
+        self._code.write(b"\x90" * size + b"\xc3")  # nop … ret
+        addr = ctypes.addressof(ctypes.c_char.from_buffer(self._code))
+        self._run = ctypes.CFUNCTYPE(None)(addr)
+        self._a = ctypes.create_string_buffer(1 << 20)
+        self._b = ctypes.create_string_buffer(1 << 20)
+
+    def __call__(self) -> None:
+        self._run()
+        ctypes.memmove(self._b, self._a, len(self._a))
+        ctypes.memmove(self._a, self._b, len(self._a))
+
+
+def child_tick(args: argparse.Namespace) -> None:
+    cg = Callgrind()
+    gc.collect()
+    gc.freeze()
+    for walking in (True, False):
+        daemon = tick_daemon(walking)
+        what = "walking" if walking else "standing"
+        sweep = Sweep()
+        cg.start_instrumentation()
+        for _ in range(args.warm):
+            one_tick(daemon)
+        # The requests' own cost, to take off each measured tick.
+        cg.toggle()
+        cg.toggle()
+        cg.dump(f"overhead {what}")
+        cg.toggle()
+        for _ in range(args.ticks):
+            one_tick(daemon)
+        cg.toggle()
+        cg.dump(f"hot {what}")
+        for _ in range(args.ticks):
+            sweep()
+            cg.toggle()
+            one_tick(daemon)
+            cg.toggle()
+        cg.dump(f"cold {what}")
+        cg.stop_instrumentation()
+
+
+# What ``breakdown`` counts: where the walking tick's instructions go (each name is resolved in
+# the counted daemon; a module-level function is wrapped where the caller looks it up).
+BREAKDOWN = (
+    "bus.read_sensors", "bus.dxl.bulk_read", "bus.frame", "manager.step",
+    "walking.step", "walking._pose", "gait.leg_servo_angles", "gait.gyro_feedback",
+    "bus.write_targets", "daemon._publish", "daemon.joints_encoder.encode", "engine.imu_payload",
+    "engine.status_message", "engine.take", "pub.encode", "daemon._update_state", "stats.tick",
+)
+
+
+def _resolve(daemon: Any, name: str) -> tuple[Any, str]:
+    import robot_daemon.engine.daemon as engine
+    import robot_daemon.motion.walking.gait as gait
+
+    where = {"daemon": daemon, "bus": daemon.bus, "manager": daemon.manager, "engine": engine,
+             "gait": gait, "walking": daemon.manager.module("walking"), "pub": daemon.pub,
+             "stats": daemon.stats}
+    head, *path, attr = name.split(".")
+    obj = where[head]
+    for part in path:
+        obj = getattr(obj, part)
+    return obj, attr
+
+
+def child_breakdown(args: argparse.Namespace) -> None:
+    cg = Callgrind()
+    daemon = tick_daemon(True)
+    cg.start_instrumentation()
+    for _ in range(args.warm):
+        one_tick(daemon)
+
+    def counted(fn: Any) -> Any:
+        def wrapper(*a: Any, **kw: Any) -> Any:
+            cg.toggle()
+            try:
+                return fn(*a, **kw)
+            finally:
+                cg.toggle()
+        return wrapper
+
+    def empty() -> None:
+        pass
+
+    wrapped_empty = counted(empty)
+    for _ in range(args.ticks):
+        wrapped_empty()
+    cg.dump("overhead")
+    for name in BREAKDOWN:
+        obj, attr = _resolve(daemon, name)
+        original = getattr(obj, attr)
+        setattr(obj, attr, counted(original))
+        calls = 0
+        for _ in range(args.ticks):
+            one_tick(daemon)
+        setattr(obj, attr, original)
+        cg.dump(name)
+        del calls
+    cg.stop_instrumentation()
+
+
+def count_breakdown(args: argparse.Namespace, out_dir: Path) -> list[Count]:
+    out = out_dir / "breakdown.out"
+    valgrind(["child-breakdown", "--ticks", str(args.ticks), "--warm", str(args.warm)],
+             args.python, out)
+    found = parts(out)
+    over = Count.from_events("", args.ticks, found["overhead"])
+    return [Count.from_events(name, args.ticks, found[name]) for name in BREAKDOWN] + [over]
+
+
+# The guard's recorded figures: hot walking tick, instructions, by interpreter (callgrind counts
+# depend on the Python build and numpy, not on the machine's load or speed).
+RECORDED = Path(__file__).with_name("tick_count_recorded.json")
+GUARD_SLACK = 0.03  # a tick may grow this much over its recorded figure
+
+
+def guard_key() -> str:
+    return interpreter()
+
+
+def child_guard(args: argparse.Namespace) -> None:
+    cg = Callgrind()
+    daemon = tick_daemon(True, seconds=1.0)
+    cg.start_instrumentation()
+    for _ in range(args.warm):
+        one_tick(daemon)
+    cg.toggle()
+    for _ in range(args.ticks):
+        one_tick(daemon)
+    cg.toggle()
+    cg.dump("guard")
+    cg.stop_instrumentation()
+
+
+def count_guard(args: argparse.Namespace, out_dir: Path) -> Count:
+    out = out_dir / "guard.out"
+    valgrind(["child-guard", "--ticks", str(args.ticks), "--warm", str(args.warm)],
+             args.python, out)
+    return Count.from_events("tick hot, walking", args.ticks, parts(out)["guard"])
+
+
+def count_tick(args: argparse.Namespace, out_dir: Path) -> list[Count]:
+    out = out_dir / "tick.out"
+    valgrind(["child-tick", "--ticks", str(args.ticks), "--warm", str(args.warm)],
+             args.python, out)
+    found = parts(out)
+    counts = []
+    for what in ("walking", "standing"):
+        over = Count.from_events("", 1, found[f"overhead {what}"])
+        for kind in ("hot", "cold"):
+            c = Count.from_events(f"tick {kind}, {what}", args.ticks, found[f"{kind} {what}"])
+            counts.append(c.minus(over) if kind == "cold" else c)
+    return counts
+
+
+# -- entry -----------------------------------------------------------------------------------
+
+
+def interpreter() -> str:
+    import platform
+
+    import numpy
+
+    bits = 64 if sys.maxsize > 2**32 else 32
+    return (f"{platform.machine()} {bits}-bit Python {platform.python_version()}, "
+            f"numpy {numpy.__version__}")
+
+
+CHILDREN = ("child-tick", "child-breakdown", "child-guard")
+
+
+def guard(args: argparse.Namespace) -> int:
+    """``guard``: fail (exit 1, one line) when the hot walking tick counts more than
+    GUARD_SLACK over the figure recorded for this interpreter; ``record``: record it."""
+    with tempfile.TemporaryDirectory(prefix="tick-count-") as tmp:
+        got = count_guard(args, Path(tmp))
+    key = f"{guard_key()}; {args.ticks} ticks after {args.warm}"
+    recorded = json.loads(RECORDED.read_text()) if RECORDED.exists() else {}
+    if args.mode == "record":
+        recorded[key] = round(got.ir)
+        RECORDED.write_text(json.dumps(recorded, indent=1, sort_keys=True) + "\n")
+        print(f"tick_count: recorded {got.ir / 1e3:.1f} k instructions a tick for {key}")
+        return 0
+    figure = recorded.get(key)
+    if figure is None:
+        print(f"tick_count: no figure recorded for {key}: run `tick_count.py record` on it")
+        return 2
+    growth = got.ir / figure - 1
+    verdict = "over" if growth > GUARD_SLACK else "within"
+    print(f"tick_count: {got.ir / 1e3:.1f} k instructions a tick, {growth * 100:+.1f} % of the "
+          f"recorded {figure / 1e3:.1f} k ({verdict} the {GUARD_SLACK * 100:g} % allowed; {key})")
+    return 1 if growth > GUARD_SLACK else 0
+
+
+def calibrate(args: argparse.Namespace) -> int:
+    """The model against this CPU: the hot walking tick counted (callgrind) and timed (thread
+    CPU, no valgrind), and their ratio. On a real Bonnell (the robot's Atom) the ratio is the
+    model's correction factor; the CPI that would explain the time is printed beside it."""
+    with tempfile.TemporaryDirectory(prefix="tick-count-") as tmp:
+        counted = count_guard(args, Path(tmp))
+    daemon = tick_daemon(True, seconds=1.0)
+    for _ in range(args.warm):
+        one_tick(daemon)
+    n = max(500, args.ticks * 50)
+    t0 = time.thread_time()
+    for _ in range(n):
+        one_tick(daemon)
+    measured_us = (time.thread_time() - t0) / n * 1e6
+    modelled_us = counted.z530_us()
+    misses_us = counted.z530_us(cpi=0.0)
+    cpi = max(0.0, (measured_us - misses_us) * CLOCK_HZ / 1e6 / counted.ir)
+    print(f"{interpreter()}: hot walking tick {counted.ir / 1e3:.1f} k instructions; measured "
+          f"{measured_us:.0f} µs of thread CPU a tick here, Z530 model {modelled_us:.0f} µs: "
+          f"measured ÷ modelled = {measured_us / modelled_us:.2f} (at 1.6 GHz that is CPI "
+          f"{cpi:.2f} besides the misses)")
+    return 0
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("mode", choices=["tick", "breakdown", "guard", "record", "calibrate",
+                                         *CHILDREN])
+    parser.add_argument("--ticks", type=int, default=40, help="ticks counted per figure")
+    parser.add_argument("--warm", type=int, default=60, help="ticks run before counting")
+    parser.add_argument("--python", default=sys.executable, help="the interpreter to count")
+    parser.add_argument("--json", help="also write the figures here")
+    args = parser.parse_args()
+    if args.mode == "child-tick":
+        child_tick(args)
+        return 0
+    if args.mode == "child-breakdown":
+        child_breakdown(args)
+        return 0
+    if args.mode == "child-guard":
+        child_guard(args)
+        return 0
+    if args.mode in ("guard", "record"):
+        return guard(args)
+    if args.mode == "calibrate":
+        return calibrate(args)
+    with tempfile.TemporaryDirectory(prefix="tick-count-") as tmp:
+        out_dir = Path(tmp)
+        t0 = time.monotonic()
+        counts: list[Count] = []
+        if args.mode == "tick":
+            counts += count_tick(args, out_dir)
+        if args.mode == "breakdown":
+            counts += count_breakdown(args, out_dir)
+        print(f"{interpreter()}; callgrind, Z530 caches; per tick ({time.monotonic() - t0:.0f} s)")
+        for c in counts:
+            print(c.line())
+        if args.json:
+            Path(args.json).write_text(json.dumps([asdict(c) for c in counts], indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
