@@ -191,6 +191,9 @@ def tick_daemon(walking: bool = True, seconds: float = 3.0) -> Any:
     fall = rig.manager.get("fall")
     daemon.fall = fall if isinstance(fall, FallMonitor) else None
     daemon.guard = PowerGuard(daemon.robot, settings, daemon.manager, daemon.bus, daemon._emit)
+    supervisor = getattr(daemon, "supervisor", None)  # the bus's lifecycle, where it has one
+    if supervisor is not None:
+        supervisor.bus, supervisor.manager, supervisor.guard = rig.bus, rig.manager, daemon.guard
     daemon.pub = _CountingPublisher()
     daemon.arbiter = _NoCommands()
     daemon._last_status = 0.0
