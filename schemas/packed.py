@@ -12,13 +12,14 @@ straight from the value given (a list of floats, an int) and the pieces joined.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
 import msgpack
 
 from schemas import SCHEMA_VERSION
-from schemas.messages import Message, _field_names
+from schemas.messages import Message
 
 
 class Prepacked:
@@ -28,7 +29,7 @@ class Prepacked:
 
     def __init__(self, cls: type[Message], fixed: Mapping[str, Any]) -> None:
         packer = msgpack.Packer(use_bin_type=True)
-        names = (*_field_names(cls), "v", "type")
+        names = (*(f.name for f in dataclasses.fields(cls)), "v", "type")
         fixed = {**fixed, "v": SCHEMA_VERSION, "type": cls.TYPE}
         chunks = [bytearray(packer.pack_map_header(len(names)))]
         fields: list[str] = []

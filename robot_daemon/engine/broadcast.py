@@ -15,7 +15,15 @@ from typing import TYPE_CHECKING, Any, cast
 from robot_daemon.bus.state import cm730_status
 from schemas.messages import Imu, Joints, Status, encode
 from schemas.packed import Prepacked
-from schemas.status_maps import AlarmInfo, BusInfo, LeaseInfo, LoopInfo, MotionInfo, NetworkInfo
+from schemas.status_maps import (
+    AlarmInfo,
+    BusInfo,
+    CameraInfo,
+    LeaseInfo,
+    LoopInfo,
+    MotionInfo,
+    NetworkInfo,
+)
 from schemas.versions import package_version
 
 if TYPE_CHECKING:
@@ -161,7 +169,7 @@ def status_message(src: StatusSources, snap: TickSnapshot | None, facts: LoopFac
         power=power,
         heat=heat,
         protocol=list(src.protocol),
-        camera=src.camera.status() if src.camera is not None else dict(_NO_CAMERA),
+        camera=cast(CameraInfo, src.camera.status() if src.camera else dict(_NO_CAMERA)),
     )
 
 
