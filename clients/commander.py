@@ -163,7 +163,8 @@ class Commander:
         def unreachable() -> Exception:
             return RobotUnreachableError(
                 f"nobody answers {key} at {self.target.endpoint}: is the daemon for robot "
-                f"{self.target.robot!r} running (`darwin up`), and is the robot name right?"
+                f"{self.target.robot!r} running (`darwin up`), and is the robot name right? "
+                "(docs/troubleshooting.md#no-robot-found)"
             )
 
         budget = timeout or self.timeout

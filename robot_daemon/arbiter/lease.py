@@ -107,7 +107,7 @@ class Lease:
             ErrorCode.BUSY,
             f"busy: the control lease is held by {h.name!r} (client {h.client}) since "
             f"{time.strftime('%H:%M:%S', time.localtime(h.since))}{extra}; wait for it to be "
-            "released, or `halt` the robot (always allowed)",
+            "released, or `halt` the robot (always allowed; docs/troubleshooting.md#lease-refused)",
             "client",
         )
 

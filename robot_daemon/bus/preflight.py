@@ -57,7 +57,7 @@ def check_latency(port_name: str) -> None:
             f"the USB latency timer of {port_name} is {timer} ms (needs {MAX_LATENCY_MS}): every "
             f"reply would come late, torque refused; set it: echo 1 | sudo tee "
             f"/sys/bus/usb-serial/devices/{dev}/latency_timer (for good: `darwin service` "
-            "installs the udev rule)"
+            "installs the udev rule; docs/troubleshooting.md#latency-timer)"
         )
 
 

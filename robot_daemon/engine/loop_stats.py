@@ -73,8 +73,9 @@ class LoopStats:
             self.emit(
                 "loop_overloaded",
                 f"the computer cannot keep the {tick_ms:g} ms motion loop: {pct:.0f} % of the "
-                f"ticks in the last {OVERLOAD_WINDOW_S:g} s overran; lighten its load, or set "
-                "[daemon] tick_ms = 10 or 16 (the gait keeps its step timing and speed)",
+                f"ticks in the last {OVERLOAD_WINDOW_S:g} s overran; lighten its load: fewer "
+                "servo reads a tick, a lower telemetry rate, nothing else on the robot's "
+                "computer (docs/troubleshooting.md#overloaded)",
                 overrun_pct=round(pct, 1),
                 tick_ms=tick_ms,
             )
