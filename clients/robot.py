@@ -197,6 +197,8 @@ class Robot(Commander, TeachMixin):
     # -- state -------------------------------------------------------------------------------
     @property
     def state(self) -> RobotState:
+        """A copy of the latest joints, IMU, status, ball and world messages. A field is
+        ``None`` until its first message has arrived: ``wait_ready()`` waits for them."""
         with self._lock:
             return RobotState(**vars(self._state))
 
