@@ -17,8 +17,12 @@ from schemas.errors import ClientError, CommandError, LeaseBusyError, NoLeaseErr
 
 log = logging.getLogger(__name__)
 
-# How often the holder renews; the daemon's heartbeat_timeout (1.5 s) allows ~3 misses.
-RENEW_PERIOD = 0.4
+# How often the holder renews: the daemon's heartbeat_timeout (1.5 s) then allows a client that
+# is stalled for 1.25 s (a loaded machine, a busy UI in the same process) and ~5 lost renewals.
+RENEW_PERIOD = 0.25
+# Renewals awaiting their reply at once: each is sent on time even while earlier ones wait (a
+# slow reply never holds back the next renewal); past this many the link is down anyway.
+IN_FLIGHT = 4
 
 
 class LeaseKeeper:
@@ -30,6 +34,8 @@ class LeaseKeeper:
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
+        self._in_flight = 0
+        self._warned = False  # the loss is logged once
 
     @property
     def token(self) -> str | None:
@@ -42,6 +48,7 @@ class LeaseKeeper:
             if self._thread is not None and self._thread.is_alive():
                 return
             self._stop = threading.Event()
+            self._warned = False
             self._thread = threading.Thread(
                 target=self._loop, args=(self._stop,), name=f"lease-renew-{self._name}", daemon=True
             )
@@ -59,14 +66,16 @@ class LeaseKeeper:
         with self._lock:
             self._token = None
             self._stop.set()
+            self._warned = True  # a renewal still on its way may be refused now: not a loss
             t, self._thread = self._thread, None
         if t is not None and t is not threading.current_thread():
             t.join(timeout=2.0)
 
     def _loop(self, stop: threading.Event) -> None:
-        # A fixed rate, not a pause after each reply: on a slow link (busy Wi-Fi) a reply that
-        # takes most of a second would otherwise stretch the gap between renewals past the
-        # daemon's heartbeat_timeout, and the lease would end while the holder is there.
+        # A fixed rate, and each renewal in a thread of its own: on a slow link (busy Wi-Fi) or
+        # a loaded machine a reply that takes most of a second would otherwise hold back the
+        # next renewal, the gap would grow past the daemon's heartbeat_timeout, and the lease
+        # would end while the holder is there.
         next_t = time.monotonic()
         while True:
             next_t = max(next_t + self.period, time.monotonic())
@@ -74,12 +83,28 @@ class LeaseKeeper:
                 return
             if self._token is None:
                 return
-            try:
-                self._renew()
-            except (NoLeaseError, LeaseBusyError) as exc:
+            with self._lock:
+                if self._in_flight >= IN_FLIGHT:
+                    continue
+                self._in_flight += 1
+            threading.Thread(
+                target=self._renew_once, args=(stop,), name=f"lease-renewal-{self._name}",
+                daemon=True,
+            ).start()  # fmt: skip
+
+    def _renew_once(self, stop: threading.Event) -> None:
+        try:
+            self._renew()
+        except (NoLeaseError, LeaseBusyError) as exc:
+            # The command forgot the secret (lost()), which ends the loop; say it once.
+            with self._lock:
+                first, self._warned = not self._warned, True
+            if first:
                 log.warning("the control lease was lost: %s", exc.message)
-                return
-            except CommandError as exc:
-                log.debug("lease renewal refused: %s", exc)
-            except ClientError as exc:
-                log.debug("lease renewal failed: %s", exc)  # the next one may get through
+        except CommandError as exc:
+            log.debug("lease renewal refused: %s", exc)
+        except ClientError as exc:
+            log.debug("lease renewal failed: %s", exc)  # the next one may get through
+        finally:
+            with self._lock:
+                self._in_flight -= 1

@@ -11,7 +11,7 @@ the nearest declared name), as is a value of the wrong type or a string/list lon
 ``max_len`` (``out_of_range``). The payload itself is at most 64 KiB (``schemas.query``).
 
 Lease lifetime: the holder proves it is alive with ``lease`` op=``renew`` (with its token) at
-least every ``lease.heartbeat_timeout`` (1.5 s; the ``Robot`` client sends one every 0.4 s from a
+least every ``lease.heartbeat_timeout`` (1.5 s; the ``Robot`` client sends one every 0.25 s from a
 thread while it holds the lease); without one the daemon ends the lease ("holder silent") and
 brings the robot to a safe stop. It also ends when the holder's liveliness token goes, on
 ``release`` and after ``idle_timeout`` without a command (renewals do not count).
