@@ -10,6 +10,7 @@ length ``N_SLOTS`` (index 0 unused) so ``frame.position[13]`` is the right knee.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -46,6 +47,21 @@ class JointFrame:
     # published rates are relative to it.
     gyro_centre: np.ndarray = field(default_factory=lambda: np.full(3, float(IMU_CENTER)))
     imu_calibrated: bool = True  # set each tick by the gyro calibration module
+    # The goal each servo holds (last written, or read from it at start), raw, and the bus's
+    # raw → joint angle conversion: converted only when a motion starts (start_of), not per
+    # tick. None in synthetic frames: a motion then starts from the present position.
+    goal_raw: np.ndarray | None = None
+    to_joint: Callable[[int, float], float] | None = None
+
+    def start_of(self, joint_id: int) -> float:
+        """Where a new motion of a joint starts: the goal it holds while torqued, as ROBOTIS's
+        Action.cpp starts a step from the joint's last value (``m_Joint.GetValue``), not from
+        where it sags to under load (a loaded joint stands below its goal; starting there made
+        it drop by the sag first); the present position when it has no torque or no goal."""
+        raw, convert = self.goal_raw, self.to_joint
+        if raw is not None and convert is not None and self.torque_enabled[joint_id]:
+            return convert(joint_id, float(raw[joint_id]))
+        return float(self.position[joint_id])
 
 
 @dataclass

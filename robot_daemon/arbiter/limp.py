@@ -36,7 +36,9 @@ def limp_reason(ctx: MotionContext, jid: int) -> str | None:
     return None
 
 
-def refuse_limp(ctx: MotionContext, ids: Iterable[int], what: str, field: str) -> None:
+def refuse_limp(
+    ctx: MotionContext, ids: Iterable[int], what: str, field: str | None = None
+) -> None:
     """``Reject`` (unavailable) naming the first limp joint of ``ids``, before ``what`` starts."""
     for jid in sorted(set(ids)):
         why = limp_reason(ctx, jid)

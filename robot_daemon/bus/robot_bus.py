@@ -387,6 +387,8 @@ class RobotBus(SensorRead):
             time=now,
             dt=dt,
             position=cal.positions(st.position),
+            goal_raw=st.goal.copy(),
+            to_joint=cal.to_joint,
             velocity=cal.sign * units.SPEED_RAD_S_TABLE[st.speed & 0x7FF],
             load=cal.sign * units.LOAD_FRACTION_TABLE[st.load & 0x7FF],
             online=st.online.copy(),

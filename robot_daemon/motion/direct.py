@@ -72,8 +72,9 @@ class DirectModule(MotionModule):
         traj, self._new_trajectory = self._new_trajectory, None
         assert traj is not None
         self._end_trajectory()
-        start = np.array([self._moves[j].current if j in self._moves else float(frame.position[j])
-                          for j in traj.ids])
+        start = np.array(
+            [self._moves[j].current if j in self._moves else frame.start_of(j) for j in traj.ids]
+        )
         self._trajectory = (traj, frame.time, start)
         for j, p in zip(traj.ids, start, strict=True):
             self._moves[j] = _Move(float(p), float(p), frame.time, 0.0, 0.0, float(p))
@@ -98,7 +99,7 @@ class DirectModule(MotionModule):
         for targets, duration, speed in self._pending:
             for j, tgt in targets.items():
                 prev = self._moves.get(j)
-                start = prev.current if prev else float(frame.position[j])
+                start = prev.current if prev else frame.start_of(j)  # the goal it holds
                 self._moves[j] = _Move(start, tgt, frame.time, duration, speed, start)
         self._pending.clear()
         if self._trajectory is not None:

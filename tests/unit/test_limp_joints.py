@@ -135,3 +135,48 @@ def test_a_knee_whose_replies_are_lost_stops_the_walk_keeps_its_goals_and_does_n
     rig.run(0.2)
     back = rig.frame().position[R_KNEE]
     assert math.degrees(abs(back - held)) < 2.0  # where it was held: no jump on return
+
+
+# -- issue 35, finding 8: where a motion starts, and the walk's arms ------------------------------
+@pytest.mark.parametrize("verb", ["pose", "action", "walk"])
+def test_a_motion_starts_from_the_goal_a_sagging_joint_holds_not_where_it_sags_to(
+    verb: str,
+) -> None:
+    """A loaded P-only servo stands below its goal. A pose, a page and the walk (its walk-ready
+    page) used to start from the present position: their first goal dropped the knee by the sag
+    at once. They start from the goal it holds, as ROBOTIS's Action.cpp does."""
+    rig = Rig(sag_units=80.0)
+    rig.emulator.set_external_load(R_KNEE, 0.8)
+    rig.run(1.0)
+    st = rig.bus.state
+    held, present = int(st.goal[R_KNEE]), int(st.position[R_KNEE])
+    assert abs(held - present) >= 30, "the knee does not sag: nothing to tell apart"
+    if verb == "pose":
+        target = rig.bus.raw_to_joint(R_KNEE, held) + 0.3
+        rig.send("pose", positions={"r_knee": target}, duration=1.0)
+    elif verb == "action":
+        rig.send("action", page=1)
+    else:
+        rig.send("walk", op="start")
+    firsts: list[int] = []
+    while len(firsts) < 3:
+        rig.step()
+        if int(st.goal[R_KNEE]) != held or firsts:
+            firsts.append(int(st.goal[R_KNEE]))
+    # The first goals move on from the held goal by a little, never to the sagged position.
+    assert abs(firsts[0] - held) <= 5, (held, present, firsts)
+
+
+def test_the_walk_owns_all_six_arm_servos_soft_at_the_walks_arm_pose() -> None:
+    rig = Rig()
+    walking = _walking(rig)
+    assert walking.running
+    for j in (1, 2, 3, 4, 5, 6):
+        assert rig.manager.owner(j) == "walking"
+        assert rig.emulator.bus.servos[j].table[MX28.P_GAIN] == 8  # Walking.cpp: SetPGain 8
+    for j, deg in ((3, -17.873), (4, 17.580), (5, 29.300), (6, -29.593)):
+        assert math.degrees(rig.manager._last_goal[j]) == pytest.approx(deg, abs=0.01)
+    rig.send("walk", op="stop")
+    assert rig.run_until(lambda _r: not walking.active, timeout=3.0)
+    rig.step()
+    assert rig.emulator.bus.servos[5].table[MX28.P_GAIN] == 32  # its configured gain again

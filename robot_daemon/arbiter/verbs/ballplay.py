@@ -56,7 +56,7 @@ def playball(req: Request, ctx: MotionContext) -> dict[str, Any]:
             "--camera 0 (the robot's webcam)",
         )
     # It walks, turns the head and kicks (a page on the whole body): every joint takes part.
-    refuse_limp(ctx, ctx.robot.ids, "ball play", "op")
+    refuse_limp(ctx, ctx.robot.ids, "ball play")
     _stop_vision(module)
     module.start(color)
     publish = ctx.publish

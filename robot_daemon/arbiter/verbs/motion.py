@@ -113,7 +113,7 @@ def walk(req: Request, ctx: MotionContext) -> dict[str, Any]:
     y = F.number(req.fields, "y", -ym, ym, default=0.0)
     turn = F.number(req.fields, "turn", -tm, tm, default=0.0)
     if op == "start":
-        refuse_limp(ctx, WALK_IDS, "walk", "op")
+        refuse_limp(ctx, WALK_IDS, "walk")
         amp = walking.start(x, y, turn)
     else:
         amp = walking.set_speed(x, y, turn)
@@ -259,7 +259,7 @@ def choreography(req: Request, ctx: MotionContext) -> dict[str, Any]:
             bad = player.library.violations(ctx.robot, player.library.chain(p["page"]))
             if bad:
                 raise Reject(ErrorCode.OUT_OF_RANGE, f"{where}{bad[0]}", "page")
-        driven = {"walk": WALK_IDS, "head": HEAD_IDS}.get(item.kind, ())
+        driven: set[int] = set({"walk": WALK_IDS, "head": HEAD_IDS}.get(item.kind, ()))
         if item.kind == "action":
             driven = _page_joints(player, p["page"])
         refuse_limp(ctx, driven, f"choreography {where}{item.kind}", "items")

@@ -42,7 +42,7 @@ def policy(req: Request, ctx: MotionContext) -> dict[str, Any]:
     rate = F.number(req.fields, "rate_hz", RATE_RANGE[0], min(RATE_RANGE[1], tick_hz), s.rate_hz)
     mode = F.text(req.fields, "mode", set(MODES), default="offset")
     scale = F.number(req.fields, "scale", 0.01, 1.0, default=s.scale)
-    refuse_limp(ctx, JOINT_IDS, "the policy loop", "op")  # it drives all 20 joints
+    refuse_limp(ctx, JOINT_IDS, "the policy loop")  # it drives all 20 joints
     key = module.start(req.client, rate, mode, scale)
     keys = Keys(ctx.info.robot) if ctx.info is not None else None
     return {

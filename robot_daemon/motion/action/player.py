@@ -245,8 +245,9 @@ class ActionModule(MotionModule):
         ids = page_joints(page)
         prev = {j: float(self._pos[k]) for k, j in enumerate(self._ids)}
         pvel = {j: float(self._vel[k]) for k, j in enumerate(self._ids)}
+        # From the goal each joint holds, not the present position it sags to (frames.py).
         start = np.array(
-            [prev.get(j, float(frame.position[j]) if frame is not None else 0.0) for j in ids]
+            [prev.get(j, frame.start_of(j) if frame is not None else 0.0) for j in ids]
         )
         self._page, self._ids = page, ids
         self._pos, self._vel = start, np.array([pvel.get(j, 0.0) for j in ids])

@@ -28,10 +28,15 @@ from robot_daemon.motion.walking.params import WalkParams
 from robot_daemon.motion.walking.ready import WalkReady
 
 LEG_IDS = tuple(range(7, 19))
-ARM_IDS = (1, 2)
+# The walk owns all six arm servos, as ROBOTIS's demo enables the walk on the whole body but the
+# head (SetEnableBodyWithoutHead): the shoulder pitches swing, the shoulder rolls and elbows
+# hold the walk's arm pose, and all six run soft (Walking.cpp's constructor: these angles, and
+# SetPGain(…, 8) on ID_R/L_SHOULDER_PITCH, _SHOULDER_ROLL and _ELBOW).
+ARM_IDS = (1, 2, 3, 4, 5, 6)
 WALK_IDS = (*ARM_IDS, *LEG_IDS)
-ARM_INIT_DEG = {1: -48.345, 2: 41.313}
-ARM_P_GAIN = 8  # the framework's shoulder pitch while walking
+ARM_INIT_DEG = {1: -48.345, 2: 41.313, 3: -17.873, 4: 17.580, 5: 29.300, 6: -29.593}
+ARM_P_GAIN = 8  # the framework's arms while walking
+ARM_INIT_RAD = {j: math.radians(d) for j, d in ARM_INIT_DEG.items()}
 
 
 def _wsin(t: float, period: float, shift: float, mag: float, mag_shift: float) -> float:
@@ -275,14 +280,15 @@ class WalkingModule(WalkReady, MotionModule):
             self._update_move()
 
     def _blend(self, frame: JointFrame) -> dict[int, float]:
-        """Move smoothly from the present pose into the gait's stance before the clock runs."""
+        """Move smoothly from the pose the joints hold into the gait's stance before the clock
+        runs."""
         stance = self._pose(frame, balance=False)
         if stance is None:
             self.halt()
             self.emit("walk", "walking refused: the stance is out of reach", state="stopped")
             return {}
-        if not self._ready_from:
-            self._ready_from = {j: float(frame.position[j]) for j in stance}
+        if not self._ready_from:  # from the goals the joints hold (frames.py: start_of)
+            self._ready_from = {j: frame.start_of(j) for j in stance}
         total = max(self.params.ready_time, 1e-6)
         assert self._ready_t is not None
         self._ready_t -= frame.dt
@@ -376,6 +382,8 @@ class WalkingModule(WalkReady, MotionModule):
         arm = 0.0 if xm == 0 else _wsin(t, self.period, math.pi * 1.5, xm * p.arm_swing_gain, 0)
         goals[1] = math.radians(ARM_INIT_DEG[1] - arm)
         goals[2] = math.radians(ARM_INIT_DEG[2] - arm)
+        for j in (3, 4, 5, 6):
+            goals[j] = ARM_INIT_RAD[j]
         if balance and p.balance_enable:
             self._gyro_f = gyro_feedback(goals, frame, p, self._gyro_f)
         if not self._within_limits(goals):
