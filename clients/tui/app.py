@@ -103,6 +103,8 @@ class DarwinApp(CommandsMixin, FleetMixin, App[None]):
         Binding("c", "connect", N_("Connect")),
         # Not on the key bar (Help must stay there at 80 columns); in the help screen.
         Binding("f3", "next_robot", N_("Next live robot"), show=False),
+        # After the CM-730's reset button (header [servos_off]): power the servos again.
+        Binding("P", "power", N_("Power the servos (admin)"), show=False),
         Binding("f1,question_mark", "help", N_("Help")),
         Binding("f2", "language", N_("Language")),
         Binding("ctrl+q", "quit", N_("Quit"), priority=True),

@@ -68,6 +68,11 @@ class CommandsMixin:
             self.model.edits.walk = (0.0, 0.0, 0.0)
             self.local_event("halt", _("Halted: every motion stopped, the pose is held."))
             self.notify(_("Halted: every motion stopped, the pose is held."), timeout=4)
+        elif tag == "power":
+            done = _("Servos powered again.") if message.applied.get("changed") else _(
+                "The servos are already powered."
+            )
+            self.notify(done, timeout=4)
         elif tag == "lease":
             holds = message.applied.get("holder", message.applied.get("client"))
             self.notify(_("Lease: {state}").format(state=holds or message.applied or "ok"))
@@ -84,10 +89,17 @@ class CommandsMixin:
         # Halt and the lease are command verbs: an observer sees them greyed out.
         if action in ("halt", "lease") and not role_at_least(self, Role.OPERATOR):
             return None
+        if action == "power" and not role_at_least(self, Role.ADMIN):
+            return None
         return True
 
     def action_halt(self) -> None:
         self.link.halt()
+
+    def action_power(self) -> None:
+        # The daemon powers the servos only when they are off (the reset button), and gives
+        # torque back only to those that had it; it answers `forbidden` to a non-admin.
+        self.link.send("power", tag="app:power", op="on")
 
     def action_lease(self) -> None:
         holder = self.model.lease_holder()

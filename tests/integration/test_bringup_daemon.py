@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 
+from clients.robot import Robot
 from schemas.errors import UnavailableError
 from schemas.sim_control import SimControl
 from tests.fixtures.system import start_system
@@ -76,5 +77,43 @@ def test_the_reset_button_leaves_the_servos_off_until_asked_and_torque_returns_w
             assert [i + 1 for i, on in enumerate(joints.torque_enabled) if not on] == [1, 3, 5]
             servos = sim.call("state")["servos"]
             assert [int(i) for i, s in servos.items() if not s["torque"]] == [1, 3, 5]
+        finally:
+            events.close()
+
+
+def press(robot: Robot, sim: SimControl, name: str) -> None:
+    """A press held until the daemon has read it (status.buttons), then released."""
+    sim.call("button", name=name, pressed=True)
+    robot.wait_for("status", lambda s: s.buttons.get(name), WAIT)
+    sim.call("button", name=name, pressed=False)
+
+
+def test_mode_stops_a_walk_and_start_powers_the_servos_after_the_reset_button() -> None:
+    """The CM-730's buttons (``daemon.buttons``): MODE = safe stop and hold, START = power."""
+    with (
+        start_system(gateway=False) as system,
+        system.robot_client(name="buttons") as robot,
+    ):
+        robot.wait_for("status", lambda s: s.state == "running", WAIT)
+        sim = SimControl(robot.session, system.robot)
+        events = Events(robot)
+        try:
+            robot.acquire()
+            robot.walk(x=0.02)
+            robot.wait_for("status", lambda s: s.motion.get("walking", {}).get("walking"), WAIT)
+            press(robot, sim, "mode")
+            mode = events.wait(lambda e: e.kind == "button")
+            assert mode.data["button"] == "mode" and "stops safely" in mode.message
+            robot.wait_for(
+                "status", lambda s: not s.motion.get("walking", {}).get("walking"), WAIT
+            )
+            robot.release()
+            sim.call("dxl_power_loss")
+            robot.wait_for("status", lambda s: s.state == "servos_off", WAIT)
+            press(robot, sim, "start")
+            back = events.wait(lambda e: e.kind == "power" and "powered again" in e.message)
+            assert back.data["by"] == "the START button"
+            robot.wait_for("status", lambda s: s.state == "running", WAIT)
+            assert sim.call("state")["servo_power"]
         finally:
             events.close()
