@@ -20,7 +20,13 @@ from pathlib import Path
 
 import serial
 
-from robot_daemon.bus.preflight import check_holders, check_latency, latency_timer_ms
+from robot_daemon.bus.preflight import (
+    LISTEN_S,
+    check_holders,
+    check_latency,
+    latency_timer_ms,
+    refuse_unasked,
+)
 from robot_daemon.bus.transport import Transport
 from schemas.errors import PortError, PortInUseError
 
@@ -100,6 +106,8 @@ class BlockingPortHandler(Transport):
             if not self.setBaudRate(baudrate):
                 raise PortError(f"baud rate {baudrate} is not supported on {self.port_name}")
             check_latency(self.port_name)  # after asking for low latency in setupPort
+            # Listen before talking: another master's replies arrive unasked.
+            refuse_unasked(self.port_name, self.unasked_bytes(LISTEN_S))
         except serial.SerialException as exc:
             self._lock.release()
             if "lock" in str(exc).lower():
@@ -190,6 +198,14 @@ class BlockingPortHandler(Transport):
             raise PortError(f"serial port {self.port_name} vanished (read returned EOF)")
         self.bytes_read += len(data)
         return data
+
+    def unasked_bytes(self, seconds: float) -> int:
+        """How many bytes arrive in ``seconds`` while nothing is sent."""
+        deadline = self.getCurrentTime() + seconds * 1000.0
+        count = 0
+        while chunk := self.read_chunk(deadline):
+            count += len(chunk)
+        return count
 
     def writePort(self, packet: list[int] | bytes) -> int:
         # os.write on the descriptor: pyserial's write() adds a select and a loop per call,

@@ -34,6 +34,8 @@ from typing import TYPE_CHECKING, Any
 
 from config.loader import refuse_unknown
 from robot_daemon.arbiter.registry import Reject, Request, needs_lease
+from robot_daemon.bus.port import BlockingPortHandler
+from robot_daemon.bus.preflight import HolderWatch
 from robot_daemon.bus.state import cm730_field
 from robot_daemon.bus.tables import CM730
 from robot_daemon.engine.power_actions import SIT_PAGE
@@ -103,6 +105,7 @@ class BusSupervisor:
         backoff_min: float,
         backoff_max: float,
         buttons: Buttons,
+        holder_check_s: float = 2.0,
     ) -> None:
         self.bus = bus
         self.manager = manager
@@ -119,6 +122,8 @@ class BusSupervisor:
         self.power_request: str | None = None  # who asked to power the servos (next tick)
         self.had_torque: list[int] = []  # the servos that had torque when power went
         self._buttons_last = 0
+        self.holder_check_s = holder_check_s
+        self.holders: HolderWatch | None = None
 
     # -- start and return ------------------------------------------------------------------
     def connect(self, first: bool = True) -> None:
@@ -128,6 +133,10 @@ class BusSupervisor:
         bus = self.bus
         self.set_state(DaemonState.STARTING)
         bus.open()
+        if isinstance(bus.handler, BlockingPortHandler) and self.holder_check_s > 0:
+            if self.holders is not None:
+                self.holders.close()
+            self.holders = HolderWatch(bus.port_name, self.holder_check_s)
         self.set_state(DaemonState.SCANNING)
         if first:
             bus.power_on()
@@ -248,6 +257,23 @@ class BusSupervisor:
             by=by,
         )
 
+    # -- a second master -----------------------------------------------------------------------
+    def check_holders(self) -> None:
+        """Each tick (a list's length when nothing changed): a process that opened the port
+        while the daemon drives it halts every motion, reported once."""
+        if self.holders is None:
+            return
+        for pid, cmd in self.holders.new():
+            self.manager.halt()
+            self.emit(
+                "fault",
+                f"PID {pid} ({cmd}) opened {self.bus.port_name} while the daemon drives it: "
+                "motion halted, and commands that move the robot are refused while it holds the "
+                "port (two masters garble the bus; ROBOTIS's demo starts from /etc/rc.local: "
+                "remove it there, or stop it)",
+                pid=pid,
+            )
+
     # -- buttons -------------------------------------------------------------------------------
     def _buttons(self) -> int:
         bus = self.bus
@@ -313,6 +339,14 @@ class BusSupervisor:
                 f"the servos are off (DXL power, status.state is servos_off): {req.verb} not "
                 "done; power them first (`power` op=on as admin, the START button or the TUI)",
             )
+        intruders = self.holders.current if self.holders is not None else []
+        if intruders and (req.verb == "registers" or needs_lease(req.verb, req.fields)):
+            pid, cmd = intruders[0]
+            raise Reject(
+                ErrorCode.UNAVAILABLE,
+                f"PID {pid} ({cmd}) holds {bus.port_name} too: {req.verb} not done while two "
+                "programs drive one bus; stop it (ROBOTIS's demo starts from /etc/rc.local)",
+            )
         why = self.guard.refusal(req.verb, req.fields)
         if why is not None:
             raise Reject(ErrorCode.UNAVAILABLE, why)
@@ -368,3 +402,5 @@ class BusSupervisor:
             except Exception as exc:  # a port already gone: nothing more to hold
                 log.warning("holding the pose at shutdown failed: %s", exc)
             bus.paint_disconnected()
+        if self.holders is not None:
+            self.holders.close()

@@ -124,6 +124,7 @@ class Daemon:
             backoff_min=float(dcfg.get("reopen_backoff_min", 0.1)),
             backoff_max=float(dcfg.get("reopen_backoff_max", 5.0)),
             buttons=Buttons.from_config(dcfg.get("buttons")),
+            holder_check_s=float(dcfg.get("holder_check_s", 2.0)),
         )
         self.tick = 0
         self.bus_errors = 0
@@ -359,6 +360,7 @@ class Daemon:
         supervisor = self.supervisor
         supervisor.check_power()  # DXL power gone: halted, servos off until asked
         supervisor.check_buttons()
+        supervisor.check_holders()
         bus_read = time.monotonic() - bus_t0
         # Stamp the data when it was sampled, not when the tick got round to publishing it, so
         # stamp differences are the sampling interval whatever the tick's work took.
