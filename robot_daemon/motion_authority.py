@@ -49,6 +49,11 @@ MOVE_LIMP_JOINT_STOP = "limp_joint_stop"
 MOVE_POWER_SIT = "power_sit"
 MOVE_POWER_OFF = "power_off"
 MOVE_SERVO_SHUTDOWN = "servo_shutdown"
+MOVE_START_TORQUE = "start_torque"
+MOVE_POWER_LOST = "power_lost"
+MOVE_POWER_BACK = "power_back"
+MOVE_MODE_BUTTON = "mode_button"
+MOVE_SECOND_MASTER = "second_master"
 
 MOVES_BY_ITSELF: tuple[SelfMove, ...] = (
     SelfMove(
@@ -107,6 +112,48 @@ MOVES_BY_ITSELF: tuple[SelfMove, ...] = (
         "a servo's overheating or overload alarm bit",
         "none: the servo's own firmware does it too",
         "robot_daemon/bus/sensor_read.py",
+    ),
+    SelfMove(
+        MOVE_START_TORQUE,
+        "powers the servo bus and turns torque on every servo that answers and is not in alarm "
+        "shutdown, each holding where it is (a servo found torqued keeps its goal only within "
+        "5° of where it is; one in alarm is left limp and reported)",
+        "the daemon starting (the boot service at power-on, a restart); never after the reset "
+        "button or a lost port",
+        "`[daemon] torque_on_start = false` (torque stays as found); `[bus] "
+        "hold_sag_limit_deg`",
+        "robot_daemon/engine/bus_lifecycle.py",
+    ),
+    SelfMove(
+        MOVE_POWER_LOST,
+        "every motion halts and the robot goes limp (the servos have no power); they stay off "
+        "until someone powers them (`power` op=on, START, the TUI)",
+        "the CM-730 reading DXL power off: its reset button, a brown-out, `power` op=off",
+        "none: without power the servos cannot hold",
+        "robot_daemon/engine/bus_lifecycle.py",
+    ),
+    SelfMove(
+        MOVE_POWER_BACK,
+        "powers the servos and gives torque back to those that had it, each holding where it "
+        "is (nothing else moves; the others stay limp)",
+        "a press of the START button while the servos are off (as `power` op=on would)",
+        "`[daemon.buttons] start = \"none\"`",
+        "robot_daemon/engine/bus_lifecycle.py",
+    ),
+    SelfMove(
+        MOVE_MODE_BUTTON,
+        "every motion stops safely (a walk at its next double support) and the pose is held; "
+        "with `sit`, the sit-down page plays",
+        "a press of the MODE button",
+        "`[daemon.buttons] mode = \"none\"`",
+        "robot_daemon/engine/bus_lifecycle.py",
+    ),
+    SelfMove(
+        MOVE_SECOND_MASTER,
+        "every motion halts and holds; commands that move the robot are refused",
+        "another process opening the serial port while the daemon runs",
+        "`[daemon] holder_check_s = 0`",
+        "robot_daemon/engine/bus_lifecycle.py",
     ),
 )
 

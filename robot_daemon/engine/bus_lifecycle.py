@@ -138,7 +138,7 @@ class BusSupervisor:
                 self.holders.close()
             self.holders = HolderWatch(bus.port_name, self.holder_check_s)
         self.set_state(DaemonState.SCANNING)
-        if first:
+        if first:  # MOVE_START_TORQUE (robot_daemon/motion_authority.py)
             bus.power_on()
         elif not bus.dxl_power():
             # Power went while the port was away: stay off until asked, as after a reset.
@@ -193,7 +193,7 @@ class BusSupervisor:
             return False
         st = bus.state
         self.had_torque = [j for j in bus.ids if st.online[j] and st.torque[j]]
-        self.manager.halt()
+        self.manager.halt()  # MOVE_POWER_LOST (robot_daemon/motion_authority.py)
         self._unpowered()
         self.emit(
             "power",
@@ -264,7 +264,7 @@ class BusSupervisor:
         if self.holders is None:
             return
         for pid, cmd in self.holders.new():
-            self.manager.halt()
+            self.manager.halt()  # MOVE_SECOND_MASTER (robot_daemon/motion_authority.py)
             self.emit(
                 "fault",
                 f"PID {pid} ({cmd}) opened {self.bus.port_name} while the daemon drives it: "
@@ -295,7 +295,7 @@ class BusSupervisor:
         if action is ModeAction.NONE:
             self.emit("button", "MODE pressed (daemon.buttons.mode = none)", button="mode")
             return
-        self.manager.stop_all()
+        self.manager.stop_all()  # MOVE_MODE_BUTTON (robot_daemon/motion_authority.py)
         what = "every motion stops safely and the pose is held"
         player = self.manager.get("action")
         if action is ModeAction.SIT and not self.servos_off and isinstance(player, ActionModule):
@@ -308,6 +308,7 @@ class BusSupervisor:
 
     def _start(self) -> None:
         if self.buttons.start is StartAction.POWER and self.servos_off:
+            # MOVE_POWER_BACK (robot_daemon/motion_authority.py)
             self.power_request = "the START button"
             self.emit("button", "START pressed: powering the servos", button="start")
             return
