@@ -22,8 +22,10 @@ import pytest
 
 from tests.fixtures.system import REPO, RunningSystem, start_system
 
-# docs/owner.md's first move runs on the simulator here: the script is the robot's, unchanged.
-PAGES = ["README.md", "docs/first-run.md", "docs/notebook.md", "docs/owner.md"]
+# One system for all of them, first-run first: its ball play needs the ball where `darwin up`
+# puts it; the others do not care where the robot stands. docs/owner.md's first move runs on
+# the simulator here: the script is the robot's, unchanged.
+PAGES = ["docs/first-run.md", "README.md", "docs/notebook.md", "docs/owner.md"]
 HANG = 300.0
 MARK = "---- block {} ----"
 FENCE = re.compile(r"^```(\S*)[^\n]*\n(.*?)^```\s*$", re.M | re.S)
@@ -62,11 +64,12 @@ def test_the_pages_show_python_and_output() -> None:
     assert blocks("README.md") and blocks("docs/notebook.md")
 
 
-@pytest.fixture
+@pytest.fixture(scope="module")
 def simulated() -> Iterator[RunningSystem]:
-    """A fresh system for each page, as a reader starts one: the ball where `darwin up` puts
-    it, nobody holding the lease."""
-    with start_system(camera=None) as system:  # `darwin up`'s own camera: the simulated one
+    """`darwin up` as a reader starts it, with its own (simulated) camera. Each script ends
+    with the lease released, so the next page finds the robot free. The start's timeout is a
+    hang detector for a loaded machine, not a speed limit."""
+    with start_system(camera=None, timeout=120.0) as system:
         yield system
 
 
