@@ -21,7 +21,7 @@ from robot_daemon.bus.calibration import Calibration
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.preflight import firmware_refusal
-from robot_daemon.bus.scan import identify, identity_warnings
+from robot_daemon.bus.scan import Identity, identify, identity_warnings
 from robot_daemon.bus.sensor_read import PROTECT_BITS, SLOW_LENGTH, SLOW_START, SensorRead
 from robot_daemon.bus.servo_ram import FULL_TORQUE, reset_servo_ram
 from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, imu_si
@@ -190,6 +190,8 @@ class RobotBus(SensorRead):
                 self._warn(line)
             joint = self.robot.by_id.get(dxl_id)
             refusal = firmware_refusal(dxl_id, joint.name, ident.firmware) if joint else None
+            if joint is not None and refusal is None:
+                refusal = self._angle_limits(dxl_id, ident)
             if refusal is not None:  # kept offline, probes included
                 self.refused[dxl_id] = refusal
                 self._warn(refusal)
@@ -201,6 +203,30 @@ class RobotBus(SensorRead):
             self.state.online[jid] = jid in found and jid not in self.refused
             self.state.misses[jid] = 0
         return found
+
+    def _angle_limits(self, dxl_id: int, ident: Identity) -> str | None:
+        """A servo in wheel mode (CW and CCW limits 0) is refused: it would turn, not hold. One
+        whose own limits are narrower than the joint's configured range is a warning: goals
+        past them are refused by the servo (ANGLE_LIMIT error) and the joint stops short."""
+        name = self.robot.by_id[dxl_id].name
+        cw, ccw = ident.cw_limit, ident.ccw_limit
+        if cw == 0 and ccw == 0:
+            return (
+                f"servo {dxl_id} ({name}) is in wheel mode (CW and CCW angle limits 0): it would "
+                "turn, not hold a position; left offline, torque refused; set its limits back "
+                "(0 and 4095) with an admin's `registers` write (--allow-hardware-writes "
+                "--allow-eeprom) or RoboPlus"
+            )
+        j = self.robot.by_id[dxl_id]
+        ends = (self.joint_to_raw(dxl_id, j.min_rad), self.joint_to_raw(dxl_id, j.max_rad))
+        lo, hi = sorted(ends)
+        if lo < cw or hi > ccw:
+            self._warn(
+                f"servo {dxl_id} ({name}) limits its own angle to {cw}..{ccw} (raw), narrower "
+                f"than the joint's configured {j.min_deg:g}°..{j.max_deg:g}° ({lo}..{hi}): the "
+                "servo refuses goals past its limits and the joint stops short"
+            )
+        return None
 
     @staticmethod
     def _scan_order(ids: list[int], found: dict[int, int]) -> Iterator[int]:

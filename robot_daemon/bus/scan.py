@@ -67,11 +67,14 @@ class Identity:
     baud: int  # the baud rate register (raw)
     return_delay: int  # the return delay register (raw, 2 µs units)
     error: int  # error bits of the reply
+    cw_limit: int = 0  # the servo's own angle limits (raw; both 0 = wheel mode)
+    ccw_limit: int = 4095
 
 
-# Model number … return delay time: the same addresses on the MX-28 and the CM-730.
+# Model number … return delay time: the same addresses on the MX-28 and the CM-730; then the
+# MX-28's angle limits (the CM-730's registers there are read and ignored).
 _IDENTITY_START = MX28.MODEL_NUMBER.reg.address
-_IDENTITY_LENGTH = MX28.RETURN_DELAY_TIME.reg.end - _IDENTITY_START
+_IDENTITY_LENGTH = MX28.CCW_ANGLE_LIMIT.reg.end - _IDENTITY_START
 
 
 def identity_warnings(ident: Identity, dxl_id: int, expected: int, port: str) -> list[str]:
@@ -108,6 +111,8 @@ def identify(bus: DxlBus, dxl_id: int, tries: int = 3) -> Identity | None:
         baud=at(MX28.BAUD_RATE),
         return_delay=at(MX28.RETURN_DELAY_TIME),
         error=error,
+        cw_limit=at(MX28.CW_ANGLE_LIMIT),
+        ccw_limit=at(MX28.CCW_ANGLE_LIMIT),
     )
 
 

@@ -26,6 +26,7 @@ import pytest
 
 from clients.robot import Robot
 from robot_daemon.bus.tables import MX28
+from schemas import units
 from schemas.errors import CommandError
 from schemas.session import free_tcp_port, open_client
 from schemas.sim_control import SimControl
@@ -42,6 +43,10 @@ WAIT = 30.0
 SIM = ("--no-wire-timing", "--power-on-delay", "0")
 KNEE = 13  # r_knee: a leg servo that shuts down on overload
 PAN = 19  # head_pan: a servo left creeping towards a far goal
+WHEEL = 7  # r_hip_pitch: left in wheel mode (angle limits 0/0)
+NARROW = 8  # l_hip_pitch: its own angle limits narrower than the joint's range
+TILT = 20  # head_tilt: torque turned on by a raw register write
+GREEN = units.rgb_to_color_word(0, 255, 0)
 
 
 @contextlib.contextmanager
@@ -86,6 +91,9 @@ def test_an_alarmed_servo_survives_a_restart_without_re_arming_and_a_far_goal_is
             ph.write2ByteTxRx(port, PAN, MX28.MOVING_SPEED.reg.address, 1)
             start_raw = ph.read2ByteTxRx(port, PAN, MX28.PRESENT_POSITION.reg.address)[0]
             ph.write2ByteTxRx(port, PAN, MX28.GOAL_POSITION.reg.address, start_raw + 1024)
+            for dxl_id, cw, ccw in ((WHEEL, 0, 0), (NARROW, 1900, 2200)):
+                ph.write2ByteTxRx(port, dxl_id, MX28.CW_ANGLE_LIMIT.reg.address, cw)
+                ph.write2ByteTxRx(port, dxl_id, MX28.CCW_ANGLE_LIMIT.reg.address, ccw)
         finally:
             port.closePort()
         control.call("load", id=KNEE, fraction=1.0)
@@ -103,8 +111,13 @@ def test_an_alarmed_servo_survives_a_restart_without_re_arming_and_a_far_goal_is
                 )
                 assert any(a["id"] == KNEE for a in status.alarms)
                 assert KNEE in status.bus["torque_off"]
-                assert any(f"servo {KNEE} " in w and "alarm shutdown" in w
-                           for w in status.bus["warnings"])
+                warnings = status.bus["warnings"]
+                assert any(f"servo {KNEE} " in w and "alarm shutdown" in w for w in warnings)
+                # The scan reads the servos' own angle limits: wheel mode refused, narrowed said.
+                assert WHEEL in status.bus["offline"]
+                assert any(f"servo {WHEEL} " in w and "wheel mode" in w for w in warnings)
+                assert any(f"servo {NARROW} " in w and "limits its own angle" in w
+                           for w in warnings)
                 # A flood of `torque` on the knee re-arms nothing.
                 with robot.control():
                     for _ in range(20):
@@ -122,8 +135,19 @@ def test_an_alarmed_servo_survives_a_restart_without_re_arming_and_a_far_goal_is
                 assert pan["torque"]
                 assert abs(pan["goal"] - pan["position"]) < math.radians(1.0)
                 assert abs(pan["position"] - start) < math.radians(30.0)
+                # Torque on by a raw register write holds where the joint is (goal = present
+                # first), not at whatever goal it had before it was pushed.
+                with robot.control():
+                    robot.torque(False, [TILT])
+                    moved = state[str(TILT)]["position"] + 0.3
+                    control.call("set_position", id=TILT, rad=moved)
+                    robot.registers(TILT, MX28.TORQUE_ENABLE.reg.address, data=[1])
+                tilt = control.call("state")["servos"][str(TILT)]
+                assert tilt["torque"] and abs(tilt["goal"] - moved) < math.radians(1.0)
             finally:
                 events.close()
+        # The daemon gone, the head LED is green (ROBOTIS's CM730::Disconnect), not orange.
+        assert control.call("state")["leds"]["head"] == GREEN
 
 
 PING_CM730 = bytes((0xFF, 0xFF, 200, 0x02, 0x01, (~(200 + 0x02 + 0x01)) & 0xFF))
