@@ -38,10 +38,9 @@ if not _is_worker():
 
 # Daemons started by the tests (in-process or `darwin up`) read the user's own action pages
 # from here, never from the developer's ~/.config/darwin/motions; a test that saves pages
-# points DARWIN_MOTIONS (or [motion] user_library) at a folder of its own. In the run
-# directory, so it goes with the run.
-if _WATCHDOG is not None:
-    os.environ["DARWIN_MOTIONS"] = tempfile.mkdtemp(prefix="motions-")
+# points DARWIN_MOTIONS (or [motion] user_library) at a folder of its own. One per process
+# (each xdist worker too), in the run directory, so it goes with the run.
+os.environ["DARWIN_MOTIONS"] = tempfile.mkdtemp(prefix="motions-")
 
 
 def pytest_configure(config: pytest.Config) -> None:
