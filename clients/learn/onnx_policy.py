@@ -290,10 +290,12 @@ def mlp_model(
     obs_mean: np.ndarray | None = None,
     obs_std: np.ndarray | None = None,
     metadata: dict[str, str] | None = None,
+    out_map: np.ndarray | None = None,
 ) -> Any:
     """An ONNX model of an MLP policy from its weights (``(W [in, out], b [out])`` per layer,
     ``activation`` between them, none after the last), the observation normalised first, the
-    action clipped to ±1: built with ``onnx.helper``, no torch needed."""
+    outputs mapped to the 20 joints by ``out_map`` (``[outputs, 20]``) when given, the action
+    clipped to ±1: built with ``onnx.helper``, no torch needed."""
     from onnx import TensorProto, helper, numpy_helper
 
     nodes, inits = [], []
@@ -320,6 +322,10 @@ def mlp_model(
         if k < len(layers) - 1:
             nodes.append(helper.make_node(activation, [x], [f"a{k}"]))
             x = f"a{k}"
+    if out_map is not None:  # the network's outputs → the 20 joints' actions
+        inits.append(numpy_helper.from_array(np.asarray(out_map, np.float32), "out_map"))
+        nodes.append(helper.make_node("MatMul", [x, "out_map"], ["joints"]))
+        x = "joints"
     inits += [
         numpy_helper.from_array(np.array(-1.0, np.float32), "lo"),
         numpy_helper.from_array(np.array(1.0, np.float32), "hi"),

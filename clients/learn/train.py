@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from schemas.joints import JOINT_NAMES
 from schemas.policy import N_JOINTS, OBSERVATION_SIZE
 
 RATE = 50.0
@@ -129,28 +130,47 @@ class Settings:
     horizon: int = 64  # steps per env per iteration
     epochs: int = 4
     minibatches: int = 4
-    lr: float = 3e-4
+    lr: float = 1e-4  # fine-tuning a copied controller: small steps
     gamma: float = 0.99
     lam: float = 0.95
     clip: float = 0.2
-    init_std: float = 0.3
+    init_std: float = 0.15
+    # The policy's own outputs, each driving a left/right pair of servos mirrored (the pair's
+    # directions are mirrored: +u on the right is −u on the left, as stand_balance.py's ankles):
+    # the sagittal joints a push along x is answered with. () = all 20 joints, one each.
+    pairs: tuple[str, ...] = ("shoulder_pitch", "hip_pitch", "knee", "ankle_pitch")
+    imitate_steps: int = 6000  # warm start: steps of stand_balance.py under pushes to copy
+    value_warmup: int = 3  # iterations that train the value function alone, the policy kept
     hidden: tuple[int, ...] = (128, 128)
-    push: tuple[float, float] = (0.3, 3.0)  # N·s
-    push_spread: float = 0.5  # rad about forward/backward (the push table shoves along x)
+    push: tuple[float, float] = (0.5, 2.5)  # N·s
+    push_spread: float = 0.2  # rad about forward/backward (the push table shoves along x)
     episode_steps: int = 400
     randomize: bool = True
     reward_scale: float = 0.1  # returns of ~20, not ~200: the value net's targets near 1
+
+
+def action_map(pairs: Sequence[str]) -> np.ndarray:
+    """``[len(pairs), 20]``: the policy's outputs → the contract's 20-joint action."""
+    if not pairs:
+        return np.eye(N_JOINTS)
+    m = np.zeros((len(pairs), N_JOINTS))
+    for i, joint in enumerate(pairs):
+        m[i, JOINT_NAMES.index(f"r_{joint}")] = 1.0
+        m[i, JOINT_NAMES.index(f"l_{joint}")] = -1.0
+    return m
 
 
 class PPO:
     def __init__(self, s: Settings, seed: int) -> None:
         self.s = s
         self.rng = np.random.default_rng(seed)
+        self.out_map = action_map(s.pairs)
+        n_out = len(self.out_map)
         sizes = (OBSERVATION_SIZE, *s.hidden)
         # A near-zero first action: the untrained policy holds the stand pose.
-        self.pi = MLP((*sizes, N_JOINTS), self.rng, out_gain=0.01)
+        self.pi = MLP((*sizes, n_out), self.rng, out_gain=0.01)
         self.vf = MLP((*sizes, 1), self.rng, out_gain=1.0)
-        self.log_std = np.full(N_JOINTS, math.log(s.init_std))
+        self.log_std = np.full(n_out, math.log(s.init_std))
         self.norm = Normaliser(OBSERVATION_SIZE)
         self.opt = Adam([*self.pi.params, self.log_std, *self.vf.params], s.lr)
 
@@ -166,13 +186,43 @@ class PPO:
 
     def _logp(self, a: np.ndarray, mu: np.ndarray) -> np.ndarray:
         z = (a - mu) / np.exp(self.log_std)
-        return (
-            -0.5 * np.sum(z * z, axis=1)
-            - np.sum(self.log_std)
-            - 0.5 * N_JOINTS * math.log(2 * math.pi)
-        )
+        k = len(self.log_std)
+        return -0.5 * np.sum(z * z, axis=1) - np.sum(self.log_std) - 0.5 * k * math.log(2 * math.pi)
 
-    def update(self, x, a, logp_old, adv, ret) -> dict[str, float]:
+    def imitate(self, envs: Any, steps: int, log: Any) -> None:
+        """Warm start: fit the policy's mean to stand_balance.py's answers (its ankle output
+        on the ankle pair) on observations of it balancing under the same shoves."""
+        from clients.learn.examples.stand_balance import L_ANKLE, R_ANKLE, StandBalance
+
+        ankle = int(np.flatnonzero(self.out_map[:, R_ANKLE])[0])
+        teachers = [StandBalance() for _ in range(envs.num_envs)]
+        obs, _ = envs.reset(seed=int(self.rng.integers(2**31)))
+        xs, ys = [], []
+        for _ in range(steps // envs.num_envs):
+            acts = np.stack([t(o) for t, o in zip(teachers, obs, strict=True)])
+            target = np.zeros((len(obs), len(self.out_map)))
+            target[:, ankle] = acts[:, R_ANKLE]
+            assert np.allclose(acts[:, L_ANKLE], -acts[:, R_ANKLE])
+            xs.append(obs.copy())
+            ys.append(target)
+            obs, _, term, trunc, _ = envs.step(acts)
+            for i in np.flatnonzero(term | trunc):
+                teachers[i].reset()
+        x, y = np.concatenate(xs), np.concatenate(ys)
+        self.norm.update(x)
+        xn = self.norm(x)
+        opt = Adam(self.pi.params, 1e-3)
+        for _ in range(60):
+            order = self.rng.permutation(len(x))
+            for k in range(0, len(x), 256):
+                idx = order[k : k + 256]
+                mu = self.pi.forward(xn[idx])
+                opt.step(self.pi.backward((mu - y[idx]) / len(idx)), max_norm=10.0)
+        err = float(np.mean((self.pi.forward(xn) - y) ** 2))
+        print(f"imitation: {len(x)} steps of stand_balance.py, mean squared error {err:.5f} "
+              f"(its output variance {float(np.var(y[:, ankle])):.5f})", file=log, flush=True)
+
+    def update(self, x, a, logp_old, adv, ret, policy: bool = True) -> dict[str, float]:
         s, n = self.s, len(x)
         size = n // s.minibatches
         stats: dict[str, float] = {"clipfrac": 0.0, "vloss": 0.0}
@@ -193,6 +243,9 @@ class PPO:
                 d_mu = d_logp[:, None] * (ab - mu) / std**2
                 d_log_std = np.sum(d_logp[:, None] * (((ab - mu) / std) ** 2 - 1.0), axis=0)
                 g_pi = self.pi.backward(d_mu)
+                if not policy:  # the value function learns first: its advantages are noise
+                    g_pi = [np.zeros_like(g) for g in g_pi]
+                    d_log_std = np.zeros_like(d_log_std)
                 v = self.vf.forward(xb)[:, 0]
                 d_v = (v - ret[idx]) / len(idx)  # 0.5 (v − R)² averaged
                 g_vf = self.vf.backward(d_v[:, None])
@@ -234,18 +287,24 @@ def train(
     iteration (nan where none did)."""
     envs = make_envs(s, seed)
     agent = PPO(s, seed)
+    before = evaluate(agent)
+    if s.imitate_steps:
+        agent.imitate(envs, s.imitate_steps, log)
     obs, _ = envs.reset(seed=seed)
     ep_ret, ep_len = np.zeros(s.envs), np.zeros(s.envs, int)
     returns: list[float] = []
     t0 = time.monotonic()
     steps = 0
     for it in range(iterations):
-        agent.norm.update(obs)
+        if not s.imitate_steps:
+            # A copied policy keeps the normaliser it was fitted with: moving it would move
+            # the policy with no gradient step at all.
+            agent.norm.update(obs)
         buf_x, buf_a, buf_l, buf_r, buf_v, buf_d = [], [], [], [], [], []
         done_ret, done_len = [], []
         for _ in range(s.horizon):
             a, logp, v, x = agent.act(obs)
-            obs, r, term, trunc, info = envs.step(a)
+            obs, r, term, trunc, info = envs.step(a @ agent.out_map)
             ep_ret += r
             ep_len += 1
             r = np.asarray(r, float) * s.reward_scale
@@ -276,7 +335,7 @@ def train(
         ret = adv + val
         stats = agent.update(
             np.concatenate(buf_x), np.concatenate(buf_a), np.concatenate(buf_l),
-            adv.reshape(-1), ret.reshape(-1),
+            adv.reshape(-1), ret.reshape(-1), policy=it >= s.value_warmup,
         )  # fmt: skip
         mean_ret = float(np.mean(done_ret)) if done_ret else math.nan
         returns.append(mean_ret)
@@ -293,9 +352,38 @@ def train(
         if minutes and elapsed > minutes * 60:
             break
     envs.close()
+    after = evaluate(agent)
+    print(f"evaluation return (1.0 N·s shoves, 4 seeded episodes): untrained {before:.1f}, "
+          f"trained {after:.1f}", file=log, flush=True)  # fmt: skip
     if out is not None:
-        export(agent, out, {"iterations": len(returns), "steps": steps})
+        export(agent, out, {"iterations": len(returns), "steps": steps,
+                            "evaluation": {"untrained": before, "trained": after}})  # fmt: skip
     return agent, returns
+
+
+def evaluate(agent: PPO, impulse: float = 1.0, episodes: int = 4, steps: int = 150) -> float:
+    """Mean return of the deterministic policy (the mean action) on the nominal training model,
+    shoved ``impulse`` N·s forward or backward 1 s into each seeded episode."""
+    import gymnasium as gym
+
+    import clients.learn.env  # noqa: F401
+    from clients.learn.fast import Randomization
+
+    env = gym.make("darwin/Stand-v0", randomize=Randomization.off(), max_steps=steps)
+    total = 0.0
+    for seed in range(episodes):
+        obs, _ = env.reset(seed=seed)
+        for k in range(steps):
+            if k == int(RATE):
+                sign = 1.0 if seed % 2 == 0 else -1.0
+                env.unwrapped.push((sign * impulse / 0.1, 0.0, 0.0), 0.1)
+            mu = agent.pi.forward(agent.norm(obs[None].astype(float)))[0]
+            obs, r, term, trunc, _ = env.step(np.clip(mu @ agent.out_map, -1.0, 1.0))
+            total += float(r)
+            if term or trunc:
+                break
+    env.close()
+    return total / episodes
 
 
 def export(agent: PPO, out: Path, made: dict[str, Any]) -> None:
@@ -313,7 +401,8 @@ def export(agent: PPO, out: Path, made: dict[str, Any]) -> None:
                 "settings": {k: v for k, v in vars(agent.s).items()}}  # fmt: skip
     meta = deploy_metadata(RATE, scale, [robot.by_id[j].p for j in JOINT_IDS],
                            **{"darwin.training": json.dumps(training)})  # fmt: skip
-    model = mlp_model(agent.pi.layers, "Tanh", agent.norm.mean, agent.norm.std, meta)
+    model = mlp_model(agent.pi.layers, "Tanh", agent.norm.mean, agent.norm.std, meta,
+                      out_map=agent.out_map)  # fmt: skip
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_suffix(".onnx.tmp")
     onnx.save(model, str(tmp))
@@ -329,8 +418,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--envs", type=int, default=Settings.envs)
     ap.add_argument("--horizon", type=int, default=Settings.horizon)
     ap.add_argument("--push", type=float, nargs=2, default=Settings.push, metavar=("LO", "HI"))
+    ap.add_argument("--imitate", type=int, default=Settings.imitate_steps,
+                    help="steps of stand_balance.py to copy first (0: start from holding)")
     args = ap.parse_args(argv)
-    s = Settings(envs=args.envs, horizon=args.horizon, push=tuple(args.push))
+    s = Settings(envs=args.envs, horizon=args.horizon, push=tuple(args.push),
+                 imitate_steps=args.imitate)  # fmt: skip
     given = sys.argv[1:] if argv is None else argv
     print(f"training: python -m clients.learn.train {' '.join(given)}", flush=True)
     train(s, args.seed, args.iterations, args.minutes, args.out)

@@ -16,6 +16,7 @@ import pytest
 from clients.learn.onnx_policy import (
     META_JOINTS,
     META_SCHEMA,
+    SUPPORTED_OPS,
     NumpyGraph,
     PolicyLoadError,
     contract_mismatch,
@@ -186,3 +187,32 @@ def test_the_numpy_engine_runs_a_policy_in_the_simulator(tmp_path: Path) -> None
     policy, rate = load_policy(path, "numpy")
     assert rate == 25.0 and policy.engine == "numpy"  # type: ignore[attr-defined]
     assert run_sim(policy, 25.0, 1.0, 0.0, 0) == 25
+
+
+SHIPPED = Path(__file__).resolve().parents[2] / "clients" / "learn" / "policies" / "stand_push.onnx"
+
+
+def test_the_shipped_policy_carries_this_contracts_constants() -> None:
+    from config.loader import load_all, load_robot
+    from robot_daemon.motion.policy import PolicySettings
+    from schemas.joints import JOINT_IDS
+
+    model = onnx.load(str(SHIPPED))
+    meta = {p.key: p.value for p in model.metadata_props}
+    assert contract_mismatch(meta) == ""
+    robot = load_robot()
+    assert json.loads(meta["darwin.p_gains"]) == [robot.by_id[j].p for j in JOINT_IDS]
+    assert float(meta["darwin.action_scale"]) == PolicySettings.from_config(
+        load_all().get("policy")
+    ).scale
+    assert float(meta["rate_hz"]) == 50.0
+    training = json.loads(meta["darwin.training"])
+    assert training["algorithm"].startswith("PPO") and training["steps"] > 0
+    # What numpy runs is what was trained: every operator is one the robot can evaluate.
+    assert {n.op_type for n in model.graph.node} <= set(SUPPORTED_OPS)
+    policy, _ = load_policy(str(SHIPPED), "numpy")
+    assert policy(np.zeros(OBSERVATION_SIZE, np.float32)).shape == (N_JOINTS,)
+    # The log beside it says how it was made.
+    log = SHIPPED.with_suffix(".log").read_text().splitlines()
+    assert log[0].startswith("training: python -m clients.learn.train ")
+    assert log[-1].startswith("policy: clients/learn/policies/stand_push.onnx")

@@ -1,0 +1,130 @@
+"""Shoves of rising impulse on the whole stack: which policy stays up.
+
+    .venv/bin/python benchmarks/push_table.py [--tries 3] [--impulses 0.8 1.2 1.6 2.0]
+
+``darwin up --physics mujoco`` (daemon + emulator + the full MuJoCo plant, in real time; with
+``[policy] damp_after = 1.0`` and ``silence_timeout = 3.0``: on a loaded machine a late action
+must not soften the joints, the table is of the policies, not of the scheduler); for
+each policy, impulse and try: the stand page, the robot placed standing, the lease released;
+then ``darwin policy run POLICY --seconds 5`` in its own process, and 1.5 s after its stream
+runs one shove of the impulse (N·s, over 0.1 s at the torso) forward or backward (seeded, the
+same series for every policy). A fall is the daemon's own termination of the stream ("stopped
+by the daemon: fall…"). The policies: the trained one (clients/learn/policies/stand_push.onnx),
+the hand-made ankle controller (clients/learn/examples/stand_balance.py) and holding the stand
+pose. Prints the table: impulse → falls out of N, per policy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from schemas.errors import DarwinError  # noqa: E402
+from schemas.sim_control import SimControl  # noqa: E402
+from tests.fixtures.system import start_system  # noqa: E402
+
+POLICIES = {
+    "trained": str(ROOT / "clients/learn/policies/stand_push.onnx"),
+    "stand_balance": "clients.learn.examples.stand_balance:policy",
+    "hold": "clients.learn.examples.stand_balance:hold",
+}
+PUSH_S = 0.1
+SETTLE_S = 1.5
+RUN_S = 5.0
+WAIT = 15.0
+
+
+def prepare(robot, sim: SimControl) -> None:  # type: ignore[no-untyped-def]
+    """Standing at rest in the stand page's pose, nobody holding the lease."""
+    robot.acquire()
+    robot.command("halt")
+    sim.call("place_robot", x=-1.0, y=0.0, yaw=0.0)
+    robot.action("stand")
+    # The page's start may come before or after the next status: wait for it to play, then end.
+    with contextlib.suppress(TimeoutError, DarwinError):
+        robot.wait_for("status", lambda s: s.motion["action"]["playing"], 2.0)
+    robot.wait_for("status", lambda s: not s.motion["action"]["playing"], WAIT)
+    sim.call("place_robot", x=-1.0, y=0.0, yaw=0.0)
+    time.sleep(1.0)  # a benchmark: let it settle in the pose
+    robot.wait_for("status", lambda s: s.motion["fall"]["state"] == "upright", WAIT)
+    robot.release()
+
+
+def one_try(system, robot, sim: SimControl, spec: str, force: float) -> bool:  # type: ignore[no-untyped-def]
+    """Whether the robot fell (the daemon ended the policy's stream for a fall after the
+    shove); a start that found it fallen already is tried again."""
+    for _ in range(3):
+        fell = _try(system, robot, sim, spec, force)
+        if fell is not None:
+            return fell
+    raise RuntimeError("three starts found the robot fallen before the shove")
+
+
+def _try(system, robot, sim: SimControl, spec: str, force: float) -> bool | None:  # type: ignore[no-untyped-def]
+    prepare(robot, sim)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "robot_daemon.launch.cli", "policy", "run", spec,
+         "--seconds", str(RUN_S), "--connect", system.endpoint, "--robot", system.robot],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, stdin=subprocess.DEVNULL,
+        cwd=ROOT,
+    )  # fmt: skip
+    # Polled: a benchmark, and the status reply is the daemon's own view of the stream.
+    end = time.monotonic() + WAIT
+    while robot.command("policy", op="status").get("state") != "running":
+        if proc.poll() is not None or time.monotonic() > end:
+            out = proc.communicate()[0]
+            if "stopped by the daemon: fall" in out:
+                return None  # fallen before the shove: not a try
+            raise RuntimeError(f"the policy stream did not start: {out.strip()[-300:]}")
+        time.sleep(0.05)
+    time.sleep(SETTLE_S)
+    sim.call("push", fx=force, fy=0.0, fz=0.0, duration=PUSH_S)
+    out = proc.communicate(timeout=RUN_S + WAIT)[0]
+    return "stopped by the daemon: fall" in out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tries", type=int, default=3)
+    ap.add_argument("--impulses", type=float, nargs="+", default=[0.8, 1.2, 1.6, 2.0])
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    signs = np.random.default_rng(args.seed).choice([-1.0, 1.0], (len(args.impulses), args.tries))
+    falls: dict[str, list[int]] = {name: [] for name in POLICIES}
+    config = Path(tempfile.mkdtemp()) / "patient.toml"
+    config.write_text("[policy]\ndamp_after = 1.0\nsilence_timeout = 3.0\n")
+    with (
+        start_system(gateway=False, extra_args=["--physics", "mujoco", "--config", str(config)])
+        as system,
+        system.robot_client(name="push table") as robot,
+    ):
+        robot.wait_for("joints", timeout=30)
+        sim = SimControl(robot.session, robot.target.robot)
+        for i, impulse in enumerate(args.impulses):
+            for name, spec in POLICIES.items():
+                fell = [one_try(system, robot, sim, spec, s * impulse / PUSH_S) for s in signs[i]]
+                falls[name].append(sum(fell))
+                print(f"{impulse:.1f} N·s {name}: {sum(fell)}/{args.tries} fell "
+                      f"({', '.join('forward' if s > 0 else 'backward' for s in signs[i])})",
+                      flush=True)  # fmt: skip
+    names = list(POLICIES)
+    print(f"\nfalls out of {args.tries} per shove (whole stack, `darwin policy run`):")
+    print("| impulse (N·s) | " + " | ".join(names) + " |")
+    print("|---|" + "---|" * len(names))
+    for i, impulse in enumerate(args.impulses):
+        cells = " | ".join(f"{falls[n][i]}/{args.tries}" for n in names)
+        print(f"| {impulse:.1f} | {cells} |")
+
+
+if __name__ == "__main__":
+    main()
