@@ -376,7 +376,7 @@ def evaluate(agent: PPO, impulse: float = 1.0, episodes: int = 4, steps: int = 1
         for k in range(steps):
             if k == int(RATE):
                 sign = 1.0 if seed % 2 == 0 else -1.0
-                env.unwrapped.push((sign * impulse / 0.1, 0.0, 0.0), 0.1)
+                env.unwrapped.push((sign * impulse / 0.1, 0.0, 0.0), 0.1)  # type: ignore[attr-defined]
             mu = agent.pi.forward(agent.norm(obs[None].astype(float)))[0]
             obs, r, term, trunc, _ = env.step(np.clip(mu @ agent.out_map, -1.0, 1.0))
             total += float(r)
