@@ -243,18 +243,21 @@ def test_a_silent_servo_times_out_and_fails_the_bulk_read(emulator: Emulator, dx
 
 def test_overheating_sets_the_alarm_and_shuts_torque_off(emulator: Emulator, dxl: SDK) -> None:
     port, ph = dxl
+    limit = MX28.TORQUE_LIMIT.reg.address
     assert ph.write1ByteTxRx(port, 9, MX28.TORQUE_ENABLE.reg.address, 1) == (0, 0)
     emulator.overheat(9)
     temp, result, error = ph.read1ByteTxRx(port, 9, MX28.PRESENT_TEMPERATURE.reg.address)
     assert result == COMM_SUCCESS and error & ErrorBit.OVERHEATING
     assert temp > ph.read1ByteTxRx(port, 9, MX28.TEMPERATURE_LIMIT.reg.address)[0]
-    assert ph.read1ByteTxRx(port, 9, MX28.TORQUE_ENABLE.reg.address)[0] == 0
-    # Re-enabling is accepted but the alarm shutdown keeps torque off while it lasts.
-    ph.write1ByteTxRx(port, 9, MX28.TORQUE_ENABLE.reg.address, 1)
-    assert ph.read1ByteTxRx(port, 9, MX28.TORQUE_ENABLE.reg.address)[0] == 0
+    # The MX-28's alarm shutdown zeroes TORQUE_LIMIT (TORQUE_ENABLE still reads 1): limp.
+    assert ph.read2ByteTxRx(port, 9, limit)[0] == 0
+    assert ph.read1ByteTxRx(port, 9, MX28.TORQUE_ENABLE.reg.address)[0] == 1
+    # A re-arm is accepted but the alarm keeps the limit at 0 while it lasts.
+    ph.write2ByteTxRx(port, 9, limit, 1023)
+    assert ph.read2ByteTxRx(port, 9, limit)[0] == 0
     emulator.overheat(9, False)
-    assert ph.write1ByteTxRx(port, 9, MX28.TORQUE_ENABLE.reg.address, 1) == (0, 0)
-    assert ph.read1ByteTxRx(port, 9, MX28.TORQUE_ENABLE.reg.address) == (1, 0, 0)
+    assert ph.write2ByteTxRx(port, 9, limit, 1023) == (0, 0)
+    assert ph.read2ByteTxRx(port, 9, limit) == (1023, 0, 0)
 
 
 def test_sustained_load_heats_a_servo_past_its_limit(emulator_factory) -> None:
@@ -268,12 +271,12 @@ def test_sustained_load_heats_a_servo_past_its_limit(emulator_factory) -> None:
         assert warm[1:] == (COMM_SUCCESS, 0) and 40 < warm[0] < 80
         for _ in range(600):  # until the alarm shuts torque off (about 40 s more)
             emu.advance(1.0)
-            if not emu.register(11, "TORQUE_ENABLE"):
+            if not emu.register(11, "TORQUE_LIMIT"):
                 break
         temp, result, error = ph.read1ByteTxRx(port, 11, MX28.PRESENT_TEMPERATURE.reg.address)
         assert result == COMM_SUCCESS and error & ErrorBit.OVERHEATING
         assert temp >= 80
-        assert ph.read1ByteTxRx(port, 11, MX28.TORQUE_ENABLE.reg.address)[0] == 0
+        assert ph.read2ByteTxRx(port, 11, MX28.TORQUE_LIMIT.reg.address)[0] == 0
         emu.advance(300.0)  # unloaded, it cools down and the alarm clears
         assert ph.read1ByteTxRx(port, 11, MX28.PRESENT_TEMPERATURE.reg.address)[2] == 0
     finally:

@@ -40,7 +40,8 @@ def test_up_offers_each_adapter() -> None:
 
 
 def test_the_robot_package_imports_no_adapter() -> None:
-    """Nothing under robot_daemon/ imports the gateway, and only the doctor the Robot client."""
+    """Nothing under robot_daemon/ imports the gateway or a client (the doctor reads a running
+    daemon through the key space: robot_daemon/doctor/daemon_link.py)."""
     found = []
     for path in sorted((REPO / "robot_daemon").rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
@@ -54,4 +55,4 @@ def test_the_robot_package_imports_no_adapter() -> None:
                 for n in names
                 if n.split(".")[0] in {"gateway", "clients"}
             ]
-    assert found == [("robot_daemon/doctor/cli.py", "clients.robot")]
+    assert found == []
