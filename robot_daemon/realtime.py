@@ -55,3 +55,39 @@ def current_policy() -> str:
     policy = os.sched_getscheduler(0) & ~getattr(os, "SCHED_RESET_ON_FORK", 0)
     names = {os.SCHED_FIFO: "fifo", os.SCHED_RR: "rr", os.SCHED_OTHER: "other"}
     return names.get(policy, str(policy))
+
+
+# The kernel's PM QoS interface: while a process holds this file open with a latency written
+# to it, no core enters an idle state slower than that to leave (Documentation/power/pm_qos).
+CPU_DMA_LATENCY = "/dev/cpu_dma_latency"
+
+
+def check_latency(value: object, setting: str) -> int:
+    """``value`` as a wake-up latency in µs (-1 = leave the idle states alone), or
+    ``ConfigError`` naming ``setting``."""
+    if isinstance(value, bool) or not isinstance(value, int) or not -1 <= value <= 1_000_000:
+        raise ConfigError(f"{setting} must be -1 (off) or a latency in µs (0..1000000), not "
+                          f"{value!r}")
+    return value
+
+
+def hold_cpu_latency(us: int, path: str = CPU_DMA_LATENCY) -> tuple[int | None, str | None]:
+    """Keep the CPU out of idle states slower than ``us`` to leave, for as long as the returned
+    descriptor stays open (-1: do nothing). Returns (descriptor, None) or (None, a warning):
+    without it the loop wakes later and colder, it is not unsafe, so the daemon goes on."""
+    if check_latency(us, "cpu_dma_latency_us") < 0:
+        return None, None
+    try:
+        fd = os.open(path, os.O_WRONLY)
+    except OSError as exc:
+        return None, (
+            f"could not hold the CPU's wake-up latency at {us} µs ({path}: {exc.strerror}): "
+            "run the daemon as root (the robot's service does) or boot with "
+            "intel_idle.max_cstate=2; set daemon.cpu_dma_latency_us = -1 to silence this"
+        )
+    try:
+        os.write(fd, int(us).to_bytes(4, "little", signed=True))
+    except OSError as exc:
+        os.close(fd)
+        return None, f"could not hold the CPU's wake-up latency at {us} µs ({path}: {exc})"
+    return fd, None

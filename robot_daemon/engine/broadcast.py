@@ -52,12 +52,13 @@ class JointsEncoder:
         self.ids, self.names = list(ids), list(robot.names)
         self.layout = Prepacked(Joints, {"id": self.ids, "name": self.names})
 
-    def _pick(self, values: list[Any]) -> list[Any]:
+    def pick(self, values: list[Any]) -> list[Any]:
+        """The joints' values out of a list by joint id."""
         at = self.at
         return values[at] if isinstance(at, slice) else [values[j] for j in at]
 
     def values(self, snap: TickSnapshot) -> dict[str, Any]:
-        pick = self._pick
+        pick = self.pick
         pos = pick(snap.position)
         return {
             "position": pos,

@@ -22,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import gc
 import logging
+import os
 import threading
 import time
 from dataclasses import dataclass, field
@@ -54,7 +55,13 @@ from robot_daemon.engine.zenoh_setup import open_session
 from robot_daemon.frames import JointFrame, Targets
 from robot_daemon.motion.fall import FallMonitor
 from robot_daemon.motion.setup import build_manager
-from robot_daemon.realtime import check_priority, current_policy, enter_realtime
+from robot_daemon.realtime import (
+    check_latency,
+    check_priority,
+    current_policy,
+    enter_realtime,
+    hold_cpu_latency,
+)
 from robot_daemon.security.acl import Security, serve_roles
 from robot_daemon.services import DaemonInfo
 from schemas.daemon_state import DaemonState
@@ -105,6 +112,10 @@ class Daemon:
         self.realtime_priority = check_priority(
             dcfg.get("realtime_priority", 0), "daemon.realtime_priority"
         )
+        self.cpu_latency_us = check_latency(
+            dcfg.get("cpu_dma_latency_us", -1), "daemon.cpu_dma_latency_us"
+        )
+        self._latency_fd: int | None = None
         self.scheduling = "other"
         self.state = DaemonState.STARTING
         self.stats = LoopStats(self.tick_s, emit=self._emit)
@@ -238,7 +249,7 @@ class Daemon:
             self._set_state(DaemonState.SERVOS_OFF)
             return
         online = snap.online if snap is not None else self.bus.state.online.tolist()
-        healthy = self.bus.cm730_online and all(online[j] for j in self.robot.ids)
+        healthy = self.bus.cm730_online and all(self.joints_encoder.pick(online))
         self._set_state(DaemonState.RUNNING if healthy else DaemonState.DEGRADED)
 
     def stop(self) -> None:
@@ -251,6 +262,9 @@ class Daemon:
         self.supervisor.halt_and_hold(self.tick, self.tick_s)
         self._drain_events()
         self._publish_status(time.monotonic())
+        if self._latency_fd is not None:  # the CPU may sleep deeply again
+            os.close(self._latency_fd)
+            self._latency_fd = None
         if self.camera is not None:
             self.camera.close()
         if self.arbiter is not None:
@@ -277,6 +291,10 @@ class Daemon:
             log.warning("%s", warning)
             self._emit("warning", warning)
         self.scheduling = current_policy()
+        self._latency_fd, warning = hold_cpu_latency(self.cpu_latency_us)
+        if warning:
+            log.warning("%s", warning)
+            self._emit("warning", warning)
         # Start-up's objects (modules, configs, the Zenoh session) are frozen out of the
         # collector once, here where a pause hurts nobody: a full collection in the loop then
         # scans only what came after (a few k instructions instead of ~10 M, two ticks of the

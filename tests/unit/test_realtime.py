@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -59,3 +60,26 @@ def test_threads_started_by_the_real_time_thread_run_normally() -> None:
     if warning is not None:
         pytest.skip(f"real-time scheduling not permitted here: {warning}")
     assert (mine, child) == ("fifo", "other")
+
+
+def test_cpu_latency_is_written_and_held(tmp_path: Path) -> None:
+    """The PM QoS request is the latency as a 32-bit int, held while the descriptor is open."""
+    from robot_daemon.realtime import hold_cpu_latency
+
+    qos = tmp_path / "cpu_dma_latency"
+    qos.write_bytes(b"")
+    fd, warning = hold_cpu_latency(50, str(qos))
+    assert warning is None and fd is not None
+    os.close(fd)
+    assert qos.read_bytes() == (50).to_bytes(4, "little")
+    assert hold_cpu_latency(-1, str(qos)) == (None, None)
+
+
+def test_cpu_latency_without_permission_is_one_warning(tmp_path: Path) -> None:
+    from robot_daemon.realtime import check_latency, hold_cpu_latency
+
+    fd, warning = hold_cpu_latency(50, str(tmp_path / "missing"))
+    assert fd is None and warning is not None and "\n" not in warning
+    assert "cpu_dma_latency_us = -1" in warning
+    with pytest.raises(ConfigError, match=r"daemon\.cpu_dma_latency_us"):
+        check_latency("50", "daemon.cpu_dma_latency_us")

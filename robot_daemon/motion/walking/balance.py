@@ -23,27 +23,33 @@ def gyro_feedback(
     Adds the corrections to ``goals``; ``filtered`` is the low-passed gyro (right/left,
     front/back counts) of the previous tick, and the return value this tick's."""
     # Relative to the centres measured at start (motion/gyro_centre.py); stale adds nothing.
-    centre = frame.gyro_centre
-    raw = (
-        (float(frame.gyro_raw[0] - centre[0]), float(frame.gyro_raw[1] - centre[1]))
-        if frame.imu_valid
-        else (0.0, 0.0)
-    )
+    # Plain floats (one tolist each): this runs every walking tick, and numpy's scalars and a
+    # dict of terms cost more than the arithmetic (docs/loop-cpu.md).
+    if frame.imu_valid:
+        gyro, centre = frame.gyro_raw.tolist(), frame.gyro_centre.tolist()
+        r_rl, r_fb = float(gyro[0] - centre[0]), float(gyro[1] - centre[1])
+    else:
+        r_rl = r_fb = 0.0
     a = 1.0 if p.balance_filter <= 0 else min(1.0, frame.dt / (p.balance_filter + frame.dt))
-    filtered = [f + (r - f) * a for f, r in zip(filtered, raw, strict=True)]
-    rl, fb = filtered
+    f_rl, f_fb = filtered
+    rl = f_rl + (r_rl - f_rl) * a
+    fb = f_fb + (r_fb - f_fb) * a
     unit = RAD_PER_UNIT  # the framework adds servo units
     limit = math.radians(p.balance_limit)
-    terms = {
-        9: _DIR[9] * rl * p.balance_hip_roll_gain,
-        10: _DIR[10] * rl * p.balance_hip_roll_gain,
-        13: -_DIR[13] * fb * p.balance_knee_gain,
-        14: -_DIR[14] * fb * p.balance_knee_gain,
-        15: -_DIR[15] * fb * p.balance_ankle_pitch_gain,
-        16: -_DIR[16] * fb * p.balance_ankle_pitch_gain,
-        17: -_DIR[17] * rl * p.balance_ankle_roll_gain,
-        18: -_DIR[18] * rl * p.balance_ankle_roll_gain,
-    }
-    for j, term in terms.items():
-        goals[j] += max(-limit, min(limit, term * 4 * unit))
-    return filtered
+    hip, knee = p.balance_hip_roll_gain, p.balance_knee_gain
+    pitch, roll = p.balance_ankle_pitch_gain, p.balance_ankle_roll_gain
+    # term · dir (Walking.cpp), clamped to ±limit as max(-limit, min(limit, ·)) does.
+    for j, term in (
+        (9, _DIR[9] * rl * hip),
+        (10, _DIR[10] * rl * hip),
+        (13, -_DIR[13] * fb * knee),
+        (14, -_DIR[14] * fb * knee),
+        (15, -_DIR[15] * fb * pitch),
+        (16, -_DIR[16] * fb * pitch),
+        (17, -_DIR[17] * rl * roll),
+        (18, -_DIR[18] * rl * roll),
+    ):
+        v = term * 4 * unit
+        v = v if v < limit else limit
+        goals[j] += v if v > -limit else -limit
+    return [rl, fb]
