@@ -3,6 +3,7 @@ callgrind, and the time they model on the robot's Atom Z530.
 
     python benchmarks/tick_count.py tick [--ticks 40]        # the tick's own work, hot and cold
     python benchmarks/tick_count.py breakdown                # where the walking tick's go
+    python benchmarks/tick_count.py vision [--frames 5]      # per 320×240 frame: JPEG, ball
     python benchmarks/tick_count.py guard                    # CI: within 3 % of the record?
     python benchmarks/tick_count.py record                   # record this interpreter's figure
     python benchmarks/tick_count.py calibrate                # measured ÷ modelled, on this CPU
@@ -19,6 +20,10 @@ load: a figure from a loaded two-core VM is the figure of a quiet robot.
   (joints and IMU each tick, status at 10 Hz) but puts nothing: the daemon's own Python, no
   Zenoh, no waiting. **hot**: ticks back to back; **cold**: each tick after a sweep that leaves
   every cache empty (64 KB of code run, 2 MB of data moved), as after a deep C-state.
+
+- ``vision``: per 320×240 camera frame, a JPEG passed through as a message, a raw frame
+  encoded to JPEG, a JPEG decoded for vision, and ``BallFinder.find`` (every thread OpenCV
+  uses is counted); the share printed is of a 30 fps frame period.
 
 The model (``z530_us``): time = Ir × CPI + L1 misses × 15 cycles + L2 misses × 200 cycles, at
 1.6 GHz. Sources and uncertainty in docs/loop-cpu.md; ``calibrate`` measures the ratio of thread
@@ -370,6 +375,64 @@ def count_guard(args: argparse.Namespace, out_dir: Path) -> Count:
     return Count.from_events("tick hot, walking", args.ticks, parts(out)["guard"])
 
 
+# -- the camera and ball vision, per frame --------------------------------------------------------
+
+VISION_PARTS = ("jpeg passthrough", "jpeg encode", "jpeg decode", "ball finder")
+
+
+def vision_frame() -> Any:
+    """A 320×240 BGR frame of a green field with a red ball (the finder's colour) and a red
+    stripe it must turn down, with sensor noise so the JPEG is a camera's size."""
+    import numpy as np
+
+    rng = np.random.default_rng(1)
+    img = np.empty((240, 320, 3), np.uint8)
+    img[:] = (40, 140, 50)
+    yy, xx = np.mgrid[0:240, 0:320]
+    img[(xx - 210) ** 2 + (yy - 150) ** 2 < 18**2] = (20, 20, 210)
+    img[20:26, 10:300] = (25, 25, 200)
+    noise = rng.integers(-12, 13, img.shape)
+    return np.clip(img.astype(int) + noise, 0, 255).astype(np.uint8)
+
+
+def child_vision(args: argparse.Namespace) -> None:
+    from config.loader import load_all
+    from robot_daemon.vision.ball_finder import BallFinder, FinderSettings
+    from robot_daemon.vision.opencv import decode_jpeg, encode_jpeg
+    from schemas.messages import CameraFrame, encode
+
+    cg = Callgrind()
+    finder = BallFinder(FinderSettings.from_config(load_all().get("ballplay", {})))
+    frame = vision_frame()
+    jpeg = encode_jpeg(frame, 80)
+    work = {
+        "jpeg passthrough": lambda: encode(CameraFrame(jpeg=jpeg, width=320, height=240, seq=1)),
+        "jpeg encode": lambda: encode_jpeg(frame, 80),
+        "jpeg decode": lambda: decode_jpeg(jpeg),
+        "ball finder": lambda: finder.find(frame),
+    }
+    if not finder.find(frame).found:
+        raise SystemExit("tick_count: the finder does not see the benchmark's ball")
+    cg.start_instrumentation()
+    for name in VISION_PARTS:
+        for _ in range(3):
+            work[name]()
+        cg.toggle()
+        for _ in range(args.frames):
+            work[name]()
+        cg.toggle()
+        cg.dump(name)
+    cg.stop_instrumentation()
+
+
+def count_vision(args: argparse.Namespace, out_dir: Path) -> list[Count]:
+    out = out_dir / "vision.out"
+    valgrind(["child-vision", "--frames", str(args.frames)], args.python, out)
+    found = parts(out)
+    return [Count.from_events(f"{name}, 320x240", args.frames, found[name])
+            for name in VISION_PARTS]
+
+
 def count_tick(args: argparse.Namespace, out_dir: Path) -> list[Count]:
     out = out_dir / "tick.out"
     valgrind(["child-tick", "--ticks", str(args.ticks), "--warm", str(args.warm)],
@@ -397,7 +460,7 @@ def interpreter() -> str:
             f"numpy {numpy.__version__}")
 
 
-CHILDREN = ("child-tick", "child-breakdown", "child-guard")
+CHILDREN = ("child-tick", "child-breakdown", "child-guard", "child-vision")
 
 
 def guard(args: argparse.Namespace) -> int:
@@ -449,8 +512,9 @@ def calibrate(args: argparse.Namespace) -> int:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("mode", choices=["tick", "breakdown", "guard", "record", "calibrate",
-                                         *CHILDREN])
+    parser.add_argument("mode", choices=["tick", "breakdown", "vision", "guard", "record",
+                                         "calibrate", *CHILDREN])
+    parser.add_argument("--frames", type=int, default=5, help="camera frames counted per part")
     parser.add_argument("--ticks", type=int, default=40, help="ticks counted per figure")
     parser.add_argument("--warm", type=int, default=60, help="ticks run before counting")
     parser.add_argument("--python", default=sys.executable, help="the interpreter to count")
@@ -465,6 +529,9 @@ def main() -> int:
     if args.mode == "child-guard":
         child_guard(args)
         return 0
+    if args.mode == "child-vision":
+        child_vision(args)
+        return 0
     if args.mode in ("guard", "record"):
         return guard(args)
     if args.mode == "calibrate":
@@ -477,9 +544,11 @@ def main() -> int:
             counts += count_tick(args, out_dir)
         if args.mode == "breakdown":
             counts += count_breakdown(args, out_dir)
+        if args.mode == "vision":
+            counts += count_vision(args, out_dir)
         print(f"{interpreter()}; callgrind, Z530 caches; per tick ({time.monotonic() - t0:.0f} s)")
         for c in counts:
-            print(c.line())
+            print(c.line(33.3 if args.mode == "vision" else 8.0))
         if args.json:
             Path(args.json).write_text(json.dumps([asdict(c) for c in counts], indent=1))
     return 0
