@@ -123,3 +123,26 @@ def test_the_kick_page_starts_after_the_walk_stopped_and_the_body_stood_still() 
     rig.ball_play.start()
     assert rig.run_until(watch, timeout=60.0) and "page" in seen, rig.ball_play.phase
     assert seen["page"] - seen["walk_stopped"] >= settle - 0.01
+
+
+ROBOT_VISION_HZ = 15.0  # the robot recipe's [ballplay] vision_hz (docs/robot.md, loop-cpu.md)
+
+
+def test_plays_at_the_robots_vision_rate() -> None:
+    """The Atom's vision rate, chosen from the counted cost of a frame (docs/loop-cpu.md): ball
+    play still finds, approaches and kicks the ball with half the frames."""
+    settings = load_all()
+    settings["ballplay"]["vision_hz"] = ROBOT_VISION_HZ
+    rig = SimRig(seed=1, settings=settings, vision_fps=ROBOT_VISION_HZ)
+    rig.world.place_robot(0.0, 0.0, 0.0)
+    rig.world.place_ball(0.5, 0.1)
+    rig.run(0.3)
+    start = distance(rig)
+    rig.ball_play.start()
+    assert rig.run_until(lambda r: not r.ball_play.playing, timeout=60.0), rig.ball_play.phase
+    rig.run_until(lambda r: r.world.ball.state.speed == 0.0, timeout=10.0)
+    assert rig.ball_play.phase == "done"
+    assert rig.world.falls == 0 and rig.world.ball.touches > 0
+    assert distance(rig) > start + 0.3, rig.world.snapshot()
+    seconds = rig.time - 0.3
+    assert len(rig.detections) <= seconds * ROBOT_VISION_HZ + 5  # it saw at that rate
