@@ -9,10 +9,9 @@ import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from clients.adapter_core import AdapterCore
 from clients.commander import Commander
 from gateway.framing import Frame, FrameDecoder, FramingError, encode_frame, parse_frame
-from gateway.lease_use import LeaseUse
+from gateway.lease_timer import LeaseTimer
 from gateway.limits import TokenBucket
 from gateway.messages import (
     MessageError,
@@ -44,7 +43,7 @@ log = logging.getLogger(__name__)
 READ_CHUNK = 65536
 
 
-class Connection(LeaseUse):
+class Connection:
     def __init__(
         self, gateway: Gateway, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
     ) -> None:
@@ -60,10 +59,8 @@ class Connection(LeaseUse):
         self.bucket = TokenBucket(self.settings.max_rate, self.settings.burst)
         self.outbox = Outbox(writer, self._monitor_bytes, self.settings.max_pending_replies)
         self.commander: Commander | None = None
-        self.lease = AdapterCore(idle_release=self.settings.lease_idle_timeout)
+        self.lease = LeaseTimer(self.peer, self.settings.lease_idle_timeout, self.call)
         self._ticker: asyncio.Task[None] | None = None
-        self._idle: asyncio.TimerHandle | None = None
-        self._releasing: asyncio.Task[None] | None = None
         self._camera = False
         self._camera_fits = True
         self.closed = asyncio.Event()
@@ -196,8 +193,7 @@ class Connection(LeaseUse):
         if self._camera:
             self._camera = False
             self.gw.hub.unwatch_camera()
-        if self._idle is not None:
-            self._idle.cancel()
+        self.lease.cancel()
         self.gw.orchestrator.detach(self)
         with contextlib.suppress(Exception):
             self.writer.close()
@@ -343,7 +339,7 @@ class Connection(LeaseUse):
         now = asyncio.get_running_loop().time
         try:
             if self.lease.before_command(now(), cmd.needs_lease):
-                await self._acquire(commander)
+                await self.lease.acquire(commander)
             try:
                 applied = await self.call(commander.command, cmd.verb, **cmd.fields)
             except NoLeaseError:
@@ -351,7 +347,7 @@ class Connection(LeaseUse):
                 self.lease.lost()
                 if not cmd.needs_lease:
                     raise
-                await self._acquire(commander)
+                await self.lease.acquire(commander)
                 applied = await self.call(commander.command, cmd.verb, **cmd.fields)
         except LeaseBusyError as exc:
             self.lease.lost()
@@ -367,5 +363,5 @@ class Connection(LeaseUse):
         except ClientError as exc:
             self.error(ErrorCode.UNAVAILABLE, f"{cmd.verb}: not applied: {exc}")
             return None
-        self._touch()
+        self.lease.touch()
         return applied
