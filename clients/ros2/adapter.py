@@ -21,7 +21,7 @@ import zenoh
 from clients.rmw import convert, graph
 from clients.rmw.types import msg_class
 from clients.robot import Robot
-from clients.ros2.commands import RosCommands
+from clients.ros2.commands import RosCommandPort
 from clients.ros2.node import GraphWatch, RosNode
 from schemas.body import Body
 from schemas.messages import CameraFrame, Imu, Joints, World
@@ -41,7 +41,7 @@ class Options:
     lease_idle: float = 10.0  # s without a ROS command → release an automatically taken lease
 
 
-class Adapter(RosCommands):
+class Adapter:
     def __init__(self, robot: Robot, ros_session: zenoh.Session, options: Options) -> None:
         self.robot = robot
         self.options = options
@@ -64,10 +64,13 @@ class Adapter(RosCommands):
         self._tilt = convert.TiltFilter()
         self._camera_sub: Any = None
         self._camera_lock = threading.Lock()
-        self._init_commands()
+        self.commands = RosCommandPort(
+            robot, self.node, self.limits, options.lease_idle, self._stop, self.stats,
+            self._report,
+        )
         self._threads = [
             threading.Thread(target=self._publish_loop, name="ros2-publish", daemon=True),
-            threading.Thread(target=self._command_loop, name="ros2-commands", daemon=True),
+            threading.Thread(target=self.commands.run, name="ros2-commands", daemon=True),
             threading.Thread(target=self._timer_loop, name="ros2-timers", daemon=True),
         ]
         self._subs = [
@@ -75,7 +78,6 @@ class Adapter(RosCommands):
             robot.subscribe("imu", lambda m: self._put("imu", m)),
             robot.subscribe("world", lambda m: self._put("world", m)),
         ]
-        self._make_ros_inputs()
         self.graph = GraphWatch(ros_session, options.domain, self._graph_changed)
         self._update_camera()
         for t in self._threads:
@@ -171,7 +173,12 @@ class Adapter(RosCommands):
                     self.pub_diag.publish(
                         convert.diagnostics(st.joints, st.status, self.names_by_id, time.time())
                     )
-            self._enqueue("tick", None)
+            self.commands.tick()
+
+    def _report(self, message: str) -> None:
+        log.warning("%s", message)
+        self._errors.append(message)
+        del self._errors[:-50]
 
     @property
     def errors(self) -> list[str]:
@@ -181,8 +188,7 @@ class Adapter(RosCommands):
         if self._stop.is_set():
             return
         self._stop.set()
-        if self.core.holding:
-            self._release("the adapter stops")
+        self.commands.close()
         with self._cond:
             self._cond.notify_all()
         for t in self._threads:

@@ -1,7 +1,8 @@
 """The ROS 2 adapter's command side: cmd_vel, joint_trajectory and the halt / torque / lease
 services, each through the arbiter with the adapter's Robot and its lease. One command thread
 runs them, so a slow arbiter never blocks Zenoh; the lease is taken when a ROS command needs it
-and given back when ROS goes quiet. Mixed into :class:`clients.ros2.adapter.Adapter`.
+and given back when ROS goes quiet. The :class:`clients.ros2.adapter.Adapter` has one
+:class:`RosCommandPort`, made with only what it uses.
 """
 
 from __future__ import annotations
@@ -11,7 +12,8 @@ import logging
 import queue
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import Any
 
 from clients.adapter_core import Action, AdapterCore
 from clients.rmw import convert, graph
@@ -28,30 +30,43 @@ from schemas.errors import (
 )
 from schemas.messages import Event, encode
 
-if TYPE_CHECKING:
-    from clients.ros2.adapter import Options
-
 log = logging.getLogger("darwin.ros2")
 
 CMD_VEL_TIMEOUT = 0.5  # s without a Twist → stop walking (base-controller convention)
 
 
-class RosCommands:
-    """Needs what :class:`Adapter` has: ``robot``, ``node``, ``options``, ``limits``, ``stats``,
-    ``_stop`` and the list of recent errors ``_errors``."""
+class RosCommandPort:
+    """ROS's inputs (cmd_vel, joint_trajectory, the services) turned into arbiter commands on
+    ``robot``, with the lease policy of :class:`AdapterCore`. :meth:`run` is the command
+    thread; :meth:`tick` asks it to look at the clock (deadman, idle release)."""
 
-    robot: Robot
-    node: RosNode
-    options: Options
-    limits: dict[str, convert.Limit]
-    stats: dict[str, int]
-    _stop: threading.Event
-    _errors: list[str]
-
-    def _init_commands(self) -> None:
-        """The command queue and the lease's bookkeeping (before the adapter's threads start)."""
+    def __init__(
+        self,
+        robot: Robot,
+        node: RosNode,
+        limits: dict[str, convert.Limit],
+        lease_idle: float,
+        stop: threading.Event,
+        stats: dict[str, int],
+        report: Callable[[str], None],
+    ) -> None:
+        self.robot = robot
+        self.node = node
+        self.limits = limits
+        self.stats = stats  # "rejected" counts the inputs refused
+        self._stop = stop
+        self._report = report  # the adapter's list of recent errors
         self._cmds: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize=64)
-        self.core = AdapterCore(idle_release=self.options.lease_idle, deadman=CMD_VEL_TIMEOUT)
+        self.core = AdapterCore(idle_release=lease_idle, deadman=CMD_VEL_TIMEOUT)
+        self._make_ros_inputs()
+
+    def tick(self) -> None:
+        self._enqueue("tick", None)
+
+    def close(self) -> None:
+        """The adapter stops: the lease it holds goes back (the walk stopped first)."""
+        if self.core.holding:
+            self._release("the adapter stops")
 
     def _make_ros_inputs(self) -> None:
         n = self.node
@@ -81,7 +96,7 @@ class RosCommands:
             if kind != "tick":
                 self._report(f"dropped a {kind} command: the command queue is full")
 
-    def _command_loop(self) -> None:
+    def run(self) -> None:
         while not self._stop.is_set():
             try:
                 kind, item = self._cmds.get(timeout=0.5)
@@ -233,10 +248,6 @@ class RosCommands:
         self.stats["rejected"] += 1
         self._report(message)
 
-    def _report(self, message: str) -> None:
-        log.warning("%s", message)
-        self._errors.append(message)
-        del self._errors[:-50]
 
     def _say(self, kind: str, message: str) -> None:
         """Log and publish an event, so the TUI and recorder see what ROS did."""

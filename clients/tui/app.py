@@ -8,6 +8,7 @@ streams cost the screen nothing more than 15 redraws a second.
 from __future__ import annotations
 
 import contextlib
+import functools
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -18,18 +19,17 @@ from textual.binding import Binding
 from textual.screen import Screen
 from textual.widgets import TabbedContent, TabPane
 
-from clients.tui import i18n
-from clients.tui.app_commands import CommandsMixin
-from clients.tui.app_fleet import FleetMixin
+from clients.tui import app_fleet, i18n
+from clients.tui.app_commands import CommandRouter, daemon_robot_config
 from clients.tui.connect import ConnectScreen, RobotFinder
 from clients.tui.help import HelpScreen
 from clients.tui.i18n import N_, _
-from clients.tui.link import Link
+from clients.tui.link import CommandDone, Link
 from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
 from clients.tui.model import Model
 from clients.tui.settings import Settings, default_path
 from clients.tui.tabs.actions import ActionsTab
-from clients.tui.tabs.base import TabView
+from clients.tui.tabs.base import SendCommand, TabView, role_at_least
 from clients.tui.tabs.behaviours import BehavioursTab
 from clients.tui.tabs.camera import CameraTab
 from clients.tui.tabs.imu import ImuTab
@@ -40,9 +40,9 @@ from clients.tui.tabs.walk import WalkTab
 from clients.tui.widgets.header import RobotHeader
 from clients.tui.widgets.keybar import KeyBar
 from config.loader import RobotConfig, load_robot
-from schemas.errors import ClientError
+from schemas.errors import ClientError, ConfigError
 from schemas.messages import Event
-from schemas.roles import allows
+from schemas.roles import Role, allows
 from schemas.session import Credentials
 
 RENDER_HZ = 15.0
@@ -84,7 +84,7 @@ class MainScreen(Screen[None]):
         app.redraw(force=True)
 
 
-class DarwinApp(CommandsMixin, FleetMixin, App[None]):
+class DarwinApp(App[None]):
     """The app, ready to ``run()`` (CLI) or ``run_test()`` (tests). ``connect=False`` starts
     without a link, for a fixed scene fed by posting messages; ``clock`` stamps the UI's own
     log lines (a fixed one keeps snapshots still). Its commands and their replies are
@@ -147,7 +147,12 @@ class DarwinApp(CommandsMixin, FleetMixin, App[None]):
         self._connect_on_mount = connect
         # The live robots at an endpoint (connect screen, F3); None on a fixed scene (tests
         # may set a fixed list).
-        self.find_robots: RobotFinder | None = self._find_robots if connect else None
+        self.find_robots: RobotFinder | None = (
+            functools.partial(app_fleet.find_robots, self.link) if connect else None
+        )
+        self.command_router = CommandRouter(
+            self.link, self.model, self.notify, self.local_event, self._config_reply
+        )
         self._ask = ask
         self._seen: dict[str, int] = {}
         self._recorder: Any = None
@@ -180,6 +185,78 @@ class DarwinApp(CommandsMixin, FleetMixin, App[None]):
             self.notify(str(exc), severity="error", timeout=8)
             return
         self.settings = settings
+
+    # -- commands (where each reply goes: clients/tui/app_commands.py) ---------------------------
+    def on_send_command(self, message: SendCommand) -> None:
+        self.command_router.send(message)
+
+    def on_command_done(self, message: CommandDone) -> None:
+        self.command_router.done(message, self.screen)
+
+    def _config_reply(self, applied: dict[str, Any]) -> None:
+        try:
+            self.use_robot_config(daemon_robot_config(applied, self.robot_config))
+        except (ConfigError, KeyError, TypeError, ValueError) as exc:
+            self.local_event("refused", f"the daemon's config reply is unusable: {exc}")
+
+    def use_robot_config(self, robot: RobotConfig) -> None:
+        """Limits and names from now on; the open tabs switch too."""
+        self.robot_config = robot
+        for screen in self.screen_stack:
+            for tab in screen.query(TabView):
+                if hasattr(tab, "robot"):
+                    tab.robot = robot
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        # Halt and the lease are command verbs: an observer sees them greyed out.
+        if action in ("halt", "lease") and not role_at_least(self, Role.OPERATOR):
+            return None
+        if action == "power" and not role_at_least(self, Role.ADMIN):
+            return None
+        return True
+
+    def action_halt(self) -> None:
+        self.link.halt()
+
+    def action_power(self) -> None:
+        # The daemon powers the servos only when they are off (the reset button), and gives
+        # torque back only to those that had it; it answers `forbidden` to a non-admin.
+        self.link.send("power", tag="app:power", op="on")
+
+    def action_lease(self) -> None:
+        holder = self.model.lease_holder()
+        op = "release" if holder is not None and holder[1] else "acquire"
+        self.link.send("lease", tag="app:lease", op=op)
+
+    # -- the fleet (clients/tui/app_fleet.py) ----------------------------------------------------
+    def action_next_robot(self) -> None:
+        """Switch to the next live robot at the same endpoint (by name, wrapping round)."""
+        finder, endpoint = self.find_robots, self.settings.endpoint
+        if finder is None:
+            self.notify(_("No robot list without a connection."), severity="warning")
+            return
+
+        def find() -> None:
+            try:
+                names = [r.name for r in finder(endpoint)]
+            except Exception as exc:  # unreachable, or the session closed: say so
+                self.call_from_thread(self.notify, str(exc), severity="error", timeout=8)
+                return
+            self.call_from_thread(self._switch_robot, names)
+
+        self.run_worker(find, thread=True, exclusive=True, group="next-robot")
+
+    def _switch_robot(self, names: list[str]) -> None:
+        nxt = app_fleet.next_robot(names, self.settings.robot)
+        if nxt is None:
+            self.notify(
+                _("No other live robot at {endpoint}.").format(endpoint=self.settings.endpoint)
+            )
+            return
+        self.connect(Settings(self.settings.endpoint, nxt, self.settings.name, self.settings.lang))
+        self.model.status = None  # the previous robot's state must not show as this one's
+        self.model.bump("status")
+        self.notify(_("Switched to {robot}.").format(robot=nxt))
 
     # -- telemetry (store only; the timer draws) -----------------------------------------------
     def on_telemetry(self, message: Telemetry) -> None:
@@ -231,11 +308,11 @@ class DarwinApp(CommandsMixin, FleetMixin, App[None]):
     def redraw(self, force: bool = False) -> None:
         if not self.screen_stack:
             return  # starting or shutting down: nothing to draw on
-        screen = self.screen
-        if not isinstance(screen, MainScreen):
-            screen = next((s for s in self.screen_stack if isinstance(s, MainScreen)), None)
-            if screen is None:
-                return
+        screen: MainScreen | None = next(
+            (s for s in (self.screen, *self.screen_stack) if isinstance(s, MainScreen)), None
+        )
+        if screen is None:
+            return
         header = screen.query(RobotHeader)
         if not header:
             # Pushed but not composed yet (first show, or again after a language switch): the

@@ -1,61 +1,65 @@
-"""The TUI app's commands: what it sends for the tabs and itself, where each reply goes, what
-the app does with its own replies (the daemon's config, the behaviour library, the gait, halt,
-the lease). Mixed into :class:`clients.tui.app.DarwinApp`.
+"""The TUI's commands: what it sends for the tabs and itself, and where each reply goes (the
+tab that sent it, or the app's own: the daemon's config, the behaviour library, the gait, halt,
+the lease). The app has one :class:`CommandRouter`, made with only what it uses.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
+
+from textual.screen import Screen
 
 from clients.tui.i18n import _
 from clients.tui.link import CommandDone, Link
 from clients.tui.model import Model
-from clients.tui.tabs.base import SendCommand, TabView, role_at_least
+from clients.tui.tabs.base import SendCommand, TabView
 from clients.tui.tabs.behaviours import library_entries
 from config.loader import RobotConfig, robot_from_dict
-from schemas.errors import ConfigError
-from schemas.roles import Role
+
+Notify = Callable[..., None]  # App.notify(message, severity=…, timeout=…)
 
 
-class CommandsMixin:
-    """Needs what :class:`DarwinApp` has: the link, the model, the robot config, ``local_event``
-    and Textual's ``App`` (``screen``, ``screen_stack``, ``notify``)."""
+class CommandRouter:
+    def __init__(
+        self,
+        link: Link,
+        model: Model,
+        notify: Notify,
+        local_event: Callable[[str, str], None],
+        config_reply: Callable[[dict[str, Any]], None],
+    ) -> None:
+        self.link = link
+        self.model = model
+        self.notify = notify
+        self.local_event = local_event  # a line in the log tab (kind, text)
+        self.config_reply = config_reply  # the daemon's `config` reply, for the app to use
 
-    link: Link
-    model: Model
-    robot_config: RobotConfig
-    screen: Any
-    screen_stack: Any
-    notify: Any
-    local_event: Any
-
-    def on_send_command(self, message: SendCommand) -> None:
+    def send(self, message: SendCommand) -> None:
         origin = message.control.TAB_ID if isinstance(message.control, TabView) else "app"
         self.link.send(
             message.verb, tag=f"{origin}:{message.tag}", quiet=message.quiet, **message.fields
         )
 
-    def on_command_done(self, message: CommandDone) -> None:
+    def done(self, message: CommandDone, screen: Screen[Any]) -> None:
+        """A reply: to the tab on ``screen`` that sent the command, or the app's own."""
         origin, _sep, tag = message.tag.partition(":")
         if message.error:
             self.local_event("refused", message.error)
         if origin == "app":
-            self.app_command_done(tag, message)
+            self._app_done(tag, message)
             return
-        tabs = self.screen.query(f"#{origin}") if origin else None
+        tabs = screen.query(f"#{origin}") if origin else None
         if tabs:
             tabs.first(TabView).command_done(tag, message.applied, message.error)
         elif message.error:
             self.notify(message.error, severity="error", timeout=6)
 
-    def app_command_done(self, tag: str, message: CommandDone) -> None:
+    def _app_done(self, tag: str, message: CommandDone) -> None:
         if message.error:
             self.notify(message.error, severity="error", timeout=6)
         elif tag == "config":
-            try:
-                self.use_robot_config(daemon_robot_config(message.applied, self.robot_config))
-            except (ConfigError, KeyError, TypeError, ValueError) as exc:
-                self.local_event("refused", f"the daemon's config reply is unusable: {exc}")
+            self.config_reply(message.applied)
         elif tag == "library":
             self.model.edits.behaviours = library_entries(message.applied)
             self.model.bump("library")
@@ -76,35 +80,6 @@ class CommandsMixin:
         elif tag == "lease":
             holds = message.applied.get("holder", message.applied.get("client"))
             self.notify(_("Lease: {state}").format(state=holds or message.applied or "ok"))
-
-    def use_robot_config(self, robot: RobotConfig) -> None:
-        """Limits and names from now on; the open tabs switch too."""
-        self.robot_config = robot
-        for screen in self.screen_stack:
-            for tab in screen.query(TabView):
-                if hasattr(tab, "robot"):
-                    tab.robot = robot
-
-    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
-        # Halt and the lease are command verbs: an observer sees them greyed out.
-        if action in ("halt", "lease") and not role_at_least(self, Role.OPERATOR):
-            return None
-        if action == "power" and not role_at_least(self, Role.ADMIN):
-            return None
-        return True
-
-    def action_halt(self) -> None:
-        self.link.halt()
-
-    def action_power(self) -> None:
-        # The daemon powers the servos only when they are off (the reset button), and gives
-        # torque back only to those that had it; it answers `forbidden` to a non-admin.
-        self.link.send("power", tag="app:power", op="on")
-
-    def action_lease(self) -> None:
-        holder = self.model.lease_holder()
-        op = "release" if holder is not None and holder[1] else "acquire"
-        self.link.send("lease", tag="app:lease", op=op)
 
 
 def daemon_robot_config(reply: dict[str, Any], local: RobotConfig) -> RobotConfig:

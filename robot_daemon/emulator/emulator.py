@@ -49,7 +49,7 @@ log = logging.getLogger(__name__)
 _EARLY = 50e-6  # write a reply this close to its due time rather than sleep again
 
 
-class Emulator(EmulatorClock, EmulatorApi):
+class Emulator(EmulatorApi):
     def __init__(self, settings: EmulatorSettings | None = None, **overrides: Any) -> None:
         s = settings or EmulatorSettings()
         for key, value in overrides.items():
@@ -105,19 +105,35 @@ class Emulator(EmulatorClock, EmulatorApi):
             ),
             0,
         )
-        self._hooks: list[PhysicsHook] = []
         self._out: deque[tuple[float, bytes]] = deque()
         self._bus_free = 0.0
         self._last_rx = 0.0
-        self._clock = time.monotonic()
         self._thread: threading.Thread | None = None
         self._physics_thread: threading.Thread | None = None
-        self._physics_wake = threading.Event()
         self._quiet = threading.Event()  # set when no reply is due and no packet half-read
-        self._hook_failures = 0
         self._stopping = threading.Event()
+        self.clock = EmulatorClock(
+            self, self.lock, self.bus, s, self._stopping, self._quiet, lambda: self._last_rx
+        )
         self._wake_r = self._wake_w = -1  # a pipe that wakes the thread, made by start()
         self._served = threading.Condition(self.lock)
+
+    # ---- time (the clock's) ----------------------------------------------------------------
+
+    def add_physics_hook(self, fn: PhysicsHook) -> None:
+        """Call ``fn(dt, emulator)`` with every physics step of the clock."""
+        self.clock.add_physics_hook(fn)
+
+    def remove_physics_hook(self, fn: PhysicsHook) -> None:
+        self.clock.remove_physics_hook(fn)
+
+    def advance(self, dt: float) -> None:
+        """Step the dynamics by ``dt`` seconds now (in steps of at most ``max_step_s``)."""
+        self.clock.advance(dt)
+
+    @property
+    def sim_time(self) -> float:
+        return self.clock.sim_time
 
     # ---- lifecycle --------------------------------------------------------------------------
 
@@ -131,12 +147,12 @@ class Emulator(EmulatorClock, EmulatorApi):
             raise RuntimeError("this Emulator is already running; create another one")
         self.link.open()
         self._wake_r, self._wake_w = os.pipe()
-        self._clock = time.monotonic()
+        self.clock.restart()
         self._thread = threading.Thread(target=self._serve, name="darwin-sim-bus", daemon=True)
         self._thread.start()
         if self.settings.realtime:
             self._physics_thread = threading.Thread(
-                target=self._physics, name="darwin-sim-physics", daemon=True
+                target=self.clock.run_physics, name="darwin-sim-physics", daemon=True
             )
             self._physics_thread.start()
         log.info("emulator on %s (seed %d)", self.port, self.seed)
@@ -144,7 +160,7 @@ class Emulator(EmulatorClock, EmulatorApi):
 
     def stop(self) -> None:
         self._stopping.set()
-        self._physics_wake.set()
+        self.clock.release()
         self._quiet.set()
         self._wake()
         for thread in (self._thread, self._physics_thread):
@@ -229,7 +245,7 @@ class Emulator(EmulatorClock, EmulatorApi):
             # Only a packet can need the servos at "now". Most wake-ups just write a reply
             # that fell due (21 per bulk read), and stepping 20 servos on each of those was
             # most of the emulator's CPU, holding the GIL when replies were due.
-            self._sync_servos()
+            self.clock.sync_servos()
         if data:
             self._follow_line_rate()
             now = time.perf_counter()
