@@ -51,7 +51,7 @@ def test_ball_rolls_slows_and_stops_by_rolling_friction(rig: SimRig) -> None:
 
 def test_a_servo_held_at_its_torque_limit_overloads_and_shuts_down(rig: SimRig) -> None:
     """The right arm raised forward, its torque limit then cut below what holding it takes:
-    the motor saturates, OVERLOAD rises after a second, and ALARM_SHUTDOWN turns torque off."""
+    the motor saturates, OVERLOAD rises after a second, and ALARM_SHUTDOWN zeroes its limit."""
     for _ in range(100):
         rig.frame()
         rig.bus.write_targets(Targets(goal={1: 1.0}, gains={1: (32, 0, 0)}))
@@ -61,10 +61,11 @@ def test_a_servo_held_at_its_torque_limit_overloads_and_shuts_down(rig: SimRig) 
     with rig.emulator.lock:
         servo.write(MX28.TORQUE_LIMIT.reg.address, (5).to_bytes(2, "little"))
     rig.emulator.advance(0.5)
-    assert rig.emulator.register(1, "TORQUE_ENABLE") == 1  # not yet: held for < 1 s
+    assert rig.emulator.register(1, "TORQUE_LIMIT") == 5  # not yet: held for < 1 s
     assert abs(servo.plant_torque or 0.0) == pytest.approx(5 / 1023 * 2.5, rel=0.05)
     rig.emulator.advance(1.0)
-    assert rig.emulator.register(1, "TORQUE_ENABLE") == 0  # OVERLOAD shut it down
+    # OVERLOAD shut it down: the MX-28 zeroes TORQUE_LIMIT (TORQUE_ENABLE still reads 1)
+    assert rig.emulator.register(1, "TORQUE_LIMIT") == 0
     assert servo.plant_torque == 0.0  # limp
 
 

@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 import random
 
+import numpy as np
+
 from robot_daemon.motion.walking.ik import foot_target, leg_ik, leg_ik_end_point
 
 
@@ -56,7 +58,7 @@ def _walk_goals(commands: list[tuple[float, float, float]]) -> list[dict[int, fl
     for cmd in commands:
         rig.walk.set_speed(*cmd)
         for _ in range(150):
-            rig.gyro = [512 + rng.randint(-40, 40) for _ in range(3)]
+            rig.gyro = np.array([512 + rng.randint(-40, 40) for _ in range(3)])  # as read
             rig.run(1)
     return rig.goals
 
