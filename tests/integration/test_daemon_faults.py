@@ -199,6 +199,14 @@ def test_an_outage_halts_refuses_and_never_resumes(faulty_system: RunningSystem)
         sim = SimControl(robot.session, faulty_system.robot)
         robot.wait_for("status", lambda s: s.state in ("running", "degraded"), timeout=30)
         with robot_events(robot) as events, robot.control():
+            # The module's system is shared: an earlier test's alarm may have left a servo limp,
+            # and a walk on a limp leg is refused. Every servo torqued first, once it answers so.
+            def all_torqued() -> bool:
+                with contextlib.suppress(CommandError):
+                    robot.torque(True)
+                return not robot.wait_for("status").bus["torque_off"]
+
+            wait_until(all_torqued, timeout=30, what="every servo torqued before the walk")
             robot.walk(x=0.05)
             events.wait(lambda e: e.kind == "walk" and e.data.get("state") == "started")
             sim.call("vanish")
