@@ -502,8 +502,10 @@ class RobotBus(SensorRead):
             and not st.torque[dxl_id]
         ):
             # Torque on by a raw write: the goal the servo holds may be anything a previous
-            # program left; hold where it is first, as `torque` does.
-            present = int(st.position[dxl_id])
+            # program left; hold where it is first, as `torque` does. Where it is now, read
+            # from the servo: the tick's bulk read may predate a push that came after it.
+            raw = self._read_retry(self._bus(), dxl_id, MX28.PRESENT_POSITION.reg.address, 2)
+            present = int.from_bytes(raw, "little") if raw else int(st.position[dxl_id])
             self._write_retry(dxl_id, goal_at, present.to_bytes(2, "little"))
             st.goal[dxl_id] = present
         self._write_retry(dxl_id, address, data)

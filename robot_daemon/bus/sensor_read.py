@@ -95,11 +95,7 @@ class SensorRead:
             # DXL power off: only the CM-730 is read, and no servo is probed.
             self._who_cache = (
                 [j for j in self.ids if on[j]],
-                [
-                    j
-                    for j in self.ids
-                    if not on[j] and j not in self.refused and not self.unpowered
-                ],
+                [j for j in self.ids if not on[j] and j not in self.refused and not self.unpowered],
             )
             self._who_key = key
             self._layouts = {}
@@ -238,6 +234,11 @@ class SensorRead:
             return
         names = error_names(bits)
         protect = bool(bits & PROTECT_BITS) and not old & PROTECT_BITS
+        if bits & PROTECT_BITS:
+            # The firmware's alarm shutdown has zeroed TORQUE_LIMIT with the same status packet
+            # (e-manual, "Torque Limit (34)"); the slow read says so only when its turn comes,
+            # and a torque-on before then must know to re-arm the limit (RobotBus.set_torque).
+            st.torque_limit[jid] = 0
         self.emit(
             "servo_alarm",
             f"servo {jid} ({self.robot.by_id[jid].name}) alarm: {', '.join(names)}"

@@ -169,6 +169,7 @@ def sensor_blocks(
     blocks = [(i, SERVO_BULK_START, SERVO_BULK_LENGTH) for i in servo_ids]
     return [*blocks, (cm730_id, CM730_BULK_START, CM730_BULK_LENGTH)]
 
+
 # What the framework sync-writes every tick: D, I, P, reserved, goal L, goal H.
 SYNC_WRITE_START = MX28.D_GAIN.reg.address
 SYNC_WRITE_LENGTH = 6

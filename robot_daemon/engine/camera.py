@@ -179,14 +179,14 @@ class CameraThread:
                 reader.offer(frame)
             if not subscribed:
                 return  # only in-daemon readers: no JPEG nobody receives
-            if isinstance(frame, JpegFrame):
-                self.passed_through += 1
+            if passed := isinstance(frame, JpegFrame):
                 jpeg, w, h = frame.jpeg, frame.width, frame.height
             else:
                 jpeg, (h, w) = encode_jpeg(frame, self.quality), frame.shape[:2]
             msg = CameraFrame(jpeg=jpeg, width=w, height=h, seq=self.captured)
             self._pub.put(encode(msg))
             self.published += 1
+            self.passed_through += passed  # of those published: never ahead of the count
         except Exception as exc:  # a camera unplugged mid-run: report, retry after a pause
             self.errors += 1
             self.last_error = str(exc)

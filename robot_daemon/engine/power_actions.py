@@ -105,9 +105,15 @@ class PowerGuard:
                 f"level of the [power] policy): {verb} refused; charge or swap the battery"
             )
         if self.policy.heat_level >= 2:
-            hot = self.policy.heat_info()["hottest"][0]
+            # The servo whose level it is (it may have cooled below the others since and still
+            # be within its hysteresis and hold time), not whichever is hottest now.
+            j = max(
+                self.policy.servos,
+                key=lambda k: (self.policy.servos[k].level, self.policy.temps.get(k, 0.0)),
+            )
+            celsius = self.policy.temps.get(j, 0.0)
             return (
-                f"servo {hot['id']} ({hot['name']}) at {hot['celsius']:.0f} °C "
+                f"servo {j} ({self.policy.names[j]}) at {celsius:.0f} °C "
                 f"({LEVELS[self.policy.heat_level]} level of the [heat] policy): {verb} refused; "
                 "let it cool down"
             )

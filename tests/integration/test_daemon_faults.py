@@ -189,9 +189,19 @@ def test_an_overheating_servo_is_protected_and_reported(faulty_system: RunningSy
                 )
             alarm = events.wait(lambda e: e.kind == "servo_alarm" and e.data["id"] == 5)
         assert "overheating" in alarm.data["alarms"] and "torque off" in alarm.message
+        # Cooled in the emulator; the daemon refuses torque until its next read of the error
+        # byte clears the alarm, as the refusal says (status.alarms).
+        robot.wait_for("status", lambda s: all(a["id"] != 5 for a in s.alarms), timeout=15)
         with robot.control():  # torque back on only when someone asks
             robot.torque(True, [5])
         robot.wait_for("status", lambda s: 5 not in s.bus["torque_off"], timeout=15)
+        # Re-armed (TORQUE_LIMIT back from the shutdown's 0) before the slow read reported the
+        # 0: the servo holds, not TORQUE_ENABLE 1 on a limp motor.
+        wait_until(
+            lambda: sim.call("state")["servos"]["5"]["torque_limit"] > 0,
+            timeout=10,
+            what="servo 5's TORQUE_LIMIT re-armed in the emulator",
+        )
 
 
 def test_an_outage_halts_refuses_and_never_resumes(faulty_system: RunningSystem) -> None:
@@ -200,13 +210,18 @@ def test_an_outage_halts_refuses_and_never_resumes(faulty_system: RunningSystem)
         robot.wait_for("status", lambda s: s.state in ("running", "degraded"), timeout=30)
         with robot_events(robot) as events, robot.control():
             # The module's system is shared: an earlier test's alarm may have left a servo limp,
-            # and a walk on a limp leg is refused. Every servo torqued first, once it answers so.
-            def all_torqued() -> bool:
+            # and a walk on a limp leg is refused, as it is while the [heat] policy's level of
+            # an overheated servo stands (its hold time after cooling). Every servo torqued
+            # first, once it answers so, and the heat level back to ok.
+            def ready_to_walk() -> bool:
                 with contextlib.suppress(CommandError):
                     robot.torque(True)
-                return not robot.wait_for("status").bus["torque_off"]
+                status = robot.wait_for("status")
+                return not status.bus["torque_off"] and status.heat.get("level") == "ok"
 
-            wait_until(all_torqued, timeout=30, what="every servo torqued before the walk")
+            wait_until(
+                ready_to_walk, timeout=30, what="every servo torqued and cool before the walk"
+            )
             robot.walk(x=0.05)
             events.wait(lambda e: e.kind == "walk" and e.data.get("state") == "started")
             sim.call("vanish")

@@ -102,6 +102,11 @@ def test_bad_actions_are_refused_or_clipped_with_the_reason(
         stream.send_raw(encode(forged))
         ans = stream.answer(950, WAIT)
         assert ans is not None and "mac" in ans.refused
+        # The applied action is where the target is, which moves at most max_delta per action
+        # from the pose the stream started in (an earlier test may have left the robot sitting,
+        # well over 1 from the default pose): the default pose first.
+        last = stream.answer(_stream(holder, 20, [0.0] * 20, stream), timeout=WAIT)
+        assert last is not None and max(abs(a) for a in last.action) < 1e-6, last
         # Out of range: clipped to ±1 and to the joint limits, applied, and said so.
         ans = stream.send([5.0] * 20, wait=True, timeout=WAIT)
         assert ans is not None and not ans.refused

@@ -57,9 +57,12 @@ def daemon(tmp_path: Path, port: str) -> Iterator[Robot]:
     log_path = tmp_path / f"daemon-{name}.log"
     with log_path.open("w") as log:
         proc = subprocess.Popen(
-            darwin_command("daemon", "--port", port, "--robot", name, "--camera", "none",
-                           "--listen", endpoint),
-            stdout=subprocess.PIPE, stderr=log, text=True,
+            darwin_command(
+                "daemon", "--port", port, "--robot", name, "--camera", "none", "--listen", endpoint
+            ),
+            stdout=subprocess.PIPE,
+            stderr=log,
+            text=True,
         )
     try:
         assert proc.stdout is not None
@@ -99,7 +102,8 @@ def test_an_alarmed_servo_survives_a_restart_without_re_arming_and_a_far_goal_is
         control.call("load", id=KNEE, fraction=1.0)
         wait_until(
             lambda: control.call("state")["servos"][str(KNEE)]["torque_limit"] == 0,
-            timeout=WAIT, what="the knee's overload shutdown in the emulator",
+            timeout=WAIT,
+            what="the knee's overload shutdown in the emulator",
         )
         start = control.call("state")["servos"][str(PAN)]["position"]
 
@@ -116,8 +120,9 @@ def test_an_alarmed_servo_survives_a_restart_without_re_arming_and_a_far_goal_is
                 # The scan reads the servos' own angle limits: wheel mode refused, narrowed said.
                 assert WHEEL in status.bus["offline"]
                 assert any(f"servo {WHEEL} " in w and "wheel mode" in w for w in warnings)
-                assert any(f"servo {NARROW} " in w and "limits its own angle" in w
-                           for w in warnings)
+                assert any(
+                    f"servo {NARROW} " in w and "limits its own angle" in w for w in warnings
+                )
                 # A flood of `torque` on the knee re-arms nothing.
                 with robot.control():
                     for _ in range(20):
@@ -139,6 +144,13 @@ def test_an_alarmed_servo_survives_a_restart_without_re_arming_and_a_far_goal_is
                 # first), not at whatever goal it had before it was pushed.
                 with robot.control():
                     robot.torque(False, [TILT])
+                    # The write went out on the pty; the emulator applies it as it arrives (a
+                    # push over the control link before that would be fought by the motor).
+                    wait_until(
+                        lambda: not control.call("state")["servos"][str(TILT)]["torque"],
+                        timeout=WAIT,
+                        what="the head tilt's torque off in the emulator",
+                    )
                     moved = state[str(TILT)]["position"] + 0.3
                     control.call("set_position", id=TILT, rad=moved)
                     robot.registers(TILT, MX28.TORQUE_ENABLE.reg.address, data=[1])
@@ -172,10 +184,20 @@ def test_a_second_master_polling_the_bus_is_refused_before_the_daemon_talks(
         poller.start()
         try:
             done = subprocess.run(
-                darwin_command("daemon", "--port", sim.port, "--robot", "second-master",
-                               "--camera", "none", "--listen",
-                               f"tcp/127.0.0.1:{free_tcp_port()}"),
-                capture_output=True, text=True, timeout=60,
+                darwin_command(
+                    "daemon",
+                    "--port",
+                    sim.port,
+                    "--robot",
+                    "second-master",
+                    "--camera",
+                    "none",
+                    "--listen",
+                    f"tcp/127.0.0.1:{free_tcp_port()}",
+                ),
+                capture_output=True,
+                text=True,
+                timeout=60,
                 env={**os.environ, "DARWIN_PROC_ROOT": str(blind)},
             )
         except subprocess.TimeoutExpired as exc:

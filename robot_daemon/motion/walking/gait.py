@@ -102,6 +102,7 @@ class WalkingModule(WalkReady, MotionModule):
                 self.claim(WALK_IDS)
             self.running = True
             self._halting = False
+            self.steps = 0  # the status's and the events' count is this walk's
             self.time_ms = 0.0
             self.latched = [0.0, 0.0, 0.0]
             self._update_time()
