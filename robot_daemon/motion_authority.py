@@ -66,9 +66,11 @@ MOVES_BY_ITSELF: tuple[SelfMove, ...] = (
     ),
     SelfMove(
         MOVE_WALK_LAST_STEP,
-        "a walk ends its step: to the next double support after `halt` (at most half a gait "
-        "period), the current step and at most one more after `walk` op=stop or the lease's end",
-        "`halt`, `walk` op=stop, the lease ending, a limp driven joint",
+        "a walk ends its step: to the next double support after `halt` or a stop of the daemon "
+        "(at most half a gait period), the current step and at most one more after `walk` "
+        "op=stop or the lease's end",
+        "`halt`, the daemon stopping (SIGTERM, Ctrl-C), `walk` op=stop, the lease ending, a limp "
+        "driven joint",
         "none: stopped mid-step the robot stands on one foot and falls; `torque` "
         "enable=false or the reset button go limp at once",
         "robot_daemon/motion/walking/gait.py",

@@ -78,6 +78,9 @@ log = logging.getLogger(__name__)
 # Motion time follows the clock (a late tick moves the gait on by the time that passed), but a
 # stall longer than this many periods counts as this many: the gait must not jump.
 MAX_DT_TICKS = 4.0
+# The longest a stop waits for a walk's last step (half a gait period: 0.3 s at the stock 600 ms),
+# well inside the boot service's TimeoutStopSec.
+STOP_FINISH_S = 2.0
 
 
 @dataclass
@@ -145,6 +148,7 @@ class Daemon:
         self.status_sources: StatusSources | None = None
         self._sampled_at = time.time()
         self._stop = threading.Event()
+        self._stop_by: float | None = None  # after stop(): the walk's last step ends by then
         self._wake = threading.Event()  # a command arrived (the port-lost wait ends at once)
         self._safe_stop = threading.Event()
         self._status_dirty = True
@@ -349,7 +353,7 @@ class Daemon:
         self._last_start = None
         self.stats.reset_period()
         # Powering the servos (the verb, START) leaves the loop: it is done outside its timing.
-        while not self._stop.is_set() and self.supervisor.power_request is None:
+        while self.supervisor.power_request is None and self._ticking():
             start = time.monotonic()
             try:
                 bus_s = self._one_tick(start)
@@ -369,7 +373,28 @@ class Daemon:
                 # than burst through the missed deadlines to catch up.
                 self.stats.overrun(int((now - next_deadline) / self.tick_s))
                 next_deadline = now
-            self._stop.wait(max(0.0, next_deadline - time.monotonic()))
+            delay = max(0.0, next_deadline - time.monotonic())
+            if self._stop.is_set():
+                time.sleep(delay)  # the walk's last step, paced as every tick
+            else:
+                self._stop.wait(delay)
+
+    def _ticking(self) -> bool:
+        """Whether the loop ticks on: until :meth:`stop`, and after it while a walk ends its
+        step. Stopped at once (a service stop, Ctrl-C) a walk would stand on one foot, the
+        swing foot in the air, and tip over: as the ``halt`` verb, it ends at its next double
+        support (at most half a gait period; ``STOP_FINISH_S`` bounds it) and then the pose is
+        held (:meth:`close`)."""
+        if not self._stop.is_set():
+            return True
+        if self._stop_by is None:
+            self._stop_by = time.monotonic() + STOP_FINISH_S
+            if not any(m.in_motion for m in self.manager.modules):
+                return False
+            self.manager.halt(finish_step=True)
+            self._drain_events()
+        finishing = any(m.finishing for m in self.manager.modules)
+        return finishing and time.monotonic() < self._stop_by
 
     def _one_tick(self, start: float) -> float:
         """One tick; returns the time spent on the bus."""

@@ -1,7 +1,8 @@
 """The boot service's stop: systemd sends SIGTERM to the daemon (KillMode=mixed: the main
 process only) and waits TimeoutStopSec. A real daemon on a separate emulator, walking under a
-lease, must halt, hold the pose (every servo's goal where the servo is, torque on) and exit 0
-within it; the emulator, still running, shows what the servos were left with."""
+lease, must end the walk's step at double support (as `halt`), hold the pose (every servo's
+goal where the servo is, torque on) and exit 0 within it; the emulator, still running, shows
+what the servos were left with."""
 
 from __future__ import annotations
 
@@ -46,14 +47,18 @@ def test_sigterm_holds_the_pose_and_exits_cleanly_within_the_stop_timeout(
                 robot.wait_for("status", lambda s: s.state in ("running", "degraded"), timeout=30)
                 with robot.control():
                     robot.walk(x=0.02)
+                    # In the gait (past the walk-ready page and the blend): steps are counted.
                     robot.wait_for(
                         "status",
-                        lambda s: s.motion.get("walking", {}).get("walking") is True,
-                        timeout=15,
+                        lambda s: s.motion.get("walking", {}).get("steps", 0) >= 1,
+                        timeout=30,
                     )
                     proc.send_signal(signal.SIGTERM)  # the main process only, as systemd does
+                    # Not frozen on one foot: the walk ends its step at the next double
+                    # support, then the daemon stops, holding the pose it ended in.
+                    events.wait(lambda e: e.kind == "walk" and "double support" in e.message)
                     events.wait(lambda e: e.kind == "state" and e.data.get("state") == "stopping")
-                    # The walk was halted and the present pose written as the goal, on the bus.
+                    # The present pose written as the goal, on the bus.
                     events.wait(lambda e: e.kind == "halt" and "holding" in e.message)
                 assert proc.wait(timeout=STOP_TIMEOUT_S) == 0
             reader.join(timeout=5)
