@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import argparse
 
-from clients.robotis_offsets import import_offsets
 from config.loader import load_robot, robot_from_dict, shipped
+from config.robotis_offsets import import_offsets
 from config.user_file import set_joint_offsets, target_path
 
 

@@ -98,6 +98,8 @@ class RobotBus(SensorRead):
         self.cm730_valid = False  # this tick's CM-730 block came, error-free (frame.imu_valid)
         self.counters = BusCounters()
         self.warnings: list[str] = []
+        # Found before the bus (the robot's configuration): every scan keeps saying them.
+        self.config_warnings: list[str] = []
         self.refused: dict[int, str] = {}  # id → why it is kept offline (old firmware)
         self.make_transport = transport or (lambda: BlockingPortHandler(self.port_name))
         self.handler: Transport | None = None
@@ -173,7 +175,7 @@ class RobotBus(SensorRead):
         # Bring-up's patience until initial_read ends (the servos powered again mid-run too).
         bus.budget.margin_ms = self.start_margin_ms
         found: dict[int, int] = {}
-        self.warnings = []
+        self.warnings = list(self.config_warnings)
         self.refused = {}
         # Two passes: a servo that powered up late (or a busy host that missed its replies)
         # is asked again after the others, rather than left offline without torque.

@@ -12,6 +12,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from config.robotis_offsets import NotImported
 from robot_daemon.bus.chains import first_missing
 
 OK, WARN, FAIL, SKIP = "ok", "warn", "fail", "skip"
@@ -309,3 +310,10 @@ def versions(client: str, daemon: str | None) -> Check:
             "install the same version on both",
         )
     return Check("versions", OK, f"client and daemon {client}")
+
+
+def robotis_offsets(path: str, missing: NotImported | None) -> Check:
+    """ROBOTIS's own offsets on the robot (its ``config.ini``) against the daemon's config."""
+    if missing is None:
+        return Check("offsets", OK, f"{path} agrees with this config")
+    return Check("offsets", WARN, missing.detail, missing.fix)

@@ -15,7 +15,8 @@ from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
-from config.loader import load_all, section_to
+from config.loader import load_all, robot_from_dict, section_to
+from config.robotis_offsets import ROBOTIS_CONFIG_INI, offsets_not_imported
 from robot_daemon.bus.preflight import MIN_MX28_FIRMWARE
 from robot_daemon.bus.tables import SERVO_IDS
 from robot_daemon.doctor import checks as C
@@ -116,6 +117,10 @@ def gather(args: argparse.Namespace) -> tuple[list[C.Check], str]:
         )
     )
     out.append(C.disk(Path(s.recordings_dir or "."), s.disk_min_mb))
+    ini = str(dcfg.get("robotis_config_ini", ROBOTIS_CONFIG_INI) or "")
+    if ini and os.path.isfile(ini):  # a robot with ROBOTIS's files on it
+        robot_cfg = robot_from_dict(data["robot"])
+        out.append(C.robotis_offsets(ini, offsets_not_imported(ini, robot_cfg)))
     out.append(C.loop_headroom(facts.loop if facts else None, s.loop_headroom_min))
     out.append(C.zenoh_reach(endpoint, robot, running, facts.state if facts else None))
     out.append(C.versions(client_version(), facts.daemon_version if facts else None))

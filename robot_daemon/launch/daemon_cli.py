@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from config.loader import load_all, robot_from_dict
+from config.robotis_offsets import ROBOTIS_CONFIG_INI, offsets_not_imported
 from robot_daemon.emulator.settings import add_forwarded_options
 from robot_daemon.engine.daemon import Daemon, DaemonOptions
 from robot_daemon.engine.fleet_join import RouterWatch, check_login_needs_router
@@ -189,7 +190,13 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
             )
         },
     )
-    return Daemon(opts, robot, settings)
+    daemon = Daemon(opts, robot, settings)
+    ini = str(dcfg.get("robotis_config_ini", ROBOTIS_CONFIG_INI) or "")
+    missing = offsets_not_imported(ini, robot) if ini and not args.sim else None
+    if missing is not None:
+        log.warning("%s", missing.line())
+        daemon.bus.config_warnings.append(missing.line())
+    return daemon
 
 
 def router_of(args: argparse.Namespace, settings: dict[str, Any]) -> str | None:

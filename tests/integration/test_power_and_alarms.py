@@ -50,15 +50,17 @@ GREEN = units.rgb_to_color_word(0, 255, 0)
 
 
 @contextlib.contextmanager
-def daemon(tmp_path: Path, port: str) -> Iterator[Robot]:
-    """``darwin daemon`` on ``port`` with a client connected once it listens."""
+def daemon(tmp_path: Path, port: str, *extra: str) -> Iterator[Robot]:
+    """``darwin daemon`` on ``port`` (and ``extra`` options) with a client connected once it
+    listens."""
     name = f"pw{uuid.uuid4().hex[:8]}"
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     log_path = tmp_path / f"daemon-{name}.log"
     with log_path.open("w") as log:
         proc = subprocess.Popen(
             darwin_command(
-                "daemon", "--port", port, "--robot", name, "--camera", "none", "--listen", endpoint
+                "daemon", "--port", port, "--robot", name, "--camera", "none", "--listen", endpoint,
+                *extra,
             ),
             stdout=subprocess.PIPE,
             stderr=log,

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from clients.robotis_offsets import import_offsets, read_offset_steps
 from config.loader import load_robot
+from config.robotis_offsets import import_offsets, read_offset_steps
 from config.user_file import set_joint_offsets
 from schemas.errors import ConfigError
 from tests.fixtures.system import REPO, darwin_command

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import calendar
 
+from config.robotis_offsets import NotImported
 from robot_daemon.bus.chains import CHAINS, first_missing, hidden_behind
 from robot_daemon.doctor import checks as C
 
@@ -65,3 +66,10 @@ def test_thresholds() -> None:
 def test_a_line_carries_its_fix_only_when_it_fails_or_warns() -> None:
     assert C.Check("a", C.FAIL, "bad", "do y").line() == "FAIL  a: bad — fix: do y"
     assert C.Check("a", C.OK, "fine", "do y").line() == "OK    a: fine"
+
+
+def test_robotis_offsets_not_imported_is_a_warning_with_the_import_as_its_fix() -> None:
+    missing = NotImported("/darwin/Data/config.ini calibrates 4 joint(s)", "import them")
+    check = C.robotis_offsets("/darwin/Data/config.ini", missing)
+    assert check.status == C.WARN and check.line().endswith("— fix: import them")
+    assert C.robotis_offsets("/darwin/Data/config.ini", None).status == C.OK

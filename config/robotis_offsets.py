@@ -93,3 +93,49 @@ def import_offsets(path: str | Path, robot: RobotConfig) -> ImportedOffsets:
             continue
         degrees[joint.name] = value * units.DEG_PER_UNIT  # exact: a binary fraction
     return ImportedOffsets(steps, degrees, ignored)
+
+
+# Where it is on a stock robot: ROBOTIS's programs read ``INI_FILE_PATH``, relative to their
+# directory under /darwin/Linux/project (``"../../../Data/config.ini"`` from the demo's).
+ROBOTIS_CONFIG_INI = "/darwin/Data/config.ini"
+
+
+@dataclass(frozen=True)
+class NotImported:
+    """ROBOTIS's offsets on the robot that the daemon's config does not have: what, and the fix."""
+
+    detail: str
+    fix: str
+
+    def line(self) -> str:
+        return f"{self.detail}: {self.fix}"
+
+
+def offsets_not_imported(path: str | Path, robot: RobotConfig) -> NotImported | None:
+    """When ROBOTIS's ``config.ini`` at ``path`` calibrates joints that ``robot`` (the daemon's
+    config) does not: a robot tuned with ROBOTIS's offset tuner whose offsets were never
+    imported walks with every joint off by them. None when the file is absent or agrees."""
+    p = Path(path)
+    if not p.is_file():
+        return None
+    skip = 'or set [daemon] robotis_config_ini = "" to skip this check'
+    try:
+        imported = import_offsets(p, robot)
+    except ConfigError as exc:
+        return NotImported(f"ROBOTIS's offsets not checked: {exc}", f"fix or move {p}, {skip}")
+    half_step = units.DEG_PER_UNIT / 2
+    differ = {
+        name: deg
+        for name, deg in imported.degrees.items()
+        if abs(deg - robot.joint(name).offset_deg) > half_step
+    }
+    if not differ:
+        return None
+    name, deg = max(differ.items(), key=lambda kv: abs(kv[1]))
+    here = robot.joint(name).offset_deg
+    return NotImported(
+        f"{p} calibrates {len(differ)} joint(s) this config does not (e.g. {name}: {deg:+.2f}° "
+        f"there, {here:+.2f}° here)",
+        f"import them with `darwin calibrate import {p} --config FILE` (FILE: the config the "
+        f"daemon reads; docs/calibration.md), {skip}",
+    )
