@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from clients.robot import Robot
+from robot_daemon.bus.tables import MX28
 from schemas.errors import ForbiddenError, RefusedError, RobotUnreachableError
 from schemas.keys import Keys
 from schemas.messages import command_payload, decode_dict
@@ -206,3 +207,46 @@ def test_gateway_role_observer_caps_an_operator_identity(
         proc.wait(timeout=10)
         if proc.stdout is not None:
             proc.stdout.close()
+
+
+def test_an_operator_flooding_power_torque_and_registers_powers_and_re_arms_nothing(
+    auth_system: RunningSystem,
+) -> None:
+    """The reset button pressed: an operator holding the lease hammers every way back to power
+    (the `power` verb on the admin key and on cmd/, torque on, a TORQUE_LIMIT write) and none of
+    it powers or re-arms a servo; only an admin's `power` does."""
+    limit = MX28.TORQUE_LIMIT.reg.address
+    with login(auth_system, "adm") as admin, login(auth_system, "op") as robot:
+        sim = SimControl(admin.session, auth_system.robot)
+        admin.wait_for("status", lambda s: s.state in ("running", "degraded"), timeout=30)
+        sim.call("dxl_power_loss")
+        robot.wait_for("status", lambda s: s.state == "servos_off", timeout=30)
+        try:
+            with robot.control("flood"):
+                token = robot._lease.token
+                for _ in range(20):
+                    # Past the client's own role check, as a hostile client would send them.
+                    assert raw_replies(robot, robot.keys.admin("power"), op="on") == []
+                    assert raw_replies(robot, robot.keys.admin("registers"), id=13,
+                                       address=limit, data=[255, 3]) == []
+                    for verb, fields in (
+                        ("power", {"op": "on"}),
+                        ("registers", {"id": 13, "address": limit, "data": [255, 3]}),
+                        ("torque", {"enable": True}),
+                    ):
+                        (reply,) = raw_replies(
+                            robot, robot.keys.cmd(verb), lease_token=token, **fields
+                        )
+                        assert reply.err is not None, verb  # type: ignore[attr-defined]
+                    with pytest.raises(ForbiddenError, match="admin"):
+                        robot.power(True)
+                tick = robot.wait_for("status", timeout=10).loop["ticks"]
+                robot.wait_for("status", lambda s: s.loop["ticks"] > tick + 125, timeout=30)
+            state = sim.call("state")
+            assert not state["dxl_power"] and not state["servo_power"]
+            assert all(s["torque_limit"] == 0 or not s["powered"] for s in state["servos"].values())
+            assert robot.wait_for("status", timeout=10).state == "servos_off"
+        finally:
+            with admin.control("restore"):
+                admin.power(True)
+            admin.wait_for("status", lambda s: s.state in ("running", "degraded"), timeout=30)
