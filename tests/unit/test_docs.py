@@ -134,6 +134,7 @@ class Page(HTMLParser):
         self.inline_code: list[str] = []  # <code> outside <pre>
         self.headings: list[tuple[str, str]] = []  # (tag, text) inside the article
         self.links: list[str] = []
+        self.images: list[tuple[str, str, str]] = []  # (src, alt, width) inside the article
         self.ids: set[str] = set()
         self._pre = 0
         self._code: list[str] | None = None
@@ -146,6 +147,9 @@ class Page(HTMLParser):
             self.ids.add(str(found["id"]))
         if tag == "a" and found.get("href"):
             self.links.append(str(found["href"]))
+        if tag == "img" and self._article:
+            self.images.append((str(found.get("src") or ""), str(found.get("alt") or ""),
+                                str(found.get("width") or "")))
         if tag == "article":
             self._article = True
         elif tag == "pre":
@@ -233,4 +237,21 @@ def test_every_internal_link_and_anchor_resolves(site: Path) -> None:
                 ids = pages[target].ids if target in pages else Page().ids
                 if url.fragment not in ids:
                     bad.append(f"{base}: {href}: no anchor #{url.fragment}")
+    assert not bad, "\n".join(bad)
+
+
+def test_every_picture_exists_and_says_what_it_shows(site: Path) -> None:
+    """Each image of a page is there, in full (no thumbnail size set on it) and has alt text
+    for a reader who cannot see it."""
+    bad = []
+    for html, page in _pages(site).items():
+        base = "/" + html.relative_to(site).as_posix()
+        for src, alt, width in page.images:
+            if width:
+                bad.append(f"{base}: {src}: shown {width} px wide, not at the column's width")
+            if not (site / urlsplit(urljoin(base, src)).path.lstrip("/")).exists():
+                bad.append(f"{base}: {src}: no such file")
+            if len(alt.split()) < 3:
+                bad.append(f"{base}: {src}: no alt text that says what it shows ({alt!r})")
+    assert any(page.images for page in _pages(site).values()), "no page shows a picture"
     assert not bad, "\n".join(bad)
