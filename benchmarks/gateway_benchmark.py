@@ -57,7 +57,7 @@ class Seen:
 
     def on_joints(self, msg) -> None:
         now = msg.stamp
-        value = round(msg.position_deg[msg.id.index(HEAD_PAN)], 1)
+        value = round(math.degrees(msg.position[msg.id.index(HEAD_PAN)]), 1)
         if value != self.last:
             self.last = value
             with self.lock:

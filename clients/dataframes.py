@@ -3,7 +3,7 @@
 One row per message, flat columns (easy to plot, filter and export):
 
 * ``joints``: ``stamp``, ``tick``, then ``<field>_<joint name>`` for every per-joint field
-  (``position_r_knee``, ``position_deg_r_knee``, ``goal_…``, ``velocity_…``, ``load_…``,
+  (``position_r_knee`` in radians, ``goal_…``, ``velocity_…``, ``load_…``,
   ``temperature_…``, ``voltage_…``, ``torque_enabled_…``, ``online_…``, ``alarm_…``);
 * vectors of three (``gyro``, ``accel``…) become ``gyro_x``, ``gyro_y``, ``gyro_z``;
 * maps become ``<key>_<subkey>`` (``lease_name``, ``robot_x``…);
@@ -83,8 +83,6 @@ def joint_columns(df: pandas.DataFrame, field: str = "position") -> pandas.DataF
     """The ``<field>_<joint>`` columns of a joints frame, renamed to the joint names."""
     prefix = f"{field}_"
     names = [c for c in df.columns if c.startswith(prefix)]
-    if field == "position":  # do not pick up position_deg_* as joints named deg_*
-        names = [c for c in names if not c.startswith("position_deg_")]
     return df[names].rename(columns=lambda c: c[len(prefix) :])
 
 

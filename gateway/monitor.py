@@ -35,7 +35,7 @@ def motors_from_joints(joints: Joints) -> dict[int, MotorTuple]:
     for i, jid in enumerate(joints.id):
         out[int(jid)] = (
             int(jid),
-            _r(joints.position_deg[i], 1),
+            _r(math.degrees(joints.position[i]), 1),
             _r(math.degrees(joints.velocity[i]), 1),
             _r(joints.load[i] * 100.0, 1),
             1 if joints.torque_enabled[i] else 0,

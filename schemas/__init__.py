@@ -3,4 +3,5 @@
 Nothing here does I/O except :mod:`schemas.session`, the one Zenoh session helper.
 """
 
-SCHEMA_VERSION = 1
+# 2: joints carry radians only (position_deg dropped: SI units on the wire).
+SCHEMA_VERSION = 2

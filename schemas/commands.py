@@ -1,10 +1,10 @@
 """Arbiter command payloads, one per verb under ``darwin/<robot>/cmd/<verb>``.
 
-Every query payload is a msgpack map ``{"v": 1, "client": <client id>, ...fields}`` (build it
-with :func:`schemas.messages.command_payload`), optionally with ``client_name`` (the caller's
-human name, shown as the lease holder; ``name`` is a verb field, e.g. a joint's name) and
-``lease_token`` (the secret ``lease`` op=acquire returned to the holder alone; every command that
-needs the lease, ``release`` and ``renew`` must carry it). These are the *envelope*
+Every query payload is a msgpack map ``{"v": SCHEMA_VERSION, "client": <client id>, ...fields}``
+(build it with :func:`schemas.messages.command_payload`), optionally with ``client_name``
+(the caller's human name, shown as the lease holder; ``name`` is a verb field, e.g. a joint's
+name) and ``lease_token`` (the secret ``lease`` op=acquire returned to the holder alone; every
+command that needs the lease, ``release`` and ``renew`` must carry it). These are the *envelope*
 (:data:`ENVELOPE`); everything else is the verb's own fields, declared once in
 :data:`COMMAND_FIELDS`: a field not declared there is refused (``invalid``, naming the field and
 the nearest declared name), as is a value of the wrong type or a string/list longer than its
@@ -21,9 +21,10 @@ and the loop takes a bounded amount of work per tick; a command over the limit i
 once with ``rate_limited`` and ``retry_after`` (s), never queued. ``halt`` is exempt and served
 first.
 Every reply is either
-``{"v":1, "ok": true, "verb": v, "applied": {...}}`` sent with ``query.reply`` — *applied* says
-what was actually applied after conversion — or ``{"v":1, "ok": false, "verb": v, "code": c,
-"message": m, "field": f}`` sent with ``query.reply_err``; codes are :class:`ErrorCode`.
+``{"v": SCHEMA_VERSION, "ok": true, "verb": v, "applied": {...}}`` sent with ``query.reply`` —
+*applied* says what was actually applied after conversion — or ``{"v": SCHEMA_VERSION, "ok":
+false, "verb": v, "code": c, "message": m, "field": f}`` sent with ``query.reply_err``;
+codes are :class:`ErrorCode`.
 Angles are rad, speeds rad/s or m/s, durations s. Joints are named by id (1..20) or name.
 
 Each verb is declared once, in :data:`SPEC` below: its fields, which of its ops need the lease,

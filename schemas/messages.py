@@ -15,7 +15,7 @@ from typing import Any, ClassVar, TypeVar, overload
 import msgpack
 
 from schemas import SCHEMA_VERSION
-from schemas.errors import ErrorCode, ProtocolError
+from schemas.errors import ErrorCode, ProtocolError, brief
 
 # Status's typed sub-maps; importable from here as they always were.
 from schemas.status_maps import AlarmInfo as AlarmInfo
@@ -76,6 +76,16 @@ def decode_dict(payload: bytes) -> dict[str, Any]:
     return d
 
 
+def version_refusal(v: object) -> str:
+    """The one line a payload of another schema version is refused with: both versions and the
+    fix."""
+    return (
+        f"schema version {brief(v)} not supported: this build of darwin-zenoh speaks "
+        f"{SCHEMA_VERSION}; install the same version on both sides "
+        "(docs/troubleshooting.md#version-skew)"
+    )
+
+
 @overload
 def decode(payload: bytes, expect: type[M]) -> M: ...
 @overload
@@ -84,9 +94,7 @@ def decode(payload: bytes, expect: type[M] | None = None) -> M | Message:
     d = decode_dict(payload)
     v = d.get("v")
     if v != SCHEMA_VERSION:
-        raise ProtocolError(
-            f"schema version {v!r} not supported (this build speaks {SCHEMA_VERSION})"
-        )
+        raise ProtocolError(version_refusal(v))
     cls = _REGISTRY.get(d.get("type", ""))
     if cls is None:
         raise ProtocolError(f"unknown message type {d.get('type')!r}")
@@ -103,7 +111,6 @@ class Joints(Message):
     id: list[int]
     name: list[str]
     position: list[float]  # rad (servo angle after calibration)
-    position_deg: list[float]
     goal: list[float]  # rad
     velocity: list[float]  # rad/s
     load: list[float]  # fraction of max torque, signed
@@ -119,7 +126,6 @@ class Joints(Message):
         "id",
         "name",
         "position",
-        "position_deg",
         "goal",
         "velocity",
         "load",

@@ -54,10 +54,14 @@ import msgpack
 from schemas import SCHEMA_VERSION
 from schemas.errors import ProtocolError, brief
 from schemas.joints import JOINT_NAMES
-from schemas.messages import Message, decode_dict
+from schemas.messages import Message, decode_dict, version_refusal
 from schemas.units import raw_to_rad
 
 N_JOINTS = len(JOINT_NAMES)
+# The contract's own version (the observation, the action and their meaning), which a trained
+# model records: the messages' schema version may change without it (2 dropped a field of the
+# joints message no policy reads), so a model keeps working until this changes.
+CONTRACT_VERSION = 1
 
 # The default pose: ROBOTIS's page 1 "stand" (motion_4096.bin, last step; raw goals by id 1..20),
 # knees bent 53°, arms down; the pose every offset action is relative to.
@@ -100,7 +104,7 @@ def decode_strict(payload: bytes, cls: type[Message]) -> dict[str, Any]:
         raise ProtocolError(f"{cls.TYPE} payload of {len(payload)} bytes is over the limit")
     d = decode_dict(payload)
     if d.get("v") != SCHEMA_VERSION:
-        raise ProtocolError(f"schema version {d.get('v')!r} not supported ({SCHEMA_VERSION})")
+        raise ProtocolError(version_refusal(d.get("v")))
     if d.get("type") != cls.TYPE:
         raise ProtocolError(f"expected a {cls.TYPE!r} message, got {brief(d.get('type'))}")
     names = {f.name for f in fields(cls)}

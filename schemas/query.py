@@ -37,7 +37,7 @@ from schemas.errors import (
     brief,
     command_error,
 )
-from schemas.messages import decode_dict, error_reply, ok_reply
+from schemas.messages import decode_dict, error_reply, ok_reply, version_refusal
 
 log = logging.getLogger(__name__)
 
@@ -88,8 +88,7 @@ def decode_request(payload: bytes, max_bytes: int = MAX_PAYLOAD) -> dict[str, An
     if d.get("v") != SCHEMA_VERSION:
         raise InvalidCommandError(
             ErrorCode.INVALID,
-            f"schema version {brief(d.get('v'))} not supported (this build speaks "
-            f"{SCHEMA_VERSION})",
+            version_refusal(d.get("v")),
             "v",
         )
     return d

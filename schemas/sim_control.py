@@ -1,6 +1,6 @@
 """The client of the emulator's control interface (``Keys(robot).sim_control``).
 
-``SimControl(session, robot).call("faults", drop=0.1)`` sends ``{"v": 1, "op": name, …fields}``
+``SimControl(session, robot).call("faults", drop=0.1)`` sends ``{"v", "op": name, …fields}``
 and returns the op's result; the emulator serves the ops (``robot_daemon.emulator``). Here, with
 the other wire definitions, so clients (the TUI, the learning stack) reach a running emulator
 without importing it.

@@ -18,7 +18,8 @@ from schemas import SCHEMA_VERSION
 from schemas.errors import ConfigError, IncompatibleProtocolError
 
 # 1.1: status carries version, protocol, power and heat.
-PROTOCOL_VERSION: tuple[int, int] = (SCHEMA_VERSION, 1)
+# 2.0: joints carry radians only (no position_deg); a 1.x client is refused in one line.
+PROTOCOL_VERSION: tuple[int, int] = (SCHEMA_VERSION, 0)
 PACKAGE = "darwin-zenoh"
 # A daemon from before versions were announced: protocol 1.0.
 UNANNOUNCED: tuple[int, int] = (1, 0)
@@ -40,7 +41,7 @@ def package_version() -> str:
 def parse_protocol(text: str) -> tuple[int, int]:
     major, sep, minor = text.strip().partition(".")
     if not (sep and major.isdigit() and minor.isdigit()):
-        raise ValueError(f"protocol version {text!r} should be MAJOR.MINOR, e.g. 1.1")
+        raise ValueError(f"protocol version {text!r} should be MAJOR.MINOR, e.g. 2.0")
     return int(major), int(minor)
 
 

@@ -24,10 +24,15 @@ from typing import Any
 
 import numpy as np
 
-from schemas import SCHEMA_VERSION
 from schemas.errors import DarwinError
 from schemas.joints import JOINT_NAMES
-from schemas.policy import DEFAULT_POSE, N_JOINTS, OBSERVATION_LAYOUT, OBSERVATION_SIZE
+from schemas.policy import (
+    CONTRACT_VERSION,
+    DEFAULT_POSE,
+    N_JOINTS,
+    OBSERVATION_LAYOUT,
+    OBSERVATION_SIZE,
+)
 
 
 class PolicyLoadError(DarwinError):
@@ -51,7 +56,7 @@ def deploy_metadata(
 ) -> dict[str, str]:
     """The ``metadata_props`` of a policy trained against this contract."""
     return {
-        META_SCHEMA: str(SCHEMA_VERSION),
+        META_SCHEMA: str(CONTRACT_VERSION),
         META_JOINTS: json.dumps(list(JOINT_NAMES)),
         META_DEFAULT_POSE: json.dumps([round(v, 6) for v in DEFAULT_POSE]),
         META_LAYOUT: json.dumps([[n, k] for n, k in OBSERVATION_LAYOUT]),
@@ -71,9 +76,9 @@ def contract_mismatch(meta: dict[str, str], daemon: dict[str, Any] | None = None
             f"it has no {META_SCHEMA} metadata (a model made for this contract carries "
             "clients.learn.onnx_policy.deploy_metadata())"
         )
-    if meta[META_SCHEMA] != str(SCHEMA_VERSION):
+    if meta[META_SCHEMA] != str(CONTRACT_VERSION):
         return (
-            f"it is for contract schema version {meta[META_SCHEMA]}, this one is {SCHEMA_VERSION}"
+            f"it is for contract schema version {meta[META_SCHEMA]}, this one is {CONTRACT_VERSION}"
         )
     try:
         joints = json.loads(meta[META_JOINTS])

@@ -2,8 +2,8 @@
 the recorded timing (scaled by ``rate``), so the TUI, the notebook client and the gateway show
 a recorded session as if it were live.
 
-A queryable on ``Keys(robot).replay_control`` takes ``{"v": 1, "op": "pause" | "resume" | "seek"
-| "rate" | "status", "t": seconds, "rate": factor}`` (msgpack, through :mod:`schemas.query`) and
+A queryable on ``Keys(robot).replay_control`` takes ``{"v", "op": "pause" | "resume" | "seek" |
+"rate" | "status", "t": seconds, "rate": factor}`` (msgpack, through :mod:`schemas.query`) and
 answers with the replay's status (``ok_reply("replay", status)``);
 :class:`clients.recording.control.ReplayControl` is its client.
 """

@@ -6,6 +6,7 @@ the original's log of accelerometer, gyroscope and motor positions.
 
 from __future__ import annotations
 
+import math
 from datetime import UTC, datetime
 from typing import IO, Any
 
@@ -24,7 +25,8 @@ def _fmt(value: Any) -> str:
 def _fields(topic: str, d: dict[str, Any]) -> list[tuple[str, Any]]:
     if topic == "joints":
         out: list[tuple[str, Any]] = [("tick", d.get("tick", 0))]
-        out += list(zip(d.get("name", []), d.get("position_deg", []), strict=False))
+        degrees = [math.degrees(p) for p in d.get("position", [])]
+        out += list(zip(d.get("name", []), degrees, strict=False))
         return out
     if topic == "imu":
         out = [("tick", d.get("tick", 0))]

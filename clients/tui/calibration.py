@@ -12,6 +12,7 @@ to the next goal. The editing logic is the notebook client's
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from textual.app import ComposeResult
@@ -96,7 +97,10 @@ class CalibrationView(TabView):
         table = self.query_one(DataTable)
         present: dict[str, float] = {}
         if model.joints is not None:
-            present = dict(zip(model.joints.name, model.joints.position_deg, strict=False))
+            present = {
+                n: math.degrees(p)
+                for n, p in zip(model.joints.name, model.joints.position, strict=False)
+            }
         for name, deg in self.edits.offsets.items():
             table.update_cell(name, "offset", f"{deg:+.3f}")
             now = present.get(name)

@@ -56,7 +56,7 @@ class Model:
 
     def add_joints(self, msg: Joints) -> None:
         self.joints = msg
-        self.joint_hist.append((msg.stamp, tuple(msg.position_deg)))
+        self.joint_hist.append((msg.stamp, tuple(map(math.degrees, msg.position))))
         self.bump("joints")
 
     def add_imu(self, msg: Imu) -> None:

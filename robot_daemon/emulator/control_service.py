@@ -1,6 +1,6 @@
 """Run-time control of a running emulator: the op table, served on ``Keys(robot).sim_control``.
 
-A request is a msgpack map ``{"v": 1, "op": name, …fields}``; the reply is ``ok_reply(op,
+A request is a msgpack map ``{"v", "op": name, …fields}``; the reply is ``ok_reply(op,
 result)`` or, through ``query.reply_err``, ``error_reply(op, code, message, field)`` (both through
 :mod:`schemas.query`, as every queryable). In-process callers use :func:`run_op` or
 :func:`handle_request` with a dict; other processes use :class:`schemas.sim_control.SimControl`.

@@ -8,7 +8,6 @@ and IMU go out every tick, so their bytes come from a layout packed once
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
@@ -37,7 +36,6 @@ if TYPE_CHECKING:
     from robot_daemon.engine.snapshot import TickSnapshot
     from robot_daemon.motion.manager import MotionManager
 
-_DEG = 180.0 / math.pi
 _NO_CAMERA = {"source": "none", "captured": 0, "subscribed": False, "capturing": False}
 
 
@@ -59,10 +57,8 @@ class JointsEncoder:
 
     def values(self, snap: TickSnapshot) -> dict[str, Any]:
         pick = self.pick
-        pos = pick(snap.position)
         return {
-            "position": pos,
-            "position_deg": [p * _DEG for p in pos],
+            "position": pick(snap.position),
             "goal": pick(snap.goal),
             "velocity": pick(snap.velocity),
             "load": pick(snap.load),

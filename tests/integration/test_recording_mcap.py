@@ -5,7 +5,6 @@ MCAP, and the `mcap` library reads it back."""
 from __future__ import annotations
 
 import json
-import math
 import os
 import signal
 import subprocess
@@ -41,7 +40,6 @@ def joints_msg(tick: int) -> Joints:
         id=list(cfg.ids),
         name=list(cfg.names),
         position=pos,
-        position_deg=[math.degrees(p) for p in pos],
         goal=pos,
         velocity=[0.0] * n,
         load=[0.0] * n,

@@ -55,7 +55,6 @@ def joints(tick: int = 0, stamp: float = T0) -> Joints:
         id=ids,
         name=[robot.joint(i).name for i in ids],
         position=pos,
-        position_deg=[math.degrees(p) for p in pos],
         goal=base,
         velocity=[0.1 * (i % 3) for i in ids],
         load=[0.05 * ((i % 5) - 2) for i in ids],

@@ -22,7 +22,7 @@ async def test_connects_remembers_and_shows_live_joints(robot_system, settings_f
         await until(pilot, lambda: app.model.joints.tick > first + 10, "newer joints")
         await until(pilot, lambda: table.get_cell("1", "pos").strip() != "", "a filled table")
         shown = float(table.get_cell("1", "pos"))
-        assert abs(shown - app.model.joints.position_deg[0]) < 5.0
+        assert abs(shown - math.degrees(app.model.joints.position[0])) < 5.0
         assert "loop" in str(app.screen.query_one("RobotHeader").render())
 
 

@@ -61,7 +61,7 @@ async def test_motor_table_updates_in_place_keeping_the_selection(scene_app) -> 
         await pilot.press("down", "down", "down", "down")
         assert table.cursor_row == 4
         joints = scene.joints(tick=999)
-        joints.position_deg[4] = 42.5
+        joints.position[4] = math.radians(42.5)  # the wire's radians, shown in degrees
         app.post_message(Telemetry("joints", joints))
         await pilot.pause(0.3)
         assert table.get_cell("5", "pos").strip() == "42.5"

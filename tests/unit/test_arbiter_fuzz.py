@@ -11,6 +11,7 @@ from typing import Any
 import msgpack
 
 from robot_daemon.arbiter.registry import Reject
+from schemas import SCHEMA_VERSION
 from schemas.commands import COMMAND_FIELDS
 from schemas.errors import CommandError
 from schemas.keys import VERBS
@@ -78,7 +79,7 @@ def test_every_verbs_fields_fuzzed_never_reach_an_internal_error_or_write_when_r
     for i in range(CASES):
         verb = VERBS[i % len(VERBS)]
         fields = _fields(rnd, verb)
-        envelope: dict[str, Any] = {"v": 1, "client": "fuzzer"}
+        envelope: dict[str, Any] = {"v": SCHEMA_VERSION, "client": "fuzzer"}
         if rnd.random() < 0.8:
             envelope["lease_token"] = token
         if rnd.random() < 0.02:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import logging
+import math
 
 import pytest
 
@@ -26,8 +27,7 @@ def joints(positions: list[float]) -> Joints:
     return Joints(
         id=list(range(1, n + 1)),
         name=[f"j{i}" for i in range(1, n + 1)],
-        position=[0.0] * n,
-        position_deg=positions,
+        position=[math.radians(p) for p in positions],  # degrees given, radians on the wire
         goal=[0.0] * n,
         velocity=[0.5] * n,
         load=[-0.25] * n,

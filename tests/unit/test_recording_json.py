@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import dataclasses
 import json
+import math
 
 import pytest
 
@@ -13,7 +14,17 @@ from clients.recording.jsonify import json_schema, schema_name, to_json
 from clients.recording.segments import Sample
 from clients.recording.text_sink import TextSink
 from clients.robot import TOPICS
-from schemas.messages import CameraFrame, Event, Imu, Message, Status, decode_dict, encode
+from schemas import SCHEMA_VERSION
+from schemas.messages import (
+    CameraFrame,
+    Event,
+    Imu,
+    Joints,
+    Message,
+    Status,
+    decode_dict,
+    encode,
+)
 
 _JSON_TYPES = {"number", "integer", "string", "boolean", "array", "object", "null"}
 
@@ -69,7 +80,7 @@ def test_bytes_become_base64_and_nan_becomes_null() -> None:
     ev = Event(kind="fault", message="x", data={"raw": b"\x01\x02", "v": float("nan")})
     out = json.loads(to_json(decode_dict(encode(ev)), Event))
     assert out["data"] == {"raw": "AQI=", "v": None}
-    assert out["type"] == "event" and out["v"] == 1
+    assert out["type"] == "event" and out["v"] == SCHEMA_VERSION
 
 
 def test_text_log_lines(tmp_path) -> None:
@@ -95,3 +106,14 @@ def test_text_log_lines(tmp_path) -> None:
     )
     assert lines[4] == '2.000000\tevents\tkind=lease message="taken by notebook"'
     assert lines[5] == "2.500000\tevents\tundecodable payload of 1 bytes"
+
+
+def test_text_log_shows_joints_in_degrees(tmp_path) -> None:
+    """The wire carries radians; the text log, read by eye, shows degrees as the original's did."""
+    path = tmp_path / "log.txt"
+    sink = TextSink(str(path), "op1", {"joints": "darwin/op1/joints"})
+    one = [[1], ["r_shoulder_pitch"], [math.radians(90.0)], [0.0], [0.0], [0.0], [40.0], [12.0]]
+    joints = Joints(*one, torque_enabled=[True], online=[True], alarm=[0], tick=7)
+    sink.write(Sample("joints", 1_000_000_000, encode(joints), decode_dict(encode(joints))))
+    sink.close()
+    assert path.read_text().splitlines()[-1] == "1.000000\tjoints\ttick=7 r_shoulder_pitch=90"

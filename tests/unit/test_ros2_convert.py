@@ -20,7 +20,6 @@ def _joints(load: float = 0.5, voltage: float = 12.0) -> Joints:
         id=list(range(1, 21)),
         name=[f"j{i}" for i in range(1, 21)],
         position=[0.01 * i for i in range(1, 21)],
-        position_deg=[0.0] * n,
         goal=[0.0] * n,
         velocity=[0.1] * n,
         load=[load] * n,

@@ -28,7 +28,6 @@ def test_message_round_trip_and_type_check() -> None:
         id=[1],
         name=["r_shoulder_pitch"],
         position=[0.5],
-        position_deg=[28.6],
         goal=[0.5],
         velocity=[0.0],
         load=[0.0],
@@ -44,6 +43,37 @@ def test_message_round_trip_and_type_check() -> None:
         decode(encode(j), Event)
     with pytest.raises(ProtocolError, match="msgpack"):
         decode(b"\xc1garbage")
+
+
+def test_another_schema_version_is_refused_in_one_line_naming_both_and_the_fix() -> None:
+    """A payload of the last major (1: joints in degrees too) is refused by every decoder the
+    same way: both versions and the fix, one line."""
+    import msgpack
+
+    from schemas import SCHEMA_VERSION
+    from schemas.errors import InvalidCommandError
+    from schemas.policy import PolicyAction, decode_strict
+    from schemas.query import decode_request
+
+    old = SCHEMA_VERSION - 1
+    cases = [
+        (lambda p: decode(p), {"type": "joints"}, ProtocolError),
+        (decode_request, {"client": "old"}, InvalidCommandError),
+        (lambda p: decode_strict(p, PolicyAction), {"type": "policy_action"}, ProtocolError),
+    ]
+    for decoder, fields, error in cases:
+        with pytest.raises(error) as caught:
+            decoder(msgpack.packb({"v": old, **fields}))
+        text = str(caught.value)
+        assert f"schema version {old} not supported" in text, text
+        assert f"speaks {SCHEMA_VERSION}" in text and "install the same version" in text, text
+        assert "\n" not in text
+
+
+def test_joints_carry_radians_only() -> None:
+    from schemas.messages import Joints as J
+
+    assert "position" in J.COLUMNS and not any("deg" in c for c in J.COLUMNS)
 
 
 @pytest.mark.parametrize("raw", [0, 1024, 2048, 3000, 4095])

@@ -37,7 +37,7 @@ COLUMNS: tuple[tuple[str, str, int], ...] = (
 def cells(joints: Any, i: int) -> dict[str, str]:
     """The table cells of joint ``i`` of a ``Joints`` message."""
     return {
-        "pos": f"{joints.position_deg[i]:6.1f}",
+        "pos": f"{math.degrees(joints.position[i]):6.1f}",
         "goal": f"{math.degrees(joints.goal[i]):6.1f}",
         "speed": f"{joints.velocity[i]:5.2f}",
         "load": f"{joints.load[i] * 100:5.0f}",
