@@ -93,7 +93,7 @@ def test_a_torque_off_leg_refuses_a_walk_and_a_page() -> None:
 def _walking(rig: Rig) -> Any:
     walking = rig.manager.module("walking")
     rig.send("walk", op="start", x=0.05)
-    rig.run_until(lambda _r: walking.running and not walking._readying and not walking._ready_t,
+    rig.run_until(lambda _r: walking.running and not walking.sequencing and not walking._ready_t,
                   timeout=5.0)
     rig.run(1.0)
     assert walking.running

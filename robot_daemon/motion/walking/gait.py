@@ -16,7 +16,7 @@ Commands in SI map to the framework's amplitudes (T in s):
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from robot_daemon.motion.interface import MotionModule
 from robot_daemon.motion.walking.balance import gyro_feedback
 from robot_daemon.motion.walking.ik import leg_servo_angles
 from robot_daemon.motion.walking.params import WalkParams
-from robot_daemon.motion.walking.ready import WalkReady
+from robot_daemon.motion.walking.ready import PagePlayer, WalkReady
 
 LEG_IDS = tuple(range(7, 19))
 # The walk owns all six arm servos, as ROBOTIS's demo enables the walk on the whole body but the
@@ -56,7 +56,7 @@ def si_from_amplitudes(
     return (x_mm * 4 / 1000 / t, y_mm * 2 / 1000 / t, math.radians(a_deg) * 2 / t)
 
 
-class WalkingModule(WalkReady, MotionModule):
+class WalkingModule(MotionModule):
     name = "walking"
     claim_ids = WALK_IDS
 
@@ -71,8 +71,8 @@ class WalkingModule(WalkReady, MotionModule):
         self.steps = 0
         self.skipped = 0
         self._ready_t: float | None = None  # s left in the blend into the stance
-        # "calibrating" → "page" (the walk-ready page plays) → "" (the gait runs)
-        self._readying = ""
+        # The gyro centre, then the walk-ready page (walking/ready.py), before the gait runs.
+        self.ready = WalkReady(self._player, self._ids)
         self._ready_from: dict[int, float] = {}
         self._next_phase = 1  # the phase point (1, 2, 3) this period has not reached yet
         self._wrapped = False  # the period just ended: the next tick starts the new one
@@ -96,9 +96,7 @@ class WalkingModule(WalkReady, MotionModule):
         if x is not None or y is not None or turn is not None:
             self.set_speed(x or 0.0, y or 0.0, turn or 0.0)
         if not self.running:
-            # Gyro centre, then the walk-ready page first (walking/ready.py), if there is a player.
-            self._readying = "calibrating" if self._action() is not None else ""
-            if not self._readying:
+            if not self.ready.begin():  # no action player: the gait takes the legs now
                 self.claim(WALK_IDS)
             self.running = True
             self._halting = False
@@ -142,7 +140,7 @@ class WalkingModule(WalkReady, MotionModule):
         half a period later, and holds there; ROBOTIS's Walking.cpp stops only there too
         (``m_Real_Running = false`` at those two phase points). Before the gait runs (gyro,
         walk-ready page, the blend into the stance) both feet are down: it stops at once."""
-        if self.running and not self._readying and self._ready_t is None and self.owned():
+        if self.running and not self.ready.state and self._ready_t is None and self.owned():
             self.ctrl_running = False
             self.cmd = [0.0, 0.0, 0.0]
             self._halting = True
@@ -159,11 +157,11 @@ class WalkingModule(WalkReady, MotionModule):
 
     @property
     def sequencing(self) -> bool:
-        return bool(self._readying)  # the walk-ready page plays for it
+        return bool(self.ready.state)  # the walk-ready page plays for it
 
     def halt(self) -> None:
         self._halting = False
-        self._readying = ""
+        self.ready.cancel()
         self.ctrl_running = self.running = False
         self.cmd = [0.0, 0.0, 0.0]
         self.latched = [0.0, 0.0, 0.0]
@@ -177,6 +175,30 @@ class WalkingModule(WalkReady, MotionModule):
     @property
     def walking(self) -> bool:
         return self.running
+
+    @property
+    def active(self) -> bool:
+        # Waiting for the gyro or the walk-ready page it owns nothing yet, but it is running:
+        # a lease that ends (stop_all) or a fall must stop it before it takes the legs.
+        return self.running or bool(self.owned())
+
+    # -- before the gait: the walk-ready sequence ------------------------------------------------
+    def _player(self) -> PagePlayer | None:
+        # The manager hands back a MotionModule; the one named "action" is the player.
+        player = self.manager.get("action") if self.manager is not None else None
+        return cast("PagePlayer | None", player)
+
+    def _ids(self) -> tuple[int, ...]:
+        return self.manager.robot.ids if self.manager is not None else ()
+
+    def observe(self, frame: JointFrame) -> None:
+        if not self.ready.observe(frame, self.ctrl_running):
+            return
+        if self.ctrl_running and self.running:
+            self.claim(self.claim_ids)
+        elif self.running:
+            self.running = False
+            self.emit("walk", "walking stopped", state="stopped", steps=self.steps)
 
     # -- the framework's parameter updates -------------------------------------------------------
     def _update_time(self) -> None:

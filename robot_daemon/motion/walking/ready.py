@@ -7,67 +7,75 @@ walk started through :class:`~robot_daemon.motion.walking.gait.WalkingModule` go
 "calibrating" → "page" → "" (the gait takes the legs and blends in from the page's pose). The
 page plays on the body only: the head keeps its owner, so tracking goes on. Without an action
 player the gait takes the legs at once.
+
+:class:`WalkReady` is that sequence, a small state machine the walking module has. It reaches
+the action player alone (through a lookup, since the manager attaches the modules after they
+are built); what a finished sequence means (take the legs, or report the walk stopped) is the
+walking module's.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Collection
+from typing import Any, Protocol
 
 from robot_daemon.frames import JointFrame
-from robot_daemon.motion.interface import MotionModule
-
-if TYPE_CHECKING:
-    from robot_daemon.motion.manager import MotionManager
 
 READY_PAGE = 9
 HEAD_IDS = (19, 20)
 
 
-class WalkReady(MotionModule):
-    """Mixed into the walking module (which holds ``running``, ``ctrl_running``, ``steps``)."""
+class PagePlayer(Protocol):
+    """What the sequence uses of the action player (motion/action/player.py)."""
 
-    manager: MotionManager | None
-    running: bool
-    ctrl_running: bool
-    steps: int
-    _readying: str
-    claim_ids: tuple[int, ...] = ()
+    @property
+    def playing(self) -> bool: ...
 
-    def _action(self) -> MotionModule | None:
-        return self.manager.get("action") if self.manager is not None else None
+    def play(self, ref: int | str, step: int = 1, joints: set[int] | None = None) -> Any: ...
 
-    def _play_ready_page(self) -> bool:
-        action = self._action()
-        assert action is not None and self.manager is not None
-        body = {j for j in self.manager.robot.ids if j not in HEAD_IDS}
+
+class WalkReady:
+    """``state``: "" (idle, or the gait runs), "calibrating" (waiting for the gyro centre),
+    "page" (the walk-ready page plays). ``player()`` is the action player, None without one;
+    ``ids()`` the robot's joint ids."""
+
+    def __init__(
+        self, player: Callable[[], PagePlayer | None], ids: Callable[[], Collection[int]]
+    ) -> None:
+        self._player = player
+        self._ids = ids
+        self.state = ""
+
+    def begin(self) -> bool:
+        """Start the sequence; False when there is no player (the gait takes the legs now)."""
+        self.state = "calibrating" if self._player() is not None else ""
+        return bool(self.state)
+
+    def cancel(self) -> None:
+        self.state = ""
+
+    def _play_page(self) -> bool:
+        player = self._player()
+        assert player is not None
         try:
-            # The manager hands back a MotionModule; the one named "action" is the player.
-            action.play(READY_PAGE, joints=body)  # type: ignore[attr-defined]
+            player.play(READY_PAGE, joints={j for j in self._ids() if j not in HEAD_IDS})
         except (KeyError, ValueError):
             return False  # no such page in this library: blend from the present pose
         return True
 
-    def observe(self, frame: JointFrame) -> None:
-        if not self._readying:
-            return
-        if self._readying == "calibrating":
-            if frame.imu_calibrated and self.ctrl_running:
-                self._readying = "page" if self._play_ready_page() else "done"
-            elif not self.ctrl_running:
-                self._readying = "done"
-            if self._readying != "done":
-                return  # still calibrating, or the page starts
-        elif getattr(self._action(), "playing", False):
-            return
-        self._readying = ""  # the page ended: the gait blends on from its pose
-        if self.ctrl_running and self.running:
-            self.claim(self.claim_ids)
-        elif self.running:
-            self.running = False
-            self.emit("walk", "walking stopped", state="stopped", steps=self.steps)
-
-    @property
-    def active(self) -> bool:
-        # Waiting for the gyro or the walk-ready page it owns nothing yet, but it is running:
-        # a lease that ends (stop_all) or a fall must stop it before it takes the legs.
-        return self.running or bool(self.owned())
+    def observe(self, frame: JointFrame, wanted: bool) -> bool:
+        """One tick of the sequence; ``wanted``: the walk is still asked for. True on the tick
+        it ends (then the walking module takes the legs, or stops when no longer wanted)."""
+        if not self.state:
+            return False
+        if self.state == "calibrating":
+            if frame.imu_calibrated and wanted:
+                self.state = "page" if self._play_page() else "done"
+            elif not wanted:
+                self.state = "done"
+            if self.state != "done":
+                return False  # still calibrating, or the page starts
+        elif getattr(self._player(), "playing", False):
+            return False
+        self.state = ""  # the page ended: the gait blends on from its pose
+        return True
