@@ -21,7 +21,7 @@ from robot_daemon.bus.calibration import Calibration
 from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.preflight import firmware_refusal
-from robot_daemon.bus.scan import Identity, identify, identity_warnings
+from robot_daemon.bus.scan import Identity, identify, identity_warnings, shared_id
 from robot_daemon.bus.sensor_read import PROTECT_BITS, SLOW_LENGTH, SLOW_START, SensorRead
 from robot_daemon.bus.servo_ram import FULL_TORQUE, reset_servo_ram
 from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, imu_si
@@ -194,6 +194,16 @@ class RobotBus(SensorRead):
             refusal = firmware_refusal(dxl_id, joint.name, ident.firmware) if joint else None
             if joint is not None and refusal is None:
                 refusal = self._angle_limits(dxl_id, ident)
+            if joint is not None and refusal is None and shared_id(bus, dxl_id):
+                # Goals and torque written to this ID would drive both servos, one of them
+                # somewhere else in the body (MOVE_* in robot_daemon/motion_authority.py: none).
+                refusal = (
+                    f"servo {dxl_id} ({joint.name}): two servos answer as ID {dxl_id} (their "
+                    "replies collide: a replaced or firmware-recovered servo given an ID in "
+                    "use?); left offline, torque refused; find the second by scanning one "
+                    "chain at a time (`darwin scan`) and give it its own ID "
+                    "(docs/servo-replacement.md)"
+                )
             if refusal is not None:  # kept offline, probes included
                 self.refused[dxl_id] = refusal
                 self._warn(refusal)

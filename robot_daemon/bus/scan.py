@@ -16,7 +16,7 @@ from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.state import field_value
 from robot_daemon.bus.tables import CM730, CM730_ID, CM730_MODEL, MX28, MX28_MODEL, Register
 from schemas import units
-from schemas.errors import BusError, PortError
+from schemas.errors import BusError, PacketError, PortError
 
 MODELS = {MX28_MODEL: "MX-28", CM730_MODEL: "CM-730"}
 
@@ -114,6 +114,35 @@ def identify(bus: DxlBus, dxl_id: int, tries: int = 3) -> Identity | None:
         cw_limit=at(MX28.CW_ANGLE_LIMIT),
         ccw_limit=at(MX28.CCW_ANGLE_LIMIT),
     )
+
+
+# A collision garbles every read of differing data; noise now and then: this many in a row.
+SHARED_ID_READS = 8
+
+
+def shared_id(bus: DxlBus, dxl_id: int) -> bool:
+    """Whether two servos answer ``dxl_id`` (a replaced or firmware-recovered servo given an ID
+    in use; ROBOTIS: "identical ID … will cause communication collision"). Both answer every
+    instruction at once: a ping's or an identity read's packets are the same from both and pass,
+    while their present positions differ and arrive garbled every time. Noise garbles a reply
+    now and then, so the position is read until one comes back whole: one read for a healthy
+    servo; a shared ID never gives one in ``SHARED_ID_READS`` (a reply missed on a busy host
+    proves nothing either way; a servo that only goes unanswered is absent, not shared). Two
+    servos at the very same count are not told apart; they will not stay so once either moves.
+    """
+    garbled = 0
+    for _ in range(SHARED_ID_READS):
+        try:
+            bus.read(dxl_id, MX28.PRESENT_POSITION.reg.address, 2, tries=1)
+        except PacketError:
+            garbled += 1
+            continue
+        except PortError:
+            raise
+        except BusError:
+            continue
+        return False
+    return garbled >= 2
 
 
 def _fields(

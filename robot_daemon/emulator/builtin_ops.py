@@ -18,6 +18,7 @@
 | `vanish` / `reappear` | | the serial port goes away / comes back (reply: `port`) |
 | `chain` | `broken_after` [IDs] | cable breaks right after these servos ([] mends them) |
 | `fresh_servo` | `id` | swaps that servo for a factory-fresh MX-28 (ID 1, 57,600 bps) |
+| `set_id` | `id`, `new_id` | gives that servo another ID (one in use: two servos answer it) |
 | `dxl_power_loss` | | DXL power goes (CM-730 reset button): servos silent until powered again |
 | `cm730_late` | `reads` | the CM-730 ignores the next `reads` reads and bulk reads |
 """
@@ -161,6 +162,14 @@ def _fresh_servo(emu, req: Request) -> dict[str, Any]:
     with emu.lock:
         emu.bus.factory_fresh(field(req, "id", int))
     return emu.fault_state()
+
+
+@control_op("set_id")
+def _set_id(emu, req: Request) -> dict[str, Any]:
+    dxl_id, new_id = field(req, "id", int), field(req, "new_id", int)
+    with emu.lock:
+        emu.bus.set_id(dxl_id, new_id)
+    return {"id": dxl_id, "new_id": new_id}
 
 
 @control_op("dxl_power_loss")

@@ -22,7 +22,14 @@ Which instructions answer (as the firmware does):
 * servos behind the CM-730 are silent and inert while DXL_POWER is 0 and for
   ``power_on_delay_s`` after it becomes 1; a ``silent`` ID never answers but still obeys;
 * only devices at the line's baud rate hear a frame, and servos behind a broken cable hear
-  nothing (:mod:`robot_daemon.emulator.wiring`).
+  nothing (:mod:`robot_daemon.emulator.wiring`);
+* two devices with one ID (a replaced or firmware-recovered servo given an ID in use) both obey
+  every instruction to it and both answer: their status packets collide on the line
+  ("identical ID … will cause communication collision among multiple DYNAMIXEL modules",
+  ROBOTIS, forum.robotis.com/t/robotis-op2-dxl-communication-error/1700), modelled as a wired
+  AND (a 0 bit wins on the idle-high line), so identical packets (a ping's, an identity read's)
+  pass unharmed and differing ones (present positions) arrive garbled; in a bulk read the
+  devices after it never hear the status packet they wait for.
 """
 
 from __future__ import annotations
@@ -94,8 +101,9 @@ class Bus:
         self.time = 0.0
         self._power_ready_at: float | None = None
         self._registered: dict[int, tuple[int, bytes]] = {}
-        # ID → device, rebuilt after anything that can change who answers (power, writes).
-        self._index: dict[int, Device] | None = None
+        # ID → the devices answering it (more than one: a shared ID), rebuilt after anything
+        # that can change who answers (power, writes).
+        self._index: dict[int, list[Device]] | None = None
 
     # ---- power and time -----------------------------------------------------------------------
 
@@ -173,11 +181,25 @@ class Bus:
         self._index = None
 
     def device(self, dxl_id: int) -> Device | None:
+        """The device answering ``dxl_id`` (the first, on a shared ID)."""
+        devs = self.sharing(dxl_id)
+        return devs[0] if devs else None
+
+    def sharing(self, dxl_id: int) -> list[Device]:
+        """Every device answering ``dxl_id``, in bus order (two or more: a shared ID)."""
         if self._index is None:
             self._index = {}
-            for dev in reversed(self.devices()):  # on a shared ID the first device wins
-                self._index[dev.id] = dev
-        return self._index.get(dxl_id)
+            for dev in self.devices():
+                self._index.setdefault(dev.id, []).append(dev)
+        return self._index.get(dxl_id, [])
+
+    def set_id(self, dxl_id: int, new_id: int) -> None:
+        """Give servo ``dxl_id`` (configured ID) the ID ``new_id``, as a servo replaced with a
+        wrong ID is: ``new_id`` in use makes two servos answer it."""
+        if not 0 <= new_id < BROADCAST_ID:
+            raise ValueError(f"ID {new_id} is outside 0..253")
+        self.servo(dxl_id).table[MX28.ID] = new_id
+        self._index = None
 
     def servo(self, dxl_id: int) -> Servo:
         """A servo by its configured ID, powered or not (for the control API)."""
@@ -211,18 +233,19 @@ class Bus:
 
     def _handle(self, frame: Frame) -> list[Reply]:
         if isinstance(frame, BadChecksum):
-            dev = self.device(frame.id)
-            if dev is None:
-                return []
-            return self._reply(dev, frame.code, ErrorBit.CHECKSUM | dev.alarm_bits())
+            return _collide([
+                r
+                for dev in self.sharing(frame.id)
+                for r in self._reply(dev, frame.code, ErrorBit.CHECKSUM | dev.alarm_bits())
+            ])
         if frame.id == BROADCAST_ID:
             return self._broadcast(frame)
-        dev = self.device(frame.id)
-        if dev is None:
-            return []
-        level = dev.status_return_level  # the level the packet arrived under decides the reply
-        error, data = self._execute(dev, frame)
-        return self._reply(dev, frame.code, error, data, level)
+        replies: list[Reply] = []
+        for dev in self.sharing(frame.id):  # a shared ID: every one obeys, and answers
+            level = dev.status_return_level  # the level the packet arrived under decides
+            error, data = self._execute(dev, frame)
+            replies += self._reply(dev, frame.code, error, data, level)
+        return _collide(replies)
 
     def _execute(self, dev: Device, p: Packet) -> tuple[int, bytes]:
         inst, params = p.code, p.params
@@ -300,8 +323,7 @@ class Bus:
         body = params[2:]
         # An incomplete trailing block is ignored; complete blocks before it still apply.
         for i in range(0, len(body) - block + 1, block):
-            dev = self.device(body[i])
-            if dev is not None:
+            for dev in self.sharing(body[i]):
                 dev.write(start, body[i + 1 : i + block])
 
     def _bulk_read(self, params: bytes) -> list[Reply]:
@@ -309,15 +331,32 @@ class Bus:
         body = params[1:]  # params[0] is the 0x00 the protocol puts first
         for i in range(0, len(body) - 2, 3):
             length, dxl_id, address = body[i], body[i + 1], body[i + 2]
-            dev = self.device(dxl_id)
-            if dev is None:
+            devs = self.sharing(dxl_id)
+            if not devs:
                 break  # nobody sends this status packet: the next device waits for ever
-            if length > _MAX_READ:
-                reply = self._reply(dev, Instruction.BULK_READ, ErrorBit.RANGE)
-            else:
-                data, error = dev.read(address, length)
-                reply = self._reply(dev, Instruction.BULK_READ, error, data)
+            reply: list[Reply] = []
+            for dev in devs:
+                if length > _MAX_READ:
+                    reply += self._reply(dev, Instruction.BULK_READ, ErrorBit.RANGE)
+                else:
+                    data, error = dev.read(address, length)
+                    reply += self._reply(dev, Instruction.BULK_READ, error, data)
             if not reply:
                 break  # silent: the chain stops here
-            replies += reply
+            collided = _collide(reply)
+            replies += collided
+            if collided[0].packet not in (r.packet for r in reply):
+                break  # garbled: the next device never hears the packet it waits for
         return replies
+
+
+def _collide(replies: list[Reply]) -> list[Reply]:
+    """What the host receives when these devices answer at once: one packet, their bytes ANDed
+    (a 0 bit wins on the idle-high line); identical packets pass unharmed."""
+    if len(replies) < 2:
+        return replies
+    out = bytearray(b"\xff" * max(len(r.packet) for r in replies))
+    for r in replies:
+        for i, b in enumerate(r.packet):
+            out[i] &= b
+    return [Reply(replies[0].device_id, bytes(out), min(r.return_delay_s for r in replies))]

@@ -118,3 +118,26 @@ class running_daemon:
             if self.proc.poll() is None:
                 self.proc.kill()
             self.proc.communicate()  # waits and closes its pipes
+
+
+def test_two_servos_answering_one_id_are_left_offline_with_one_line(
+    emulator_factory: Callable[..., Emulator],
+) -> None:
+    emulator = emulator_factory()
+    with emulator.lock:
+        emulator.bus.servo(8).set_position(1500)
+        emulator.bus.set_id(8, 7)  # a replaced servo given servo 7's ID
+    with running_daemon(emulator.port) as daemon:
+        assert daemon.stderr is not None
+        lines = []
+        for raw in daemon.stderr:
+            lines.append(raw)
+            if "two servos answer" in raw:
+                break
+        line = lines[-1]
+        assert "servo 7" in line and "ID 7" in line and "torque refused" in line
+        emulator.wait_quiet()
+        # Neither the hip nor the servo wrongly given its ID gets torque or a goal.
+        assert emulator.bus.servo(7).table[MX28.TORQUE_ENABLE] == 0
+        assert emulator.bus.servo(8).table[MX28.TORQUE_ENABLE] == 0
+        assert emulator.bus.servo(9).table[MX28.TORQUE_ENABLE] == 1

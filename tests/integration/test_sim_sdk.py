@@ -373,3 +373,26 @@ def test_the_realtime_clock_moves_servos_without_advance(emulator: Emulator, dxl
 
     assert wait_until(arrived, timeout=10)
     assert emulator.sim_time > 0.05  # 200 units at 55 rpm take 53 ms of simulated time
+
+
+def test_two_servos_with_one_id_both_obey_and_their_differing_replies_collide(
+    emulator: Emulator, dxl: SDK
+) -> None:
+    port, ph = dxl
+    with emulator.lock:
+        emulator.bus.servo(8).set_position(1500)  # the two stand at different angles
+        emulator.bus.set_id(8, 7)  # servo 8 replaced with ID 7 by mistake
+    assert ph.ping(port, 8)[1] == COMM_RX_TIMEOUT
+    model, result, error = ph.ping(port, 7)  # the same packet from both: it passes
+    assert (model, result, error) == (MX28_MODEL, COMM_SUCCESS, 0)
+    assert ph.read2ByteTxRx(port, 7, MX28.MODEL_NUMBER.reg.address)[1] == COMM_SUCCESS
+    assert ph.read2ByteTxRx(port, 7, MX28.PRESENT_POSITION.reg.address)[1] == COMM_RX_CORRUPT
+    # Both obey a write to the ID: the goal reaches the wrong joint too.
+    assert ph.write2ByteTxRx(port, 7, MX28.GOAL_POSITION.reg.address, 1800)[0] == COMM_SUCCESS
+    emulator.wait_quiet()
+    assert emulator.bus.servo(7).table[MX28.GOAL_POSITION] == 1800
+    assert emulator.bus.servo(8).table[MX28.GOAL_POSITION] == 1800
+    # In a bulk read the garbled packet is the last: the next device waits for it in vain.
+    result, data, _ = sensor_bulk_read(port, ph).read()
+    assert result != COMM_SUCCESS
+    assert 9 not in data
