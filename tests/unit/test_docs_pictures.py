@@ -5,6 +5,7 @@ check that each shows what its page says."""
 
 from __future__ import annotations
 
+import html
 import importlib.util
 import json
 import os
@@ -31,7 +32,7 @@ def pictures() -> ModuleType:
 
 
 def _texts(svg: str) -> list[str]:
-    return re.findall(r"<text[^>]*>([^<]*)</text>", svg)
+    return [html.unescape(t).strip() for t in re.findall(r"<text[^>]*>([^<]*)</text>", svg)]
 
 
 def test_the_script_check_passes() -> None:
@@ -82,3 +83,29 @@ def test_the_png_comparison_sees_a_moved_robot(pictures: ModuleType) -> None:
     image = pictures.read_png(pictures.CALIBRATION_PNG)
     assert pictures.differs(image, image) == 0.0
     assert pictures.differs(image, np.roll(image, 6, axis=1)) > pictures.PNG_TOLERANCE
+
+
+def test_the_ros2_arrangements_say_what_the_page_and_the_programs_say(
+        pictures: ModuleType) -> None:
+    """The drawing's commands parse as the programs' own and its settings are the page's."""
+    import contextlib
+    import io
+    import shlex
+
+    from robot_daemon.launch.cli import command_parser
+
+    texts = _texts(pictures.ROS2_SVG.read_text())
+    page = (REPO / "docs" / "ros2.md").read_text()
+    for line in ("--listen tcp/0.0.0.0:7447", "--config router.toml",
+                 "--router tcp/ROS_HOST:7447", "rmw_zenoh_cpp", "listens on tcp/[::]:7447"):
+        assert line in texts, line
+    for fact in ('mode = "router"', 'mode="client"', '["tcp/ROBOT_IP:7447"]', "rmw_zenohd",
+                 "--ros-user", "--ros-password-file", "tcp/[::]:7447"):
+        assert fact in page, fact
+        assert any(fact in text for text in texts), fact
+    for command in ("up --ros2 --listen tcp/0.0.0.0:7447 --config router.toml",
+                    "ros2 --router tcp/ROS_HOST:7447 --ros-user U --ros-password-file F"):
+        name, *args = shlex.split(command)
+        _, parser = command_parser(name)
+        with contextlib.redirect_stderr(io.StringIO()):
+            parser.parse_args(args)  # SystemExit (a failure here) when an option is gone
