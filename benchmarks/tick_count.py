@@ -191,7 +191,7 @@ def tick_daemon(walking: bool = True, seconds: float = 3.0) -> Any:
                     robot_from_dict(settings["robot"]), settings)
     del load_all
     daemon.bus = rig.bus
-    daemon.bus.emit = daemon._emit
+    daemon.bus.emit = daemon.bus.sensors.emit = daemon._emit
     daemon.manager = rig.manager
     fall = rig.manager.get("fall")
     daemon.fall = fall if isinstance(fall, FallMonitor) else None

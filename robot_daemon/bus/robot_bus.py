@@ -4,7 +4,7 @@ per-tick transactions (sync-write goals and gains, bulk-read sensors, round-robi
 Joint angles are calibrated here and only here: ``servo = direction · joint + offset``.
 A servo that misses ``offline_after`` bulk reads in a row goes offline (left out of the bulk
 read so it cannot stall the others) and is probed in the round-robin until it answers again:
-the bulk read and what it tells are in ``bus/sensor_read.py``.
+the bulk read and what it tells are the bus's :class:`SensorReader` (``bus/sensor_read.py``).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from robot_daemon.bus.dxl import DxlBus, ReplyBudget, error_names
 from robot_daemon.bus.port import BlockingPortHandler
 from robot_daemon.bus.preflight import firmware_refusal
 from robot_daemon.bus.scan import Identity, identify, identity_warnings, shared_id
-from robot_daemon.bus.sensor_read import PROTECT_BITS, SLOW_LENGTH, SLOW_START, SensorRead
+from robot_daemon.bus.sensor_read import PROTECT_BITS, SLOW_LENGTH, SLOW_START, SensorReader
 from robot_daemon.bus.servo_ram import FULL_TORQUE, reset_servo_ram
 from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, imu_si
 from robot_daemon.bus.tables import (
@@ -47,7 +47,7 @@ SCAN_TRIES = 3
 CM730_WAIT_S = 5.0
 
 
-class RobotBus(SensorRead):
+class RobotBus:
     """Owns the transport; every method runs in the motion thread.
 
     ``transport`` makes the transport at each :meth:`open`: by default the serial port
@@ -67,11 +67,6 @@ class RobotBus(SensorRead):
         self.port_name = port_name
         self.robot = robot
         self.baud = int(daemon.get("baud", 1_000_000))
-        self.offline_after = int(daemon.get("offline_after_misses", 5))
-        self.slow_per_tick = int(daemon.get("slow_reads_per_tick", 1))
-        self.servo_share = int(daemon.get("servo_reads_per_tick", 0))  # 0: every servo
-        # An offline servo is probed once every this many ticks (a silent probe costs a wait).
-        self.probe_every = max(1, int(bus_cfg.get("probe_offline_every", 25)))
         self.reply_margin_ms = float(bus_cfg.get("reply_margin_ms", 1.5))
         # Power-on, scan and the first read are not timed by the loop: a busy machine must not
         # make a servo look absent there.
@@ -104,7 +99,11 @@ class RobotBus(SensorRead):
         self.make_transport = transport or (lambda: BlockingPortHandler(self.port_name))
         self.handler: Transport | None = None
         self.dxl: DxlBus | None = None
-        self._rr = 0
+        # The tick's bulk read; an alarm shutdown it sees turns the servo's torque off here.
+        self.sensors = SensorReader(
+            robot, self.state, self.counters, emit, self.set_torque, daemon,
+            int(bus_cfg.get("probe_offline_every", 25)),
+        )
         self.calibration = Calibration(robot)
         # Each joint's configured (D, I, P): the sync write's gain bytes unless a module sets
         # others this tick.
@@ -134,6 +133,13 @@ class RobotBus(SensorRead):
         if self.handler is not None:
             self.handler.close()
         self.handler = self.dxl = None
+
+    def read_sensors(self) -> None:
+        """The tick's bulk read (:meth:`SensorReader.read`); the CM-730's block kept here."""
+        got = self.sensors.read(self._bus(), self.refused, self.unpowered, self.cm730_online)
+        if got.data is not None:
+            self.cm730 = got.data
+        self.cm730_valid, self.cm730_online = got.valid, got.online
 
     def _bus(self) -> DxlBus:
         if self.dxl is None:
@@ -295,7 +301,7 @@ class RobotBus(SensorRead):
                 else:
                     data, error = read
                     enabled[jid] = bool(data[0])
-                    self._apply_slow(jid, data, error)
+                    self.sensors.apply_slow(jid, data, error)
         online = [j for j in self.ids if st.online[j]]
         alarmed = [j for j in online if self._shut_down(j, enabled.get(j, False))]
         for jid in alarmed:

@@ -2,13 +2,15 @@
 slow block (torque … temperature) of one servo in turn, the CM-730's sensors, alarms, and servos
 going offline after ``offline_after`` missed reads in a row and coming back when a probe answers.
 
-A mixin of :class:`~robot_daemon.bus.robot_bus.RobotBus` (which provides the state, the
-counters and the transport); kept apart so the bus's start-up and commands stay readable.
+:class:`SensorReader` is a part the :class:`~robot_daemon.bus.robot_bus.RobotBus` has, made with
+what it writes (the servos' state, the counters, events) and a way to turn a servo's torque off
+(the firmware's alarm shutdown, mirrored); each read is handed the open bus and who the bus keeps
+offline, and returns what it read of the CM-730 (:class:`Cm730Read`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -57,56 +59,72 @@ class _Layout(NamedTuple):
     at: slice | np.ndarray  # the same, as an index of the state's arrays
 
 
-class SensorRead:
-    # The RobotBus's, set in its __init__.
-    robot: RobotConfig
-    ids: tuple[int, ...]
-    cm730_id: int
-    cm730: bytes
-    cm730_online: bool
-    cm730_valid: bool
-    _cm730_misses: int
-    state: ServoState
-    counters: BusCounters
-    refused: dict[int, str]
-    unpowered: bool
-    offline_after: int
-    slow_per_tick: int
-    servo_share: int
-    probe_every: int
-    emit: Callable[..., Any]
-    _rr: int
-    _who_key: tuple[bytes, int, bool] | None = None
-    _who_cache: tuple[list[int], list[int]]
-    _layouts: dict[tuple[Any, ...], _Layout]
+class Cm730Read(NamedTuple):
+    """What a bulk read got of the CM-730: its block (None: no reply, keep the last), whether
+    this tick's came error-free, and whether it is online (answering, in its place first in
+    the chain)."""
 
-    if TYPE_CHECKING:
+    data: bytes | None
+    valid: bool
+    online: bool
 
-        def _bus(self) -> DxlBus: ...
-        def set_torque(self, ids: list[int], enable: bool) -> dict[int, str]: ...
 
-    def _who(self) -> tuple[list[int], list[int]]:
+class SensorReader:
+    """The bulk read each tick; ``settings`` the daemon's ``[daemon]`` table (offline_after_misses,
+    slow_reads_per_tick, servo_reads_per_tick) and ``probe_every`` ([bus] probe_offline_every)."""
+
+    def __init__(
+        self,
+        robot: RobotConfig,
+        state: ServoState,
+        counters: BusCounters,
+        emit: Callable[..., Any],
+        torque_off: Callable[[list[int], bool], Any],
+        daemon: dict[str, Any],
+        probe_every: int,
+    ) -> None:
+        self.robot = robot
+        self.ids = robot.ids
+        self.cm730_id = robot.cm730_id
+        self.state = state
+        self.counters = counters
+        self.emit = emit  # emit(kind, message, **data)
+        self._set_torque = torque_off  # (ids, False): the bus's set_torque
+        self.offline_after = int(daemon.get("offline_after_misses", 5))
+        self.slow_per_tick = int(daemon.get("slow_reads_per_tick", 1))
+        self.servo_share = int(daemon.get("servo_reads_per_tick", 0))  # 0: every servo
+        # An offline servo is probed once every this many ticks (a silent probe costs a wait).
+        self.probe_every = max(1, probe_every)
+        self._cm730_misses = 0
+        self._rr = 0
+        self._who_key: tuple[bytes, int, bool] | None = None
+        self._who_cache: tuple[list[int], list[int]] = ([], [])
+        self._layouts: dict[tuple[Any, ...], _Layout] = {}
+
+    def _who(self, refused: Collection[int], unpowered: bool) -> tuple[list[int], list[int]]:
         """The online servos and the offline ones worth probing, in bus order: remade only
         when who is online (or refused) changes, not every tick."""
         st = self.state
-        key = (st.online.tobytes(), len(self.refused), self.unpowered)
+        key = (st.online.tobytes(), len(refused), unpowered)
         if key != self._who_key:
             on = st.online.tolist()
             # DXL power off: only the CM-730 is read, and no servo is probed.
             self._who_cache = (
                 [j for j in self.ids if on[j]],
-                [j for j in self.ids if not on[j] and j not in self.refused and not self.unpowered],
+                [j for j in self.ids if not on[j] and j not in refused and not unpowered],
             )
             self._who_key = key
             self._layouts = {}
         return self._who_cache
 
-    def _layout(self, online: list[int], slow: set[int], probe: int | None) -> _Layout:
+    def _layout(
+        self, online: list[int], slow: set[int], probe: int | None, cm730_online: bool
+    ) -> _Layout:
         """The bulk read's blocks for this tick, and which of them are the fast block of a
         servo (decoded all at once): made once per combination, then reused."""
         share = self.servo_share
         turn = (self._rr * share) % len(online) if 0 < share < len(online) else -1
-        key = (tuple(sorted(slow)), turn, self.cm730_online, probe)
+        key = (tuple(sorted(slow)), turn, cm730_online, probe)
         layout = self._layouts.get(key)
         if layout is None:
             blocks: list[tuple[int, int, int]] = [
@@ -117,7 +135,7 @@ class SensorRead:
             # Hearts and NimbRo-OP; last while it has not answered, so a silent CM-730 (the
             # chain waits for its status packet) silences nobody.
             cm = (self.cm730_id, CM730_BULK_START, CM730_BULK_LENGTH)
-            blocks.insert(len(blocks) if not self.cm730_online else 0, cm)
+            blocks.insert(len(blocks) if not cm730_online else 0, cm)
             if probe is not None:
                 blocks.append((probe, SLOW_START, SLOW_LENGTH))
             fast = [
@@ -132,25 +150,32 @@ class SensorRead:
             layout = self._layouts[key] = _Layout(blocks, fast, at)
         return layout
 
-    def read_sensors(self) -> None:
+    def read(
+        self, dxl: DxlBus, refused: Collection[int], unpowered: bool, cm730_online: bool
+    ) -> Cm730Read:
         """One bulk read: the CM-730's sensors, position/speed/load of the online servos, the
         slow block (torque … temperature) of one servo in turn, and now and then a probe of
-        an offline servo (last, so a silent one delays nobody)."""
+        an offline servo (last, so a silent one delays nobody). ``refused``: servos kept
+        offline (never probed); ``unpowered``: DXL power off (only the CM-730 is read)."""
         st = self.state
-        online, offline = self._who()
+        online, offline = self._who(refused, unpowered)
         n = min(self.slow_per_tick, len(online))
         slow = {online[(self._rr * n + k) % len(online)] for k in range(n)}
         self._rr += 1
         probe = None
         if offline and self._rr % self.probe_every == 0:
             probe = offline[(self._rr // self.probe_every) % len(offline)]
-        layout = self._layout(online, slow, probe)
+        layout = self._layout(online, slow, probe, cm730_online)
         blocks = layout.blocks
-        res = self._bus().bulk_read(blocks)
-        self.cm730_valid = self.cm730_id in res.data and not res.errors.get(self.cm730_id)
-        self._cm730_misses = 0 if self.cm730_id in res.data else self._cm730_misses + 1
-        if self._cm730_misses >= self.offline_after:
-            self.cm730_online = False  # back to the end of the chain until it answers again
+        res = dxl.bulk_read(blocks)
+        cm730 = res.data.get(self.cm730_id)
+        valid = cm730 is not None and not res.errors.get(self.cm730_id)
+        self._cm730_misses = 0 if cm730 is not None else self._cm730_misses + 1
+        if cm730 is not None:
+            cm730_online = True
+        elif self._cm730_misses >= self.offline_after:
+            cm730_online = False  # back to the end of the chain until it answers again
+        read = Cm730Read(cm730, valid, cm730_online)
         c = self.counters
         c.bulk_reads += 1
         c.missing_replies += len([j for j in res.missing if j != probe])
@@ -161,18 +186,13 @@ class SensorRead:
         # Every reply in: the fast servos are the layout's (the usual tick, no per-servo
         # test); else those of them that answered.
         whole = len(res.data) == len(blocks)
-        for jid in (self.cm730_id, *slow) if whole else res.data:
+        for jid in slow if whole else res.data:
             data = res.data.get(jid)
-            if data is None:
-                continue
-            if jid == self.cm730_id:
-                self.cm730 = data
-                self.cm730_online = True
-            elif jid in slow:
-                self._apply_slow(jid, data, res.errors.get(jid, 0))
+            if data is not None and jid in slow:
+                self.apply_slow(jid, data, res.errors.get(jid, 0))
                 st.misses[jid] = 0
         if probe is not None and probe in res.data:
-            self._apply_slow(probe, res.data[probe], res.errors.get(probe, 0))
+            self.apply_slow(probe, res.data[probe], res.errors.get(probe, 0))
             st.misses[probe] = 0
             st.online[probe] = True
             self.emit(
@@ -197,7 +217,7 @@ class SensorRead:
                     self._alarm(jid, res.errors.get(jid, 0))
         if res.stalled:
             c.bus_stalls += 1
-            return
+            return read
         for jid in res.blamed:
             if jid in (self.cm730_id, probe):
                 continue
@@ -210,8 +230,10 @@ class SensorRead:
                     "in a row: offline (check its cable; it comes back when it answers)",
                     id=jid,
                 )
+        return read
 
-    def _apply_slow(self, jid: int, data: bytes, error: int) -> None:
+    def apply_slow(self, jid: int, data: bytes, error: int) -> None:
+        """A servo's slow block (torque … temperature) into the state, its alarm bits too."""
         st = self.state
         # An MX-28 in alarm shutdown has TORQUE_LIMIT 0 and TORQUE_ENABLE still 1: limp.
         st.torque_limit[jid] = word(data, _TORQUE_LIMIT)
@@ -250,4 +272,4 @@ class SensorRead:
         if protect and st.torque[jid]:
             # As the firmware's alarm shutdown does: no torque until someone re-enables it
             # (MOVE_SERVO_SHUTDOWN in robot_daemon/motion_authority.py).
-            self.set_torque([jid], False)
+            self._set_torque([jid], False)

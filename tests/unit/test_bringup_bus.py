@@ -58,13 +58,13 @@ def test_a_silent_servo_mid_chain_keeps_the_imu_valid_and_goes_offline(
         rb.initial_read()
         emulator.silence(7)
         valid = 0
-        for _ in range(rb.offline_after):
+        for _ in range(rb.sensors.offline_after):
             emulator.received.clear()
             rb.read_sensors()
             first = _bulk_reads(emulator)[0]
             assert first[0] == CM730_ID and first.index(7) < len(first) - 1  # 7 mid-chain
             valid += rb.cm730_valid  # first in the chain: the servo after it cannot cost it
-        assert valid == rb.offline_after
+        assert valid == rb.sensors.offline_after
         assert not rb.state.online[7]
         assert [e[2]["id"] for e in events if e[0] == "servo_offline"] == [7]
     finally:

@@ -116,12 +116,12 @@ def test_a_silent_servo_goes_offline_then_comes_back(emulator: Emulator) -> None
         assert sorted(rb.scan()) == [*range(1, 21), 200]
         rb.initial_read()
         emulator.silence(7)
-        for _ in range(rb.offline_after):
+        for _ in range(rb.sensors.offline_after):
             rb.read_sensors()
         assert not rb.state.online[7]
         assert all(rb.state.online[j] for j in range(1, 21) if j != 7)
         assert next(e for e in events if e[0] == "servo_offline")[2] == {"id": 7}
-        assert rb.counters.missing_replies >= rb.offline_after
+        assert rb.counters.missing_replies >= rb.sensors.offline_after
         emulator.silence(7, False)
         for _ in range(4):
             rb.read_sensors()
