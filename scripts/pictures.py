@@ -277,10 +277,10 @@ def _panel(kind: str, config: dict[str, Any], x: float, y: float, w: float, h: f
                                     "RosOut": "Log", "Plot": "Plot"}.get(kind, kind)
     out = [f'<rect x="{x:g}" y="{y:g}" width="{w:g}" height="{h:g}" fill="#15151c" '
            'stroke="#2e2e3a"/>',
-           f'<rect x="{x:g}" y="{y:g}" width="{w:g}" height="24" fill="#23232d"/>',
-           _text(x + 8, y + 16, title, 12, "start", "bold", "#e8e8ee"),
+           f'<rect x="{x:g}" y="{y:g}" width="{w:g}" height="22" fill="#23232d"/>',
+           _text(x + 8, y + 16, title, 13, "start", "bold", "#e8e8ee"),
            _text(x + w - 8, y + 16, kind, 11, "end", fill="#9a9aab")]
-    cx, cy = x + 10, y + 40
+    cx, cy = x + 10, y + 38
     lines: list[tuple[str, str]] = []  # (text, colour)
     grey = "#c8c8d4"
     if kind == "3D":
@@ -319,25 +319,26 @@ def _panel(kind: str, config: dict[str, Any], x: float, y: float, w: float, h: f
     elif kind == "RosOut":
         lines += [(f"log of {config.get('topicToRender', '?')}", grey)]
     # A short panel lists its lines in as many columns as it takes.
-    rows = max(1, int((y + h - cy) // 14) + 1)
+    rows = max(1, int((y + h - 4 - cy) // 14) + 1)
+    column = (w - 10) / -(-len(lines) // rows) if lines else w
     for k, (text, colour) in enumerate(lines):
         col, row = divmod(k, rows)
-        out.append(_text(cx + col * 280, cy + row * 14, text, 11, "start", fill=colour))
+        out.append(_text(cx + col * column, cy + row * 14, text, 12, "start", fill=colour))
     return out
 
 
 def foxglove_svg() -> str:
-    """The shipped layout's panels at the places the layout gives them, on a 1280 × 800 window
-    less Foxglove's own bars."""
+    """The shipped layout's panels at the places the layout gives them, in a window about as
+    wide as the site's column (so its text stays readable there)."""
     layout = json.loads(LAYOUT.read_text())
-    width, height = 1280, 760
-    top = 40
+    width, height = 880, 660
+    top = 48
     body = [f'<rect width="{width}" height="{height}" fill="#0e0e13"/>',
             f'<rect width="{width}" height="{top}" fill="#1c1c24"/>',
-            _text(14, 26, "Foxglove — ws://127.0.0.1:8765 — layout: clients/foxglove/layout.json",
-                  14, "start", "bold", "#e8e8ee"),
-            _text(width - 14, 26, "a drawing generated from the layout file by "
-                  "scripts/pictures.py, not a screenshot", 12, "end", fill="#9a9aab")]
+            _text(12, 20, "Foxglove — ws://127.0.0.1:8765 — layout: clients/foxglove/layout.json",
+                  13, "start", "bold", "#e8e8ee"),
+            _text(12, 38, "a drawing of the layout's panels generated from the file by "
+                  "scripts/pictures.py, not a screenshot", 11, "start", fill="#9a9aab")]
     for panel, x, y, w, h in _split(layout["layout"], 0, top, width, height - top):
         kind = panel.split("!", 1)[0]
         body += _panel(kind, layout["configById"].get(panel, {}), x, y, w, h)
