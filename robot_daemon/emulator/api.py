@@ -1,8 +1,9 @@
 """The emulator's run-time API: the world's seam, faults on demand, and a snapshot of its state.
 
-A mixin of :class:`~robot_daemon.emulator.emulator.Emulator` (which provides ``lock``, ``bus``,
-``env``, ``faults``); kept apart so the serving loop stays readable. Angles are servo angles in
-rad (raw 2048 = 0), as :mod:`schemas.units` converts them.
+A part the :class:`~robot_daemon.emulator.emulator.Emulator` has (``emu.api``), made over what
+it reads and changes: the emulator's lock, its servo chain, the environment (supply, ambient),
+the fault settings, the seed and the serving statistics. Angles are servo angles in rad (raw
+2048 = 0), as :mod:`schemas.units` converts them.
 """
 
 from __future__ import annotations
@@ -30,12 +31,23 @@ def _vector(name: str, value: Sequence[float]) -> tuple[float, float, float]:
 
 
 class EmulatorApi:
-    lock: threading.RLock
-    bus: Bus
-    env: Environment
-    faults: Faults
-    seed: int
-    stats: dict[str, int]
+    """Every method takes the emulator's lock, so each is thread-safe."""
+
+    def __init__(
+        self,
+        lock: threading.RLock,
+        bus: Bus,
+        env: Environment,
+        faults: Faults,
+        seed: int,
+        stats: dict[str, int],
+    ) -> None:
+        self.lock = lock
+        self.bus = bus
+        self.env = env
+        self.faults = faults
+        self.seed = seed
+        self.stats = stats  # the serving thread's counters, read here
 
     # ---- the world's seam ---------------------------------------------------------------------
 

@@ -41,7 +41,7 @@ def _ops(emu, req: Request) -> dict[str, Any]:
 
 @control_op("state")
 def _state(emu, req: Request) -> dict[str, Any]:
-    return emu.state()
+    return emu.api.state()
 
 
 @control_op("faults")
@@ -55,25 +55,25 @@ def _faults(emu, req: Request) -> dict[str, Any]:
             raise ValueError(f"field 'silent_ids' must be a list of IDs, got {silent!r}")
         with emu.lock:
             for dxl_id in list(emu.bus.silent):
-                emu.silence(dxl_id, False)
+                emu.api.silence(dxl_id, False)
             for dxl_id in silent:
-                emu.silence(dxl_id, True)
-    emu.set_faults(**values)
-    return emu.fault_state()
+                emu.api.silence(dxl_id, True)
+    emu.api.set_faults(**values)
+    return emu.api.fault_state()
 
 
 @control_op("clear_faults")
 def _clear_faults(emu, req: Request) -> dict[str, Any]:
     with emu.lock:
-        emu.set_faults(drop=0.0, corrupt=0.0, delay=0.0)
+        emu.api.set_faults(drop=0.0, corrupt=0.0, delay=0.0)
         for dxl_id in list(emu.bus.silent):
-            emu.silence(dxl_id, False)
+            emu.api.silence(dxl_id, False)
         for dxl_id, servo in emu.bus.servos.items():
             if servo.forced_temperature is not None:
-                emu.overheat(dxl_id, False)
-        emu.set_voltage(emu.settings.voltage)
+                emu.api.overheat(dxl_id, False)
+        emu.api.set_voltage(emu.settings.voltage)
         emu.bus.break_chain([])
-        return emu.fault_state()
+        return emu.api.fault_state()
 
 
 @control_op("restore")
@@ -85,8 +85,8 @@ def _restore(emu, req: Request) -> dict[str, Any]:
 
 @control_op("silence")
 def _silence(emu, req: Request) -> dict[str, Any]:
-    emu.silence(field(req, "id", int), field(req, "silent", bool, True))
-    return emu.fault_state()
+    emu.api.silence(field(req, "id", int), field(req, "silent", bool, True))
+    return emu.api.fault_state()
 
 
 @control_op("overheat")
@@ -94,39 +94,39 @@ def _overheat(emu, req: Request) -> dict[str, Any]:
     celsius = req.get("celsius")
     if celsius is not None and not isinstance(celsius, int | float):
         raise ValueError(f"celsius must be a number, got {celsius!r}")
-    emu.overheat(field(req, "id", int), field(req, "on", bool, True), celsius)
-    return emu.fault_state()
+    emu.api.overheat(field(req, "id", int), field(req, "on", bool, True), celsius)
+    return emu.api.fault_state()
 
 
 @control_op("voltage")
 def _voltage(emu, req: Request) -> dict[str, Any]:
-    emu.set_voltage(field(req, "volts", float))
-    return emu.fault_state()
+    emu.api.set_voltage(field(req, "volts", float))
+    return emu.api.fault_state()
 
 
 @control_op("body_motion")
 def _body_motion(emu, req: Request) -> dict[str, Any]:
     gyro = field(req, "gyro", list, [0.0, 0.0, 0.0])
     accel = field(req, "accel", list, [0.0, 0.0, GRAVITY])
-    emu.set_body_motion(gyro, accel)
+    emu.api.set_body_motion(gyro, accel)
     return {"gyro": gyro, "accel": accel}
 
 
 @control_op("button")
 def _button(emu, req: Request) -> dict[str, Any]:
-    emu.press_button(field(req, "name", str), field(req, "pressed", bool, True))
-    return {"buttons": emu.register(emu.bus.cm730.id, "BUTTON")}
+    emu.api.press_button(field(req, "name", str), field(req, "pressed", bool, True))
+    return {"buttons": emu.api.register(emu.bus.cm730.id, "BUTTON")}
 
 
 @control_op("set_position")
 def _set_position(emu, req: Request) -> dict[str, Any]:
-    emu.set_present_position(field(req, "id", int), field(req, "rad", float))
+    emu.api.set_present_position(field(req, "id", int), field(req, "rad", float))
     return {}
 
 
 @control_op("load")
 def _load(emu, req: Request) -> dict[str, Any]:
-    emu.set_external_load(field(req, "id", int), field(req, "fraction", float))
+    emu.api.set_external_load(field(req, "id", int), field(req, "fraction", float))
     return {}
 
 
@@ -154,14 +154,14 @@ def _chain(emu, req: Request) -> dict[str, Any]:
         raise ValueError(f"field 'broken_after' must be a list of servo IDs, got {after!r}")
     with emu.lock:
         emu.bus.break_chain(after)
-    return emu.fault_state()
+    return emu.api.fault_state()
 
 
 @control_op("fresh_servo")
 def _fresh_servo(emu, req: Request) -> dict[str, Any]:
     with emu.lock:
         emu.bus.factory_fresh(field(req, "id", int))
-    return emu.fault_state()
+    return emu.api.fault_state()
 
 
 @control_op("set_id")

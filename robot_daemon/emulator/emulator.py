@@ -49,7 +49,7 @@ log = logging.getLogger(__name__)
 _EARLY = 50e-6  # write a reply this close to its due time rather than sleep again
 
 
-class Emulator(EmulatorApi):
+class Emulator:
     def __init__(self, settings: EmulatorSettings | None = None, **overrides: Any) -> None:
         s = settings or EmulatorSettings()
         for key, value in overrides.items():
@@ -71,26 +71,7 @@ class Emulator(EmulatorApi):
             power_on_delay_s=s.power_on_delay_s,
             initial_positions=s.initial_positions,
         )
-        self.set_voltage(s.voltage)  # checks the range
-        for dxl_id in s.silent_ids:
-            self.silence(dxl_id)
-        self.bus.cm730_late_reads = s.cm730_late_reads
-        bringup.apply(self.bus, s)
-        for dxl_id in s.overheat_ids:
-            self.overheat(dxl_id)
-        self.bus.line_bps = s.baud
-        self.bus.break_chain(s.broken_after)
-        if s.fresh_servo:
-            self.bus.factory_fresh(s.fresh_servo)
         self.faults = Faults(s.drop, s.corrupt, s.delay, s.delay_ms)
-        self.wire_timing = s.wire_timing
-        self.byte_time_s = 10.0 / s.baud
-        self.link = PtyLink(s.link, s.baud)
-        # ftdi_latency_ms > 0: replies reach the pty as an FTDI chip delivers them.
-        latency = s.ftdi_latency_ms / 1000
-        self.ftdi = FtdiChip(self.byte_time_s, latency) if latency else None
-        self.parser = PacketParser()
-        self.received: deque[Frame] = deque(maxlen=1000)
         self.stats: dict[str, int] = dict.fromkeys(
             (
                 "rx_bytes",
@@ -105,6 +86,27 @@ class Emulator(EmulatorApi):
             ),
             0,
         )
+        # The run-time API (the world's seam, faults and inputs, inspection): emu.api.
+        self.api = EmulatorApi(self.lock, self.bus, self.env, self.faults, self.seed, self.stats)
+        self.api.set_voltage(s.voltage)  # checks the range
+        for dxl_id in s.silent_ids:
+            self.api.silence(dxl_id)
+        self.bus.cm730_late_reads = s.cm730_late_reads
+        bringup.apply(self.bus, s)
+        for dxl_id in s.overheat_ids:
+            self.api.overheat(dxl_id)
+        self.bus.line_bps = s.baud
+        self.bus.break_chain(s.broken_after)
+        if s.fresh_servo:
+            self.bus.factory_fresh(s.fresh_servo)
+        self.wire_timing = s.wire_timing
+        self.byte_time_s = 10.0 / s.baud
+        self.link = PtyLink(s.link, s.baud)
+        # ftdi_latency_ms > 0: replies reach the pty as an FTDI chip delivers them.
+        latency = s.ftdi_latency_ms / 1000
+        self.ftdi = FtdiChip(self.byte_time_s, latency) if latency else None
+        self.parser = PacketParser()
+        self.received: deque[Frame] = deque(maxlen=1000)
         self._out: deque[tuple[float, bytes]] = deque()
         self._bus_free = 0.0
         self._last_rx = 0.0

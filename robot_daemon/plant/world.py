@@ -89,8 +89,8 @@ class SimWorld(WorldViews):
         """Step with every physics step of ``emulator`` and feed its IMU."""
 
         def hook(dt: float, emu: Emulator) -> None:
-            gyro, accel = self.step(dt, emu.present_positions())
-            emu.set_body_motion(gyro.tolist(), accel.tolist())
+            gyro, accel = self.step(dt, emu.api.present_positions())
+            emu.api.set_body_motion(gyro.tolist(), accel.tolist())
 
         emulator.add_physics_hook(hook)
         self._hook: Callable[[float, Emulator], None] | None = hook

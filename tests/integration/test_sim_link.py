@@ -53,8 +53,8 @@ def test_the_rig_reads_the_frame_the_daemon_reads_over_the_pty() -> None:
     rig = SimRig(seed=5, settings=odd_settings())
     rig.run(0.3)  # servos settled, torque on, the knee where the standing pose put it
     emu = rig.emulator
-    emu.set_body_motion(gyro_rad_s=(0.4, -0.25, 0.1), accel_ms2=(1.5, -2.0, 9.2))
-    emu.set_external_load(4, 0.3)
+    emu.api.set_body_motion(gyro_rad_s=(0.4, -0.25, 0.1), accel_ms2=(1.5, -2.0, 9.2))
+    emu.api.set_external_load(4, 0.3)
     emu.start()  # the same emulator, now also on a pty
     try:
         events: list[Any] = []
@@ -95,7 +95,7 @@ def test_the_rig_clamps_goals_to_the_joint_limits_as_the_daemon_does() -> None:
 def emu_goal(rig: SimRig, jid: int) -> int:
     from robot_daemon.bus.tables import MX28
 
-    return rig.emulator.register(jid, MX28.GOAL_POSITION.name)
+    return rig.emulator.api.register(jid, MX28.GOAL_POSITION.name)
 
 
 def rig_without_slow_reads() -> SimRig:
@@ -136,7 +136,7 @@ def test_a_missing_reply_costs_its_own_wait_not_a_tick() -> None:
     # at once with the silent one last. The tick costs one wait, the retry's instruction and the
     # tail's replies again, and one more wait: bounded, under a tick, and only the silent servo
     # is blamed.
-    rig.emulator.silence(7)
+    rig.emulator.api.silence(7)
     tail = [j for j in SERVO_IDS if j > 7]
     wait = bus.dxl.budget.reply_ms(byte_ms, 7, SERVO_BULK_LENGTH + PACKET_OVERHEAD)
     assert wait == pytest.approx(reply + bus.reply_margin_ms)
@@ -148,8 +148,8 @@ def test_a_missing_reply_costs_its_own_wait_not_a_tick() -> None:
     assert [j for j in SERVO_IDS if bus.state.misses[j]] == [7]
     # The last one missing silences nobody: it is waited for once, bounded by its reply's wire
     # time + return delay + margin, and not asked again (nothing behind it needs the chain).
-    rig.emulator.silence(7, False)
-    rig.emulator.silence(20)
+    rig.emulator.api.silence(7, False)
+    rig.emulator.api.silence(20)
     lossy = bus_ms(rig)
     assert bus.counters.retries == 1
     expected = clean - reply + wait
@@ -164,7 +164,7 @@ def test_under_drops_and_corruption_each_pass_waits_at_most_once() -> None:
     rig = rig_without_slow_reads()
     bus, stats = rig.bus, rig.emulator.stats
     assert bus.dxl is not None
-    rig.emulator.set_faults(drop=0.05, corrupt=0.01)
+    rig.emulator.api.set_faults(drop=0.05, corrupt=0.01)
     byte_ms = rig.link.tx_time_per_byte
     floor = bus_ms(rig)  # the first tick happens to be clean with this seed
     wait = bus.dxl.budget.reply_ms(byte_ms, 1, CM730_BULK_LENGTH + PACKET_OVERHEAD)
@@ -194,14 +194,14 @@ def test_only_the_first_of_a_silent_tail_is_blamed() -> None:
     rig = rig_without_slow_reads()
     bus = rig.bus
     for dxl_id in (18, 19, 20):
-        rig.emulator.silence(dxl_id)
+        rig.emulator.api.silence(dxl_id)
     bus.read_sensors()
     assert bus.counters.retries == 1
     assert bus.counters.missing_replies == 3
     assert [int(bus.state.misses[j]) for j in (17, 18, 19, 20)] == [0, 1, 0, 0]
     # The retry's first answer shows the chain held: the one before it is blamed alone.
     for dxl_id in (18, 19, 20):
-        rig.emulator.silence(dxl_id, False)
-    rig.emulator.silence(10)
+        rig.emulator.api.silence(dxl_id, False)
+    rig.emulator.api.silence(10)
     bus.read_sensors()
     assert [int(bus.state.misses[j]) for j in (10, 18)] == [1, 0]

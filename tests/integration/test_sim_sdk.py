@@ -90,7 +90,7 @@ def test_bulk_read_of_20_servos_and_the_cm730_in_one_transaction(
     emulator: Emulator, dxl: SDK
 ) -> None:
     port, ph = dxl
-    emulator.set_present_position(7, units.raw_to_rad(1000))
+    emulator.api.set_present_position(7, units.raw_to_rad(1000))
     reader = sensor_bulk_read(port, ph)
     before = emulator.stats["frames"]
     assert reader.txRxPacket() == COMM_SUCCESS
@@ -138,7 +138,7 @@ def test_sync_write_goals_converge_at_the_moving_speed(emulator_factory) -> None
         frames = emu.stats["frames"]
         assert goals.txPacket() == COMM_SUCCESS
         assert emu.wait_stat("frames", frames + 1)  # the sync write gets no reply
-        assert emu.goal_positions()[1] == pytest.approx(units.raw_to_rad(3000))
+        assert emu.api.goal_positions()[1] == pytest.approx(units.raw_to_rad(3000))
 
         emu.advance(0.2)
         units_per_rpm_s = units.UNITS_PER_REV / 60.0
@@ -192,15 +192,15 @@ def test_leds_and_buttons_read_back(emulator: Emulator, dxl: SDK) -> None:
     assert ph.write1ByteTxRx(port, CM730_ID, CM730.LED_PANEL.reg.address, 5) == (0, 0)
     assert ph.read2ByteTxRx(port, CM730_ID, CM730.LED_HEAD.reg.address)[0] == orange
     assert ph.read1ByteTxRx(port, CM730_ID, CM730.LED_PANEL.reg.address)[0] == 5
-    emulator.press_button("start")
+    emulator.api.press_button("start")
     assert ph.read1ByteTxRx(port, CM730_ID, CM730.BUTTON.reg.address)[0] == 0x02
-    emulator.press_button("start", pressed=False)
+    emulator.api.press_button("start", pressed=False)
     assert ph.read1ByteTxRx(port, CM730_ID, CM730.BUTTON.reg.address)[0] == 0
 
 
 def test_imu_follows_body_motion(emulator: Emulator, dxl: SDK) -> None:
     port, ph = dxl
-    emulator.set_body_motion(gyro_rad_s=(0.0, 1.0, 0.0), accel_ms2=(-units.GRAVITY, 0.0, 0.0))
+    emulator.api.set_body_motion(gyro_rad_s=(0.0, 1.0, 0.0), accel_ms2=(-units.GRAVITY, 0.0, 0.0))
     gyro_y = ph.read2ByteTxRx(port, CM730_ID, CM730.GYRO_Y.reg.address)[0]
     accel_y = ph.read2ByteTxRx(port, CM730_ID, CM730.ACCEL_Y.reg.address)[0]
     # Gyro Y counts the rate about −left (the real CM-730's sign, IMU_GYRO_AXES).
@@ -212,14 +212,14 @@ def test_dropped_and_delayed_replies_time_out_corrupt_ones_fail_the_checksum(
     emulator: Emulator, dxl: SDK
 ) -> None:
     port, ph = dxl
-    emulator.set_faults(drop=1.0)
+    emulator.api.set_faults(drop=1.0)
     assert ph.read2ByteTxRx(port, 1, 36)[1] == COMM_RX_TIMEOUT
-    emulator.set_faults(drop=0.0, corrupt=1.0)
+    emulator.api.set_faults(drop=0.0, corrupt=1.0)
     assert ph.read2ByteTxRx(port, 1, 36)[1] == COMM_RX_CORRUPT
     assert ph.ping(port, 1)[1] == COMM_RX_CORRUPT  # checksum byte itself
-    emulator.set_faults(corrupt=0.0, delay=1.0, delay_ms=400)  # past the reply margin
+    emulator.api.set_faults(corrupt=0.0, delay=1.0, delay_ms=400)  # past the reply margin
     assert ph.read2ByteTxRx(port, 1, 36)[1] == COMM_RX_TIMEOUT
-    emulator.set_faults(delay=0.0)
+    emulator.api.set_faults(delay=0.0)
     assert ph.read2ByteTxRx(port, 1, 36) == (2048, COMM_SUCCESS, 0)
     assert emulator.stats["dropped"] == 1 and emulator.stats["delayed"] == 1
     assert emulator.stats["corrupted"] == 2
@@ -227,7 +227,7 @@ def test_dropped_and_delayed_replies_time_out_corrupt_ones_fail_the_checksum(
 
 def test_a_silent_servo_times_out_and_fails_the_bulk_read(emulator: Emulator, dxl: SDK) -> None:
     port, ph = dxl
-    emulator.silence(7)
+    emulator.api.silence(7)
     assert ph.ping(port, 7)[1] == COMM_RX_TIMEOUT
     assert ph.ping(port, 8)[1] == COMM_SUCCESS
     result, data, _ = sensor_bulk_read(port, ph).read()
@@ -237,7 +237,7 @@ def test_a_silent_servo_times_out_and_fails_the_bulk_read(emulator: Emulator, dx
     frames = emulator.stats["frames"]
     ph.write1ByteTxOnly(port, 7, MX28.LED.reg.address, 1)
     assert emulator.wait_stat("frames", frames + 1)  # taken while still silent
-    emulator.silence(7, False)
+    emulator.api.silence(7, False)
     assert ph.read1ByteTxRx(port, 7, MX28.LED.reg.address) == (1, COMM_SUCCESS, 0)
 
 
@@ -245,7 +245,7 @@ def test_overheating_sets_the_alarm_and_shuts_torque_off(emulator: Emulator, dxl
     port, ph = dxl
     limit = MX28.TORQUE_LIMIT.reg.address
     assert ph.write1ByteTxRx(port, 9, MX28.TORQUE_ENABLE.reg.address, 1) == (0, 0)
-    emulator.overheat(9)
+    emulator.api.overheat(9)
     temp, result, error = ph.read1ByteTxRx(port, 9, MX28.PRESENT_TEMPERATURE.reg.address)
     assert result == COMM_SUCCESS and error & ErrorBit.OVERHEATING
     assert temp > ph.read1ByteTxRx(port, 9, MX28.TEMPERATURE_LIMIT.reg.address)[0]
@@ -255,7 +255,7 @@ def test_overheating_sets_the_alarm_and_shuts_torque_off(emulator: Emulator, dxl
     # A re-arm is accepted but the alarm keeps the limit at 0 while it lasts.
     ph.write2ByteTxRx(port, 9, limit, 1023)
     assert ph.read2ByteTxRx(port, 9, limit)[0] == 0
-    emulator.overheat(9, False)
+    emulator.api.overheat(9, False)
     assert ph.write2ByteTxRx(port, 9, limit, 1023) == (0, 0)
     assert ph.read2ByteTxRx(port, 9, limit) == (1023, 0, 0)
 
@@ -265,13 +265,13 @@ def test_sustained_load_heats_a_servo_past_its_limit(emulator_factory) -> None:
     port, ph = open_sdk(emu.port)
     try:
         ph.write1ByteTxRx(port, 11, MX28.TORQUE_ENABLE.reg.address, 1)
-        emu.set_external_load(11, 0.9)
+        emu.api.set_external_load(11, 0.9)
         emu.advance(30.0)
         warm = ph.read1ByteTxRx(port, 11, MX28.PRESENT_TEMPERATURE.reg.address)
         assert warm[1:] == (COMM_SUCCESS, 0) and 40 < warm[0] < 80
         for _ in range(600):  # until the alarm shuts torque off (about 40 s more)
             emu.advance(1.0)
-            if not emu.register(11, "TORQUE_LIMIT"):
+            if not emu.api.register(11, "TORQUE_LIMIT"):
                 break
         temp, result, error = ph.read1ByteTxRx(port, 11, MX28.PRESENT_TEMPERATURE.reg.address)
         assert result == COMM_SUCCESS and error & ErrorBit.OVERHEATING
@@ -285,10 +285,10 @@ def test_sustained_load_heats_a_servo_past_its_limit(emulator_factory) -> None:
 
 def test_low_voltage_sets_the_input_voltage_bit(emulator: Emulator, dxl: SDK) -> None:
     port, ph = dxl
-    emulator.set_voltage(5.5)
+    emulator.api.set_voltage(5.5)
     assert ph.ping(port, 1)[2] & ErrorBit.INPUT_VOLTAGE
     assert ph.read1ByteTxRx(port, CM730_ID, CM730.VOLTAGE.reg.address)[0] == 55
-    emulator.set_voltage(12.0)
+    emulator.api.set_voltage(12.0)
     assert ph.ping(port, 1)[2] == 0
 
 
@@ -306,7 +306,7 @@ def test_bad_checksum_gets_the_checksum_bit_and_is_not_executed(
     while len(reply) < 6 and time.monotonic() < deadline:
         reply += port.readPort(6 - len(reply))
     assert reply[:5] == bytes([0xFF, 0xFF, 1, 2, ErrorBit.CHECKSUM])
-    assert emulator.register(1, "LED") == 0
+    assert emulator.api.register(1, "LED") == 0
 
 
 def test_reg_write_waits_for_action(dxl: SDK, emulator: Emulator) -> None:
@@ -351,7 +351,7 @@ def test_realtime_physics_hooks_run_while_the_bus_is_idle(emulator: Emulator) ->
 
     def world(dt: float, emu: Emulator) -> None:
         steps.append(dt)
-        emu.set_body_motion(gyro_rad_s=(0.0, 0.0, 0.3))
+        emu.api.set_body_motion(gyro_rad_s=(0.0, 0.0, 0.3))
         if len(steps) >= 5:
             enough.set()
 
@@ -359,7 +359,7 @@ def test_realtime_physics_hooks_run_while_the_bus_is_idle(emulator: Emulator) ->
     assert enough.wait(10)
     emulator.remove_physics_hook(world)
     assert all(0 < dt <= emulator.settings.max_step_s + 1e-9 for dt in steps)
-    gyro_z = emulator.register(CM730_ID, "GYRO_Z")
+    gyro_z = emulator.api.register(CM730_ID, "GYRO_Z")
     assert units.gyro_raw_to_rad_s(gyro_z) == pytest.approx(0.3, abs=0.05)
 
 

@@ -27,7 +27,7 @@ CM = 200
 
 def _registers(emu: Emulator) -> dict[str, int]:
     return {
-        name: emu.register(CM, name)
+        name: emu.api.register(CM, name)
         for name in ("GYRO_X", "GYRO_Y", "GYRO_Z", "ACCEL_X", "ACCEL_Y", "ACCEL_Z")
     }
 

@@ -24,7 +24,7 @@ def test_head_pan_step_response_at_p32_settles() -> None:
         rig.bus.write_targets(Targets(goal={PAN: goal}, gains={PAN: (32, 0, 0)}))
         rig.emulator.advance(TICK_S)
         rig.time += TICK_S
-    assert rig.emulator.register(PAN, "P_GAIN") == 32
+    assert rig.emulator.api.register(PAN, "P_GAIN") == 32
     peak = max(p for _, p, _, _ in trace)
     final = [p for t, p, _, _ in trace if t > 1.0]
     # Settled: within a degree of the goal for the last half second, without ringing.
@@ -37,7 +37,7 @@ def test_head_pan_step_response_at_p32_settles() -> None:
     assert abs(trace[-1][3]) < 0.1
     # The joint in MuJoCo is where the register says.
     joint = rig.world.data.joint("j_pan").qpos[0]
-    raw = rig.emulator.register(PAN, "PRESENT_POSITION")
+    raw = rig.emulator.api.register(PAN, "PRESENT_POSITION")
     assert abs(joint - (raw - 2048) * 2 * math.pi / 4096) < 0.002
 
 
@@ -53,8 +53,8 @@ def test_torque_off_leaves_the_joint_limp_and_the_load_zero() -> None:
     before = rig.world.data.joint("j_shoulder_r").qpos[0]
     assert abs(before - 1.0) < 0.05
     rig.emulator.advance(1.0)
-    assert rig.emulator.register(1, "TORQUE_ENABLE") == 0
-    assert rig.emulator.register(1, "PRESENT_LOAD") == 0
+    assert rig.emulator.api.register(1, "TORQUE_ENABLE") == 0
+    assert rig.emulator.api.register(1, "PRESENT_LOAD") == 0
     moved = abs(rig.world.data.joint("j_shoulder_r").qpos[0] - before)
     assert moved > math.radians(5.0)
 
@@ -65,11 +65,11 @@ def test_low_voltage_weakens_the_servo() -> None:
     forces = {}
     for volts in (12.0, 6.0):
         rig = SimRig(seed=3, physics="mujoco", vision_fps=1.0)
-        rig.emulator.set_voltage(volts)
+        rig.emulator.api.set_voltage(volts)
         rig.bus.write_targets(Targets(goal={PAN: 1.2}, gains={PAN: (32, 0, 0)}))
         rig.emulator.advance(0.004)
         forces[volts] = abs(float(rig.world.data.actuator("servo_19").force[0]))
-        load = rig.emulator.register(PAN, "PRESENT_LOAD") & 0x3FF
+        load = rig.emulator.api.register(PAN, "PRESENT_LOAD") & 0x3FF
         assert load > 900
     assert forces[6.0] == pytest.approx(forces[12.0] / 2, rel=0.05)
     assert MX28.TORQUE_LIMIT  # the torque limit register scales the same range

@@ -61,11 +61,11 @@ def test_a_servo_held_at_its_torque_limit_overloads_and_shuts_down(rig: SimRig) 
     with rig.emulator.lock:
         servo.write(MX28.TORQUE_LIMIT.reg.address, (5).to_bytes(2, "little"))
     rig.emulator.advance(0.5)
-    assert rig.emulator.register(1, "TORQUE_LIMIT") == 5  # not yet: held for < 1 s
+    assert rig.emulator.api.register(1, "TORQUE_LIMIT") == 5  # not yet: held for < 1 s
     assert abs(servo.plant_torque or 0.0) == pytest.approx(5 / 1023 * 2.5, rel=0.05)
     rig.emulator.advance(1.0)
     # OVERLOAD shut it down: the MX-28 zeroes TORQUE_LIMIT (TORQUE_ENABLE still reads 1)
-    assert rig.emulator.register(1, "TORQUE_LIMIT") == 0
+    assert rig.emulator.api.register(1, "TORQUE_LIMIT") == 0
     assert servo.plant_torque == 0.0  # limp
 
 

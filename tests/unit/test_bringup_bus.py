@@ -56,7 +56,7 @@ def test_a_silent_servo_mid_chain_keeps_the_imu_valid_and_goes_offline(
         rb.power_on()
         rb.scan()
         rb.initial_read()
-        emulator.silence(7)
+        emulator.api.silence(7)
         valid = 0
         for _ in range(rb.sensors.offline_after):
             emulator.received.clear()

@@ -66,7 +66,7 @@ def test_a_loaded_joint_keeps_its_goal_through_restart_halt_and_torque_on(
     rb, _ = started(emu)
     knee = emu.bus.servo(KNEE)
     goal = knee.table[MX28.GOAL_POSITION]
-    emu.set_external_load(KNEE, 0.5)
+    emu.api.set_external_load(KNEE, 0.5)
     emu.advance(1.0)
     assert knee.table[MX28.PRESENT_POSITION] == goal - 32  # P = 32 stands off under load
     rb.close()

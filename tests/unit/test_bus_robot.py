@@ -74,7 +74,7 @@ def test_waiting_for_a_silent_device_does_not_spin(emulator: Emulator) -> None:
 def test_a_late_status_is_waited_for_patiently_on_the_retry(emulator: Emulator) -> None:
     # Every reply leaves 60 ms late: past the loop's margin, inside bring-up's. Seen on a busy
     # CI machine, where an LED command failed three times at the emulator's 4 ms margin.
-    emulator.set_faults(delay=1.0, delay_ms=60)
+    emulator.api.set_faults(delay=1.0, delay_ms=60)
     handler = BlockingPortHandler(emulator.port)
     handler.open(1_000_000)
     try:
@@ -85,12 +85,12 @@ def test_a_late_status_is_waited_for_patiently_on_the_retry(emulator: Emulator) 
         assert bus.write(200, led, b"\x02", tries=2, retry_margin_ms=1000.0) == 0
         assert bus.read(200, led, 1, tries=2, retry_margin_ms=1000.0)[0] == b"\x02"
     finally:
-        emulator.set_faults(delay=0.0)
+        emulator.api.set_faults(delay=0.0)
         handler.close()
 
 
 def test_bulk_read_keeps_every_reply_around_a_silent_device(emulator: Emulator) -> None:
-    emulator.silence(5)
+    emulator.api.silence(5)
     # Generous margins: the emulator shares this process (and CI's two cores).
     handler = BlockingPortHandler(emulator.port)
     handler.open(1_000_000)
@@ -115,14 +115,14 @@ def test_a_silent_servo_goes_offline_then_comes_back(emulator: Emulator) -> None
         rb.power_on()
         assert sorted(rb.scan()) == [*range(1, 21), 200]
         rb.initial_read()
-        emulator.silence(7)
+        emulator.api.silence(7)
         for _ in range(rb.sensors.offline_after):
             rb.read_sensors()
         assert not rb.state.online[7]
         assert all(rb.state.online[j] for j in range(1, 21) if j != 7)
         assert next(e for e in events if e[0] == "servo_offline")[2] == {"id": 7}
         assert rb.counters.missing_replies >= rb.sensors.offline_after
-        emulator.silence(7, False)
+        emulator.api.silence(7, False)
         for _ in range(4):
             rb.read_sensors()
         assert rb.state.online[7]
@@ -140,13 +140,13 @@ def test_goals_go_to_driven_joints_with_torque_offline_ones_too(emulator: Emulat
         rb.power_on()
         rb.scan()
         rb.initial_read()
-        before = {k: v["goal"] for k, v in emulator.state()["servos"].items()}
+        before = {k: v["goal"] for k, v in emulator.api.state()["servos"].items()}
         rb.set_torque([3], False)
         rb.state.online[4] = False  # as if it had stopped answering
         rb.write_targets(Targets(goal={19: 0.4, 3: 0.2, 4: 0.2}))
         # Answered only once the emulator has taken the sync write before it.
         rb.read_registers(19, 30, 2)
-        after = {k: v["goal"] for k, v in emulator.state()["servos"].items()}
+        after = {k: v["goal"] for k, v in emulator.api.state()["servos"].items()}
         assert after.pop("19") == pytest.approx(0.4, abs=0.002)
         assert after.pop("4") == pytest.approx(0.2, abs=0.002)
         before.pop("19")

@@ -104,7 +104,7 @@ def _walking(rig: Rig) -> Any:
 def test_an_overheating_knee_mid_walk_stops_the_walk_at_double_support() -> None:
     rig = Rig()
     walking = _walking(rig)
-    rig.emulator.overheat(R_KNEE)
+    rig.emulator.api.overheat(R_KNEE)
     period = walking.period / 1000
     # The alarm is read in the slow round-robin (one servo a tick): within 20 ticks, then the
     # walk ends within half a period.
@@ -122,7 +122,7 @@ def test_an_overheating_knee_mid_walk_stops_the_walk_at_double_support() -> None
 def test_a_knee_whose_replies_are_lost_stops_the_walk_keeps_its_goals_and_does_not_jump() -> None:
     rig = Rig()
     walking = _walking(rig)
-    rig.emulator.silence(R_KNEE)  # it still hears and obeys; it no longer answers
+    rig.emulator.api.silence(R_KNEE)  # it still hears and obeys; it no longer answers
     assert rig.run_until(lambda _r: not rig.bus.state.online[R_KNEE], timeout=1.0)
     assert rig.run_until(lambda _r: not walking.running, timeout=walking.period / 1000)
     assert [d["ids"] for _, d in rig.stopped_events()] == [[R_KNEE]]
@@ -130,7 +130,7 @@ def test_a_knee_whose_replies_are_lost_stops_the_walk_keeps_its_goals_and_does_n
     held = rig.manager._last_goal[R_KNEE]
     servo_goal = rig.bus.joint_to_raw(R_KNEE, held)
     assert rig.emulator.bus.servos[R_KNEE].table[MX28.GOAL_POSITION] == servo_goal  # it heard
-    rig.emulator.silence(R_KNEE, False)
+    rig.emulator.api.silence(R_KNEE, False)
     assert rig.run_until(lambda _r: bool(rig.bus.state.online[R_KNEE]), timeout=2.0)
     rig.run(0.2)
     back = rig.frame().position[R_KNEE]
@@ -146,7 +146,7 @@ def test_a_motion_starts_from_the_goal_a_sagging_joint_holds_not_where_it_sags_t
     page) used to start from the present position: their first goal dropped the knee by the sag
     at once. They start from the goal it holds, as ROBOTIS's Action.cpp does."""
     rig = Rig(sag_units=80.0)
-    rig.emulator.set_external_load(R_KNEE, 0.8)
+    rig.emulator.api.set_external_load(R_KNEE, 0.8)
     rig.run(1.0)
     st = rig.bus.state
     held, present = int(st.goal[R_KNEE]), int(st.position[R_KNEE])

@@ -121,18 +121,19 @@ def test_physics_hooks_see_each_step_and_feed_the_imu() -> None:
 
     def world(dt: float, e: Emulator) -> None:
         steps.append(dt)
-        assert set(e.present_positions()) == set(range(1, 21))
-        e.set_body_motion(gyro_rad_s=(0.5, 0.0, 0.0), accel_ms2=(0.0, 0.0, units.GRAVITY))
+        assert set(e.api.present_positions()) == set(range(1, 21))
+        e.api.set_body_motion(gyro_rad_s=(0.5, 0.0, 0.0), accel_ms2=(0.0, 0.0, units.GRAVITY))
 
     emu.add_physics_hook(world)
     emu.advance(0.025)
     assert steps == pytest.approx([0.01, 0.01, 0.005])
     assert emu.sim_time == pytest.approx(0.025)
     # The CM-730 counts the rate about −forward on gyro X (IMU_GYRO_AXES, the real board's sign).
-    assert units.gyro_raw_to_rad_s(emu.register(CM730_ID, "GYRO_X")) == pytest.approx(-0.5, 0.02)
-    assert emu.register(CM730_ID, "ACCEL_Z") == units.ms2_to_accel_raw(units.GRAVITY)
+    gyro_x = units.gyro_raw_to_rad_s(emu.api.register(CM730_ID, "GYRO_X"))
+    assert gyro_x == pytest.approx(-0.5, 0.02)
+    assert emu.api.register(CM730_ID, "ACCEL_Z") == units.ms2_to_accel_raw(units.GRAVITY)
     with pytest.raises(ValueError, match="3 values"):
-        emu.set_body_motion(gyro_rad_s=(1.0, 2.0))
+        emu.api.set_body_motion(gyro_rad_s=(1.0, 2.0))
     with pytest.raises(ValueError, match="time only goes forward"):
         emu.advance(-1)
 
@@ -142,7 +143,7 @@ def test_the_same_seed_gives_the_same_noise_and_faults() -> None:
         emu = Emulator(EmulatorSettings(seed=seed, realtime=False, corrupt=0.5))
         out = []
         for _ in range(20):
-            out.append(emu.register(CM730_ID, "GYRO_Y"))
+            out.append(emu.api.register(CM730_ID, "GYRO_Y"))
             out.append(int(emu.faults.apply(emu.rng, instruction_packet(1, 1))[0] is not None))
         return out
 
@@ -153,9 +154,9 @@ def test_the_same_seed_gives_the_same_noise_and_faults() -> None:
 def test_fault_settings_are_checked() -> None:
     emu = Emulator(EmulatorSettings(seed=1, realtime=False))
     with pytest.raises(ValueError, match=r"corrupt=1\.5"):
-        emu.set_faults(corrupt=1.5)
-    assert emu.fault_state()["corrupt"] == 0.0  # unchanged after a refused change
+        emu.api.set_faults(corrupt=1.5)
+    assert emu.api.fault_state()["corrupt"] == 0.0  # unchanged after a refused change
     with pytest.raises(KeyError, match="no servo with ID 33"):
-        emu.overheat(33)
+        emu.api.overheat(33)
     with pytest.raises(ValueError, match="unknown button"):
-        emu.press_button("reset")
+        emu.api.press_button("reset")

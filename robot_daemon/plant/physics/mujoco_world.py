@@ -141,7 +141,7 @@ class MujocoWorld(WorldViews):
     def attach(self, emulator: Emulator) -> None:
         """Drive ``emulator``'s servos and IMU from now on (each physics step of its clock)."""
         with emulator.lock:
-            positions = emulator.present_positions()
+            positions = emulator.api.present_positions()
         with self.lock:
             self._positions = np.array([positions[i] for i in self.servo_ids])
             self._place_robot_now(*self._pose)
