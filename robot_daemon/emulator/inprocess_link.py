@@ -24,6 +24,10 @@ from robot_daemon.emulator.emulator import Emulator
 
 # A wait ends just past its deadline: the SDK's timeout test is "elapsed > timeout".
 _PAST_MS = 1e-6
+# Arrival times are sums of byte times in seconds, the host's clock sums in ms: a reply due at
+# the very moment the host looks may compare a rounding error later (1e-13 ms) and cost it a
+# whole extra wait. Nothing on the wire is timed finer than this.
+_SAME_MS = 1e-9
 
 
 class EmulatorLink(Transport):
@@ -60,7 +64,7 @@ class EmulatorLink(Transport):
         self.clock_ms = max(self.clock_ms, clock_ms)
 
     def _arrive(self) -> None:
-        while self._in_flight and self._in_flight[0][0] <= self.clock_ms:
+        while self._in_flight and self._in_flight[0][0] <= self.clock_ms + _SAME_MS:
             self._rx += self._in_flight.popleft()[1]
 
     # -- the SDK's I/O hooks ---------------------------------------------------------------

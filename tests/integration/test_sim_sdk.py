@@ -217,7 +217,7 @@ def test_dropped_and_delayed_replies_time_out_corrupt_ones_fail_the_checksum(
     emulator.api.set_faults(drop=0.0, corrupt=1.0)
     assert ph.read2ByteTxRx(port, 1, 36)[1] == COMM_RX_CORRUPT
     assert ph.ping(port, 1)[1] == COMM_RX_CORRUPT  # checksum byte itself
-    emulator.api.set_faults(corrupt=0.0, delay=1.0, delay_ms=400)  # past the reply margin
+    emulator.api.set_faults(corrupt=0.0, delay=1.0, delay_ms=1000)  # past the reply margin
     assert ph.read2ByteTxRx(port, 1, 36)[1] == COMM_RX_TIMEOUT
     emulator.api.set_faults(delay=0.0)
     assert ph.read2ByteTxRx(port, 1, 36) == (2048, COMM_SUCCESS, 0)
