@@ -1,4 +1,5 @@
-"""The ``Robot`` client's action-page and teach-mode methods (mixed into :class:`Robot`).
+"""The ``Robot`` client's action-page and teach-mode methods: part of the notebook's one facade,
+:class:`~clients.robot.Robot` (``Robot(Commander, TeachMixin)``).
 
     >>> with Robot() as robot, robot.control("teacher"):
     ...     page = robot.page_editor(200, "my wave")         # a new page (or an existing one)
@@ -9,7 +10,9 @@
     ...     robot.page_put(page)                             # saved in the user's library
     ...     robot.page_play(200)
 
-Editing itself is :class:`clients.pages.PageEditor` (pure, shared with the TUI).
+Editing itself is :class:`clients.pages.PageEditor` (pure, shared with the TUI). What this uses
+of the Robot is declared with the Robot's own signatures (``command``, ``state``), so mypy checks
+the two against each other where ``Robot`` joins them.
 """
 
 from __future__ import annotations
@@ -18,17 +21,27 @@ import contextlib
 import math
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from clients.pages import LEGS, PageEditor, blank_page, joints_of, step_pose, step_seconds
 from schemas.errors import ClientError, InvalidCommandError
 
+if TYPE_CHECKING:
+    from clients.robot import RobotState
+
 
 class TeachMixin:
-    """Needs ``command(verb, **fields)`` and ``state`` (the latest ``joints``)."""
+    """Uses ``command`` (:class:`~clients.commander.Commander`'s) and ``state`` (the Robot's
+    latest messages) and nothing else of the Robot."""
 
-    command: Any
-    state: Any
+    if TYPE_CHECKING:
+
+        def command(
+            self, verb: str, timeout: float | None = None, **fields: Any
+        ) -> dict[str, Any]: ...
+
+        @property
+        def state(self) -> RobotState: ...
 
     # -- the library -----------------------------------------------------------------------------
     def pages(self) -> list[dict[str, Any]]:
