@@ -12,6 +12,9 @@ falls back to :data:`BUILT_IN`, the same three modules ``pyproject.toml`` names.
 whose package is not in this build (a robot installed without the gateway) is skipped.
 
 Nothing here imports a provider at import time; the provider modules import only this one.
+Running one command (:func:`find`) reads no package metadata when the command is one of
+:data:`BUILT_IN`'s: every ``darwin`` child of ``darwin up`` would otherwise pay for reading every
+installed package's metadata at start-up.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 from functools import cache
-from importlib.metadata import entry_points
+from types import ModuleType
 
 GROUP = "darwin_zenoh.commands"
 # The providers of this repository, in the order their commands are listed (pyproject.toml's
@@ -64,8 +67,20 @@ class Adapter:
 def providers() -> tuple[str, ...]:
     """The modules that declare commands: the entry points of :data:`GROUP`, else
     :data:`BUILT_IN`."""
+    from importlib.metadata import entry_points  # reads every installed package's metadata
+
     found = tuple(ep.value.partition(":")[0] for ep in entry_points(group=GROUP))
     return found or BUILT_IN
+
+
+def _provider(name: str) -> ModuleType | None:
+    """The provider module ``name``; None when its package is not in this build."""
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        if exc.name and name.startswith(exc.name):
+            return None
+        raise
 
 
 @cache
@@ -73,12 +88,9 @@ def _loaded() -> tuple[tuple[Command, ...], tuple[Adapter, ...]]:
     commands: dict[str, Command] = {}
     adapters: dict[str, Adapter] = {}
     for name in providers():
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as exc:
-            if exc.name and name.startswith(exc.name):
-                continue  # that package is not in this build
-            raise
+        module = _provider(name)
+        if module is None:
+            continue  # that package is not in this build
         for command in getattr(module, "COMMANDS", ()):
             if command.name in commands:
                 raise RuntimeError(f"{name} declares `darwin {command.name}` a second time")
@@ -99,3 +111,16 @@ def commands() -> tuple[Command, ...]:
 def adapters() -> tuple[Adapter, ...]:
     """Every program ``darwin up`` can start next to the robot (the UI last), by rank."""
     return _loaded()[1]
+
+
+def find(name: str) -> Command | None:
+    """``darwin NAME``'s command, None when this build has none. One of :data:`BUILT_IN`'s is
+    found in its provider alone (a plugin cannot take a built-in name: :func:`commands` refuses
+    a name declared twice); any other name is looked up among every provider."""
+    for provider in BUILT_IN:
+        module = _provider(provider)
+        declared: tuple[Command, ...] = getattr(module, "COMMANDS", ())
+        found = next((c for c in declared if c.name == name), None)
+        if found is not None:
+            return found
+    return next((c for c in commands() if c.name == name), None)

@@ -2,14 +2,19 @@
 
 Raw joint values are servo angles: raw 2048 is 0 rad, 4096 units per turn. Calibration offsets
 and mounting directions from the robot config are applied by the bus layer around these.
+
+numpy is imported only by what needs it (the lookup tables, made on first use): a program that
+converts a few scalars (the gateway, the UIs, through the client) starts without it.
 """
 
 from __future__ import annotations
 
 import math
-from typing import overload
+import sys
+from typing import TYPE_CHECKING, Any, overload
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
 
 # MX-28 position: 0..4095, 2048 = 0 rad.
 POSITION_CENTER = 2048
@@ -64,8 +69,10 @@ def signed_11bit(raw: int | np.ndarray) -> int | np.ndarray:
     """Decode the MX-28's sign-magnitude speed/load words (bit 10 = direction); scalar or
     array."""
     magnitude = raw & 0x3FF
-    if isinstance(raw, np.ndarray):
-        return np.where(raw & 0x400, -magnitude, magnitude)
+    numpy = sys.modules.get("numpy")  # an array exists only once numpy is imported
+    if numpy is not None and isinstance(raw, numpy.ndarray):
+        decoded: np.ndarray = numpy.where(raw & 0x400, -magnitude, magnitude)
+        return decoded
     return -magnitude if raw & 0x400 else magnitude
 
 
@@ -85,9 +92,23 @@ def load_raw_to_fraction(raw: int | np.ndarray) -> float | np.ndarray:
 
 
 # The two conversions above as tables over every 11-bit word, for the loop: one indexing of a
-# table per tick instead of five array operations (index with ``raw & 0x7FF``).
-SPEED_RAD_S_TABLE: np.ndarray = np.asarray(speed_raw_to_rad_s(np.arange(0x800)))
-LOAD_FRACTION_TABLE: np.ndarray = np.asarray(load_raw_to_fraction(np.arange(0x800)))
+# table per tick instead of five array operations (index with ``raw & 0x7FF``). Made on first
+# use (module ``__getattr__``) and then kept as ordinary module attributes, so the loop's
+# ``units.SPEED_RAD_S_TABLE`` is a plain lookup.
+_TABLES = {"SPEED_RAD_S_TABLE": speed_raw_to_rad_s, "LOAD_FRACTION_TABLE": load_raw_to_fraction}
+if TYPE_CHECKING:
+    SPEED_RAD_S_TABLE: np.ndarray
+    LOAD_FRACTION_TABLE: np.ndarray
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _TABLES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import numpy
+
+    table = numpy.asarray(_TABLES[name](numpy.arange(0x800)))
+    globals()[name] = table
+    return table
 
 
 def voltage_raw_to_v(raw: int) -> float:

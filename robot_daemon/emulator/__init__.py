@@ -8,9 +8,29 @@ faults, the clock, and the in-process link (``inprocess_link``). What stands beh
 plugs in through the seam in ``api`` and ``clock`` (physics hooks, present positions, body
 motion) and the control ops (``op_table``); the plant (:mod:`robot_daemon.plant`) imports this
 package, never the other way round.
+
+The names below are imported when first used: a program that only forwards options to the
+emulator (``darwin up``, ``darwin daemon --sim`` read :mod:`.settings`) does not pay for the
+emulator itself (numpy and the servo chain) at start-up.
 """
 
-from robot_daemon.emulator.emulator import Emulator
-from robot_daemon.emulator.settings import EmulatorSettings
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from robot_daemon.emulator.emulator import Emulator
+    from robot_daemon.emulator.settings import EmulatorSettings
 
 __all__ = ["Emulator", "EmulatorSettings"]
+_WHERE = {
+    "Emulator": "robot_daemon.emulator.emulator",
+    "EmulatorSettings": "robot_daemon.emulator.settings",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        return getattr(importlib.import_module(_WHERE[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

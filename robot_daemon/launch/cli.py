@@ -12,30 +12,43 @@ import logging
 import re
 import sys
 from types import ModuleType
+from typing import Any
 
 from robot_daemon.launch.children import watch_parent
 from schemas import registry
 from schemas.errors import DarwinError
 from schemas.extras import explain
 
-# name → (module, one-line help), by rank: every package declares its own commands
-# (schemas.registry); this launcher names none of them.
-COMMANDS: dict[str, tuple[str, str]] = {c.name: (c.module, c.help) for c in registry.commands()}
+
+def commands() -> dict[str, tuple[str, str]]:
+    """name → (module, one-line help), by rank: every package declares its own commands
+    (schemas.registry); this launcher names none of them. Also as ``cli.COMMANDS``."""
+    return {c.name: (c.module, c.help) for c in registry.commands()}
+
+
+def __getattr__(name: str) -> Any:
+    # ``COMMANDS`` on demand: running one command does not list them all (see registry.find).
+    if name == "COMMANDS":
+        return commands()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _usage() -> str:
-    width = max(map(len, COMMANDS))
+    listed = commands()
+    width = max(map(len, listed))
     lines = ["usage: darwin COMMAND [options]   (darwin COMMAND --help for its options)", ""]
-    lines += [f"  {name:<{width}}  {helptext}" for name, (_, helptext) in COMMANDS.items()]
+    lines += [f"  {name:<{width}}  {helptext}" for name, (_, helptext) in listed.items()]
     return "\n".join(lines)
 
 
 def command_parser(name: str) -> tuple[ModuleType, argparse.ArgumentParser]:
     """The module of subcommand `name` and its argument parser (the docs' CLI reference and
     their command checks use the very parser `darwin NAME` runs)."""
-    module_name, helptext = COMMANDS[name]
-    module = importlib.import_module(module_name)
-    parser = argparse.ArgumentParser(prog=f"darwin {name}", description=helptext)
+    command = registry.find(name)
+    if command is None:
+        raise KeyError(name)
+    module = importlib.import_module(command.module)
+    parser = argparse.ArgumentParser(prog=f"darwin {name}", description=command.help)
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging")
     module.add_arguments(parser)
     return module, parser
@@ -47,7 +60,8 @@ def main(argv: list[str] | None = None) -> int:
         print(_usage())
         return 0
     name = argv[0]
-    if name not in COMMANDS:
+    command = registry.find(name)
+    if command is None:
         print(f"darwin: unknown command {name!r}\n\n{_usage()}", file=sys.stderr)
         return 2
     watch_parent()  # started by `darwin up`/`darwin daemon --sim`: end with that parent
@@ -57,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
         if line := explain(exc):
             print(f"darwin {name}: {line}", file=sys.stderr)
             return 2
-        if exc.name and COMMANDS[name][0].startswith(exc.name):
+        if exc.name and command.module.startswith(exc.name):
             print(f"darwin {name}: not available in this build ({exc})", file=sys.stderr)
             return 2
         raise

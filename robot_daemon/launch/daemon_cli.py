@@ -15,31 +15,31 @@ import signal
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from config.loader import load_all, robot_from_dict
 from config.robotis_offsets import ROBOTIS_CONFIG_INI, offsets_not_imported
 from robot_daemon.emulator.settings import add_forwarded_options
-from robot_daemon.engine.daemon import Daemon, DaemonOptions
-from robot_daemon.engine.fleet_join import RouterWatch, check_login_needs_router
 from robot_daemon.launch.children import Child, relay_to_stderr
+from robot_daemon.launch.endpoints import resolve_listen, router_of
 from robot_daemon.security.options import (
     add_security_arguments,
     listen_warnings,
     secure_listen,
     security_from_args,
 )
-from robot_daemon.vision.sources import check_spec
 from schemas.errors import ConfigError
 from schemas.keys import check_robot_name
 from schemas.session import (
     add_credential_arguments,
-    check_endpoint,
     credential_env,
     credentials_from_args,
-    endpoint_host_port,
     free_tcp_port,
 )
+
+if TYPE_CHECKING:
+    from robot_daemon.engine.daemon import Daemon
+    from robot_daemon.engine.fleet_join import RouterWatch
 
 log = logging.getLogger(__name__)
 
@@ -99,17 +99,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_credential_arguments(parser)
 
 
-def _resolve_listen(listen: list[str]) -> list[str]:
-    out = []
-    for ep in listen:
-        check_endpoint(ep)
-        host, port = endpoint_host_port(ep)
-        if port == 0:
-            ep = f"{ep.split('/', 1)[0]}/{host}:{free_tcp_port(host)}"
-        out.append(ep)
-    return out
-
-
 def sim_command(sim_args: list[str], wire_timing: bool | None) -> list[str]:
     args = ["sim", *sim_args]
     if wire_timing is False:  # the emulator times the wire unless told not to
@@ -139,6 +128,10 @@ def build(args: argparse.Namespace, port: str) -> tuple[Daemon, dict[str, Any]]:
 
 
 def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Daemon:
+    from robot_daemon.engine.daemon import Daemon, DaemonOptions
+    from robot_daemon.engine.fleet_join import check_login_needs_router
+    from robot_daemon.vision.sources import check_spec
+
     bus = settings.setdefault("bus", {})
     if args.reply_margin_ms is not None:
         bus["reply_margin_ms"] = args.reply_margin_ms
@@ -160,7 +153,7 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
         # must not both want the shipped port.
         default_listen = [] if router else list(settings.get("zenoh", {}).get("listen", []))
         listen = secure_listen(args.listen or default_listen, security, explicit=bool(args.listen))
-        listen = _resolve_listen(listen)
+        listen = resolve_listen(listen)
         check_login_needs_router(args, router)
         creds = credentials_from_args(args) if router else None
     except (ValueError, OSError) as exc:  # a bad --robot, --listen, --mtls or login names itself
@@ -199,25 +192,15 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
     return daemon
 
 
-def router_of(args: argparse.Namespace, settings: dict[str, Any]) -> str | None:
-    """The router to join (``--router``, else config ``zenoh.router``), checked; None: none."""
-    router = args.router or str(settings.get("zenoh", {}).get("router", "") or "") or None
-    if router is not None:
-        try:
-            check_endpoint(router)
-        except ValueError as exc:
-            raise ConfigError(f"{exc} (--router)") from None
-    return router
-
-
 def run(args: argparse.Namespace) -> int:
     emulator: Child | None = None
     private: str | None = None  # the emulator's control socket's directory, with access control
     connect: list[str] = []
     if args.sim:
         sim_args = list(args.sim_arg)
-        router = router_of(args, load_all(args.config))
-        robot_name = args.robot or load_all(args.config)["robot"].get("name", "op1")
+        settings = load_all(args.config)
+        router = router_of(args, settings)
+        robot_name = args.robot or settings["robot"].get("name", "op1")
         world = "--no-world" not in sim_args
         if router and world and not any(a.startswith("--world-connect") for a in sim_args):
             # In a fleet the world joins the router too, so every client of the router
@@ -246,9 +229,15 @@ def run(args: argparse.Namespace) -> int:
         emulator = Child(
             "sim", sim_command(sim_args, args.wire_timing), relay_to_stderr, own_group=True
         )
+        # The engine (numpy, Zenoh, the motion modules) is imported here rather than at the top,
+        # so that it loads while the emulator starts rather than before.
+        import robot_daemon.engine.daemon  # noqa: F401
+
         port = emulator.wait_line("port:", timeout=20.0)
     else:
         port = args.port or str(load_all(args.config).get("daemon", {}).get("port"))
+    from robot_daemon.engine.fleet_join import RouterWatch
+
     daemon: Daemon | None = None
     watch: RouterWatch | None = None
     try:

@@ -20,7 +20,7 @@ import zenoh
 
 from config.loader import load_all
 from robot_daemon.engine.fleet_join import stable_router_id
-from robot_daemon.launch.daemon_cli import _resolve_listen
+from robot_daemon.launch.endpoints import resolve_listen
 from robot_daemon.security.acl import Security, check_listen
 from robot_daemon.security.options import (
     add_security_arguments,
@@ -56,7 +56,7 @@ def listen_endpoints(
     ``--secure``)."""
     wanted = args.listen or list(settings.get("router", {}).get("listen", [DEFAULT_LISTEN]))
     try:
-        listen = _resolve_listen(secure_listen(wanted, security, explicit=bool(args.listen)))
+        listen = resolve_listen(secure_listen(wanted, security, explicit=bool(args.listen)))
     except ValueError as exc:  # a malformed endpoint names itself
         raise ConfigError(f"{exc} (--listen)") from None
     for warning in check_listen(listen, security):

@@ -34,7 +34,7 @@ from robot_daemon.emulator.settings import add_forwarded_options, add_physics_op
 from robot_daemon.engine.fleet_join import check_login_needs_router
 from robot_daemon.launch.adapter_logins import adapter_login, names, roles, ui_login
 from robot_daemon.launch.children import Child, ChildError, relay_to_stderr
-from robot_daemon.launch.daemon_cli import _resolve_listen, router_of
+from robot_daemon.launch.endpoints import resolve_listen, router_of
 from robot_daemon.security.acl import check_listen
 from robot_daemon.security.internal import Internal
 from robot_daemon.security.options import (
@@ -203,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
             # Joined to a router, the daemon listens only where told (see `darwin daemon`).
             default_listen = settings.get("zenoh", {}).get("listen", ["tcp/127.0.0.1:7447"])[0]
             wanted_listen = [args.listen or default_listen]
-            listen = _resolve_listen(secure_listen(wanted_listen, security, bool(args.listen)))[0]
+            listen = resolve_listen(secure_listen(wanted_listen, security, bool(args.listen)))[0]
             check_listen([listen], security)  # a tcp/ endpoint under --secure, before anything
     except ValueError as exc:
         raise ConfigError(str(exc)) from None

@@ -1,0 +1,203 @@
+"""`darwin up` start-up: how long until it serves, and what each of its processes costs.
+
+Starts ``darwin up`` as the test fixture does (emulator with wire timing, daemon, gateway, no
+camera, free loopback ports; :func:`tests.fixtures.system.start_system`) N times and measures,
+from the spawn:
+
+- wall time to the ``zenoh:`` line (a run without the gateway), to the ``gateway:`` line (the
+  fixture's readiness) and to the first ``status`` a client receives;
+- CPU time (user + system) of the start: the process tree's by the ``zenoh:`` line (``darwin
+  up``, the daemon, the emulator) plus the gateway's by its line. On a loaded machine wall time
+  mostly measures the others; CPU time is what this start costs whatever else runs;
+- in one extra run with ``PYTHONPROFILEIMPORTTIME``, the modules each process had imported by
+  the first status (the ``[daemon]``/``[sim]``/``[gateway]`` prefixes of the relayed lines say
+  whose).
+
+Baselines, measured in the same run and interleaved with it: a bare interpreter (``python -c
+pass``, the floor each of the four processes pays), and with ``--against REF`` the same
+measurements of another revision (``git archive REF``, run from a temporary directory with this
+interpreter), so before/after compare under the same load.
+
+Run by hand:  .venv/bin/python benchmarks/startup_benchmark.py [--runs 7] [--against main]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from benchmarks.common import cpu_seconds  # noqa: E402
+from tests.fixtures.system import start_system  # noqa: E402
+
+IMPORT_LINE = re.compile(r"^((?:\[[a-z0-9-]+\] )*)import time:\s+\d+ \|\s+\d+ \|")
+KEYS = ("to_zenoh_line_s", "to_gateway_line_s", "to_first_status_s", "start_cpu_s")
+
+
+def session_pids(session: int) -> list[int]:
+    """Every live process of a session (``darwin up`` runs in its own: start_new_session)."""
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                if os.getsid(int(entry.name)) == session:
+                    pids.append(int(entry.name))
+            except OSError:
+                continue  # gone meanwhile
+    return pids
+
+
+def command_of(pid: int) -> str:
+    """The ``darwin`` subcommand process ``pid`` runs ("" if none)."""
+    try:
+        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return ""
+    words = [a.decode() for a in argv]
+    if "robot_daemon.launch.cli" in words:
+        rest = words[words.index("robot_daemon.launch.cli") + 1 :]
+        return rest[0] if rest else ""
+    return ""
+
+
+def cpu_of(pids: list[int]) -> float:
+    total = 0.0
+    for pid in pids:
+        try:
+            total += cpu_seconds(pid)
+        except (OSError, IndexError, ValueError):
+            continue
+    return total
+
+
+def bare_interpreter() -> tuple[float, float]:
+    """Wall and CPU seconds of ``python -c pass`` (the floor of every child)."""
+    before = os.times()
+    start = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "pass"], check=True)
+    wall = time.perf_counter() - start
+    after = os.times()
+    cpu = (after.children_user - before.children_user) + (
+        after.children_system - before.children_system
+    )
+    return wall, cpu
+
+
+def one_start(source: Path) -> dict[str, float]:
+    """One start without the gateway (to ``zenoh:``) and one with (to ``gateway:`` and the first
+    status): seconds from spawn to each, and the start's CPU seconds."""
+    start = time.perf_counter()
+    with start_system(camera="none", gateway=False, timeout=120, source=source) as system:
+        zenoh_s = time.perf_counter() - start  # start_system returns at the zenoh: line
+        core_cpu = cpu_of(session_pids(system.process.pid))
+    start = time.perf_counter()
+    with start_system(camera="none", timeout=120, source=source) as system:
+        gateway_s = time.perf_counter() - start  # … and with the gateway, at its line
+        pids = session_pids(system.process.pid)
+        gateway_cpu = cpu_of([p for p in pids if command_of(p) == "gateway"])
+        with system.robot_client(name="bench", timeout=30) as robot:
+            robot.wait_for("status", timeout=60, fresh=False)
+            status_s = time.perf_counter() - start
+    return {
+        "to_zenoh_line_s": zenoh_s,
+        "to_gateway_line_s": gateway_s,
+        "to_first_status_s": status_s,
+        "start_cpu_s": core_cpu + gateway_cpu,
+    }
+
+
+def modules_per_process(source: Path) -> dict[str, int]:
+    """Modules each process of ``darwin up`` imported by the time it served a status."""
+    os.environ["PYTHONPROFILEIMPORTTIME"] = "1"
+    try:
+        with start_system(camera="none", timeout=120, source=source) as system:
+            with system.robot_client(name="bench", timeout=30) as robot:
+                robot.wait_for("status", timeout=60, fresh=False)
+            lines = list(system.lines)
+    finally:
+        del os.environ["PYTHONPROFILEIMPORTTIME"]
+    counts: Counter[str] = Counter()
+    for line in lines:
+        m = IMPORT_LINE.match(line)
+        if m:
+            counts[m.group(1).strip() or "[up]"] += 1
+    return dict(counts)
+
+
+def extract(ref: str, into: Path) -> Path:
+    """Revision ``ref`` of this repository, as files under ``into``."""
+    archive = subprocess.run(
+        ["git", "archive", ref], cwd=REPO, capture_output=True, check=True
+    ).stdout
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    return into
+
+
+def medians(runs: list[dict[str, float]]) -> dict[str, float]:
+    return {k: statistics.median(r[k] for r in runs) for k in KEYS}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    parser.add_argument("--runs", type=int, default=7)
+    parser.add_argument("--against", metavar="REF", help="also measure this git revision")
+    parser.add_argument("--json", type=Path, help="also write the figures here")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="startup-bench-") as tmp:
+        trees = {"this tree": REPO}
+        if args.against:
+            trees = {args.against: extract(args.against, Path(tmp)), **trees}
+        runs: dict[str, list[dict[str, float]]] = {name: [] for name in trees}
+        bare: list[tuple[float, float]] = []
+        for _ in range(args.runs):
+            for name, source in trees.items():  # interleaved: both meet the same load
+                bare.append(bare_interpreter())
+                runs[name].append(one_start(source))
+        modules = {name: modules_per_process(source) for name, source in trees.items()}
+    bare_wall = statistics.median(b[0] for b in bare)
+    bare_cpu = statistics.median(b[1] for b in bare)
+    figures = {name: medians(r) for name, r in runs.items()}
+    print(f"darwin up start-up, median of {args.runs} runs; baseline python -c pass, same run:")
+    print(f"  bare interpreter: wall {bare_wall:.3f} s, CPU {bare_cpu:.3f} s")
+    width = max(map(len, trees))
+    labels = ("to `zenoh:`", "to `gateway:`", "to first status", "start CPU")
+    print(f"  {'':<{width}}  " + "  ".join(f"{label:>17}" for label in labels))
+    for name, fig in figures.items():
+        cells = [
+            f"{fig[k]:6.3f} s ({fig[k] / (bare_cpu if k == 'start_cpu_s' else bare_wall):4.0f}×)"
+            for k in KEYS
+        ]
+        print(f"  {name:<{width}}  " + "  ".join(f"{c:>17}" for c in cells))
+    print("  (×: in bare interpreters, wall or CPU)")
+    if args.against:
+        before, after = figures[args.against], figures["this tree"]
+        ratios = "  ".join(f"{after[k] / before[k]:17.2f}" for k in KEYS)
+        print(f"  {'ratio':<{width}}  {ratios}   (this tree ÷ {args.against})")
+    for name, counts in modules.items():
+        listed = ", ".join(f"{k} {v}" for k, v in counts.items())
+        print(f"  modules imported by the first status, {name}: {listed}")
+    if args.json:
+        out = {
+            "runs": args.runs,
+            "bare_wall_s": bare_wall,
+            "bare_cpu_s": bare_cpu,
+            "figures": figures,
+            "modules": modules,
+        }
+        args.json.write_text(json.dumps(out, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

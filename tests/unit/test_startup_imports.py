@@ -1,0 +1,73 @@
+"""What each program of ``darwin up`` loads before it can start (``benchmarks/startup_benchmark.py``
+measures the time; this holds the causes): the launcher does not load the daemon's engine or the
+emulator, the daemon loads its engine only once it has started the emulator, no child reads every
+installed package's metadata to find its own command, and the gateway starts without numpy (as
+every client of :class:`clients.robot.Robot` does).
+
+Each case runs in a fresh interpreter: ``darwin NAME``'s module imported and its parser built,
+as ``darwin NAME`` does before running."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+ENGINE = "robot_daemon.engine.daemon"
+EMULATOR = "robot_daemon.emulator.emulator"
+METADATA = "importlib.metadata"  # what finding a command among every installed package costs
+
+# command → modules it must not have loaded once its parser is built
+NOT_BEFORE_START = {
+    "up": {ENGINE, EMULATOR, "numpy"},
+    "daemon": {ENGINE, EMULATOR, "numpy", METADATA},
+    "sim": {METADATA},
+    "gateway": {"numpy", METADATA},
+}
+
+
+def _loaded(command: str, watched: set[str]) -> set[str]:
+    code = (
+        "import sys\n"
+        "from robot_daemon.launch.cli import command_parser\n"
+        f"command_parser({command!r})\n"
+        f"print(' '.join(m for m in {sorted(watched)!r} if m in sys.modules))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    )
+    return set(out.stdout.split())
+
+
+@pytest.mark.parametrize("command", sorted(NOT_BEFORE_START))
+def test_a_program_of_darwin_up_starts_without_what_it_does_not_need(command: str) -> None:
+    assert _loaded(command, NOT_BEFORE_START[command]) == set()
+
+
+def test_the_watched_modules_are_real_names() -> None:
+    """The test above would pass on a misspelt name: each is what a heavier program loads."""
+    watched = set().union(*NOT_BEFORE_START.values())
+    code = (
+        "import sys, importlib.metadata, numpy\n"
+        f"import {ENGINE}, {EMULATOR}\n"
+        f"print(' '.join(m for m in {sorted(watched)!r} if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert set(out.stdout.split()) == watched
+
+
+def test_units_make_their_tables_on_first_use() -> None:
+    """The loop's tables, made lazily, are the conversions they stand for and stay module
+    attributes (a plain lookup in the loop)."""
+    import numpy as np
+
+    from schemas import units
+
+    raw = np.arange(0x800)
+    assert np.array_equal(units.SPEED_RAD_S_TABLE, units.speed_raw_to_rad_s(raw))
+    assert "SPEED_RAD_S_TABLE" in vars(units)
+    assert units.signed_11bit(0x400 | 7) == -7
+    assert list(units.signed_11bit(np.array([0x400 | 7, 7]))) == [-7, 7]
+    with pytest.raises(AttributeError):
+        units.NO_SUCH_TABLE  # noqa: B018
