@@ -30,6 +30,7 @@ from schemas import units
 
 if TYPE_CHECKING:
     from config.loader import RobotConfig
+    from robot_daemon.bus.bulk_receive import BulkResult
     from robot_daemon.bus.dxl import DxlBus
 
 # Round-robin slow block: torque enable (24) … present temperature (43).
@@ -157,7 +158,6 @@ class SensorReader:
         slow block (torque … temperature) of one servo in turn, and now and then a probe of
         an offline servo (last, so a silent one delays nobody). ``refused``: servos kept
         offline (never probed); ``unpowered``: DXL power off (only the CM-730 is read)."""
-        st = self.state
         online, offline = self._who(refused, unpowered)
         n = min(self.slow_per_tick, len(online))
         slow = {online[(self._rr * n + k) % len(online)] for k in range(n)}
@@ -166,16 +166,37 @@ class SensorReader:
         if offline and self._rr % self.probe_every == 0:
             probe = offline[(self._rr // self.probe_every) % len(offline)]
         layout = self._layout(online, slow, probe, cm730_online)
-        blocks = layout.blocks
-        res = dxl.bulk_read(blocks)
+        res = dxl.bulk_read(layout.blocks)
+        read = self._cm730(res, cm730_online)
+        self._count(res, probe)
+        # Every reply in: the fast servos are the layout's (the usual tick, no per-servo
+        # test); else those of them that answered.
+        whole = len(res.data) == len(layout.blocks)
+        for jid in slow if whole else res.data:
+            data = res.data.get(jid)
+            if data is not None and jid in slow:
+                self.apply_slow(jid, data, res.errors.get(jid, 0))
+                self.state.misses[jid] = 0
+        if probe is not None and probe in res.data:
+            self._back(probe, res.data[probe], res.errors.get(probe, 0))
+        self._apply_fast(layout, res, whole)
+        if res.stalled:
+            self.counters.bus_stalls += 1
+        else:
+            self._blame(res, probe)
+        return read
+
+    def _cm730(self, res: BulkResult, online: bool) -> Cm730Read:
         cm730 = res.data.get(self.cm730_id)
         valid = cm730 is not None and not res.errors.get(self.cm730_id)
         self._cm730_misses = 0 if cm730 is not None else self._cm730_misses + 1
         if cm730 is not None:
-            cm730_online = True
+            online = True
         elif self._cm730_misses >= self.offline_after:
-            cm730_online = False  # back to the end of the chain until it answers again
-        read = Cm730Read(cm730, valid, cm730_online)
+            online = False  # back to the end of the chain until it answers again
+        return Cm730Read(cm730, valid, online)
+
+    def _count(self, res: BulkResult, probe: int | None) -> None:
         c = self.counters
         c.bulk_reads += 1
         c.missing_replies += len([j for j in res.missing if j != probe])
@@ -183,41 +204,41 @@ class SensorReader:
         c.retries += int(res.retried)
         if (set(res.missing) - {probe}) or res.corrupt:
             c.stale_ticks += 1
-        # Every reply in: the fast servos are the layout's (the usual tick, no per-servo
-        # test); else those of them that answered.
-        whole = len(res.data) == len(blocks)
-        for jid in slow if whole else res.data:
-            data = res.data.get(jid)
-            if data is not None and jid in slow:
-                self.apply_slow(jid, data, res.errors.get(jid, 0))
-                st.misses[jid] = 0
-        if probe is not None and probe in res.data:
-            self.apply_slow(probe, res.data[probe], res.errors.get(probe, 0))
-            st.misses[probe] = 0
-            st.online[probe] = True
-            self.emit(
-                "servo_online",
-                f"servo {probe} ({self.robot.by_id[probe].name}) answers again",
-                id=probe,
-            )
+
+    def _back(self, probe: int, data: bytes, error: int) -> None:
+        """An offline servo answered its probe: online again."""
+        st = self.state
+        self.apply_slow(probe, data, error)
+        st.misses[probe] = 0
+        st.online[probe] = True
+        self.emit(
+            "servo_online",
+            f"servo {probe} ({self.robot.by_id[probe].name}) answers again",
+            id=probe,
+        )
+
+    def _apply_fast(self, layout: _Layout, res: BulkResult, whole: bool) -> None:
+        st = self.state
         if whole:
             fast, at = layout.fast, layout.at
         else:
             fast = [j for j in layout.fast if j in res.data]
             at = np.array(fast, np.intp)
-        if fast:
-            words = np.frombuffer(b"".join([res.data[j] for j in fast]), "<u2")
-            words = words.reshape(-1, SERVO_BULK_LENGTH // 2)
-            st.position[at] = words[:, _FAST_POSITION]
-            st.speed[at] = words[:, _FAST_SPEED]
-            st.load[at] = words[:, _FAST_LOAD]
-            st.misses[at] = 0
-            if res.errors or st.alarm[at].any():
-                for jid in fast:
-                    self._alarm(jid, res.errors.get(jid, 0))
-        if res.stalled:
-            c.bus_stalls += 1
-            return read
+        if not fast:
+            return
+        words = np.frombuffer(b"".join([res.data[j] for j in fast]), "<u2")
+        words = words.reshape(-1, SERVO_BULK_LENGTH // 2)
+        st.position[at] = words[:, _FAST_POSITION]
+        st.speed[at] = words[:, _FAST_SPEED]
+        st.load[at] = words[:, _FAST_LOAD]
+        st.misses[at] = 0
+        if res.errors or st.alarm[at].any():
+            for jid in fast:
+                self._alarm(jid, res.errors.get(jid, 0))
+
+    def _blame(self, res: BulkResult, probe: int | None) -> None:
+        """A servo blamed for a missing reply: offline after ``offline_after`` in a row."""
+        st = self.state
         for jid in res.blamed:
             if jid in (self.cm730_id, probe):
                 continue
@@ -230,7 +251,6 @@ class SensorReader:
                     "in a row: offline (check its cable; it comes back when it answers)",
                     id=jid,
                 )
-        return read
 
     def apply_slow(self, jid: int, data: bytes, error: int) -> None:
         """A servo's slow block (torque … temperature) into the state, its alarm bits too."""
