@@ -57,7 +57,8 @@ def test_a_protected_robot_rejoins_a_restarted_router_and_says_so(tmp_path: Path
         try:
             assert eventually(lambda: listed(router.endpoint, robot.robot))
             assert foxglove.stdout is not None
-            assert foxglove.stdout.readline().startswith("foxglove: ")
+            # Its address line, after any warning it logs first (the loaded robot's loop).
+            assert any(line.startswith("foxglove: ") for line in foxglove.stdout)
             fc = FoxgloveClient.open(f"ws://{fox_listen}")
             first.__exit__(None, None, None)
             # Foxglove says the robot is away (its last values are not live data) …

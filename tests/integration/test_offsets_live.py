@@ -58,27 +58,34 @@ def test_a_nudge_shifts_the_goal_on_the_bus_and_undo_restores_it(
     with system.robot_client("calibration") as robot, robot.control("calibration"):
         cal = robot.calibration
         assert cal.offsets["r_knee"] == 0.0
-        cal.reference_pose(duration=0.2)
-        centre = units.POSITION_CENTER
-        assert wait_goal(robot, 13, centre) == centre
-        cal.nudge("r_knee", 4.5)
-        shifted = centre + round(4.5 / units.DEG_PER_UNIT)
-        assert wait_goal(robot, 13, shifted) == shifted  # the daemon applied it, no restart
-        assert (
-            next(j["offset_deg"] for j in robot.config()["joints"] if j["name"] == "r_knee") == 4.5
-        )
-        cal.mirror("r_knee")
-        assert cal.offsets["l_knee"] == -4.5
-        assert wait_goal(robot, 14, centre - round(4.5 / units.DEG_PER_UNIT)) == centre - 51
-        path = cal.save(tmp_path / "config.toml")
-        saved = tomllib.loads(path.read_text())["robot"]["joints"]
-        assert saved["r_knee"]["offset_deg"] == 4.5 and saved["l_knee"]["offset_deg"] == -4.5
-        cal.undo()  # the mirror
-        assert cal.offsets["l_knee"] == 0.0 and cal.offsets["r_knee"] == 4.5
-        cal.undo()  # the nudge
-        assert wait_goal(robot, 13, centre) == centre
-        cal.reset()
+        try:
+            _nudge_mirror_save_undo(robot, tmp_path)
+        finally:
+            cal.reset()  # the module's system is shared: no offset outlives this test
         assert set(cal.refresh().values()) == {0.0}
+
+
+def _nudge_mirror_save_undo(robot: Robot, tmp_path: Path) -> None:
+    cal = robot.calibration
+    cal.reference_pose(duration=0.2)
+    centre = units.POSITION_CENTER
+    assert wait_goal(robot, 13, centre) == centre
+    cal.nudge("r_knee", 4.5)
+    shifted = centre + round(4.5 / units.DEG_PER_UNIT)
+    assert wait_goal(robot, 13, shifted) == shifted  # the daemon applied it, no restart
+    assert (
+        next(j["offset_deg"] for j in robot.config()["joints"] if j["name"] == "r_knee") == 4.5
+    )
+    cal.mirror("r_knee")
+    assert cal.offsets["l_knee"] == -4.5
+    assert wait_goal(robot, 14, centre - round(4.5 / units.DEG_PER_UNIT)) == centre - 51
+    path = cal.save(tmp_path / "config.toml")
+    saved = tomllib.loads(path.read_text())["robot"]["joints"]
+    assert saved["r_knee"]["offset_deg"] == 4.5 and saved["l_knee"]["offset_deg"] == -4.5
+    cal.undo()  # the mirror
+    assert cal.offsets["l_knee"] == 0.0 and cal.offsets["r_knee"] == 4.5
+    cal.undo()  # the nudge
+    assert wait_goal(robot, 13, centre) == centre
 
 
 def test_bad_offsets_are_refused_naming_the_field(system: RunningSystem) -> None:
