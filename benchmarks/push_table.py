@@ -1,17 +1,18 @@
 """Shoves of rising impulse on the whole stack: which policy stays up.
 
-    .venv/bin/python benchmarks/push_table.py [--tries 3] [--impulses 0.8 1.2 1.6 2.0]
+    .venv/bin/python benchmarks/push_table.py [--tries 4] [--impulses 1.0 1.2 1.4 1.6]
 
 ``darwin up --physics mujoco`` (daemon + emulator + the full MuJoCo plant, in real time; with
 ``[policy] damp_after = 1.0`` and ``silence_timeout = 3.0``: on a loaded machine a late action
 must not soften the joints, the table is of the policies, not of the scheduler); for
 each policy, impulse and try: the stand page, the robot placed standing, the lease released;
 then ``darwin policy run POLICY --seconds 5`` in its own process, and 1.5 s after its stream
-runs one shove of the impulse (N·s, over 0.1 s at the torso) forward or backward (seeded, the
-same series for every policy). A fall is the daemon's own termination of the stream ("stopped
-by the daemon: fall…"). The policies: the trained one (clients/learn/policies/stand_push.onnx),
-the hand-made ankle controller (clients/learn/examples/stand_balance.py) and holding the stand
-pose. Prints the table: impulse → falls out of N, per policy.
+runs one shove of the impulse (N·s, over 0.1 s at the torso) forward or backward: half the
+tries each way (the robot falls forward more easily than backward), in a seeded order, the
+same for every policy. A fall is the daemon's own termination of the stream ("stopped by the
+daemon: fall…"). The policies: the trained one (clients/learn/policies/stand_push.onnx, or
+``--trained FILE``), the hand-made ankle controller (clients/learn/examples/stand_balance.py)
+and holding the stand pose. Prints the table: impulse → falls out of N, per policy.
 """
 
 from __future__ import annotations
@@ -95,11 +96,15 @@ def _try(system, robot, sim: SimControl, spec: str, force: float) -> bool | None
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--tries", type=int, default=3)
-    ap.add_argument("--impulses", type=float, nargs="+", default=[0.8, 1.2, 1.6, 2.0])
+    ap.add_argument("--tries", type=int, default=4)
+    ap.add_argument("--impulses", type=float, nargs="+", default=[1.0, 1.2, 1.4, 1.6])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--trained", default=POLICIES["trained"], help="the trained policy's file")
     args = ap.parse_args()
-    signs = np.random.default_rng(args.seed).choice([-1.0, 1.0], (len(args.impulses), args.tries))
+    POLICIES["trained"] = args.trained
+    rng = np.random.default_rng(args.seed)
+    both = [1.0, -1.0] * ((args.tries + 1) // 2)
+    signs = [rng.permutation(both)[: args.tries] for _ in args.impulses]
     falls: dict[str, list[int]] = {name: [] for name in POLICIES}
     config = Path(tempfile.mkdtemp()) / "patient.toml"
     config.write_text("[policy]\ndamp_after = 1.0\nsilence_timeout = 3.0\n")

@@ -11,7 +11,8 @@ positions relative to the default pose, joint velocities, last action). Action: 
 terminations (a fall: −gravity_z < 0.85; a joint past its limit) and is truncated after
 ``max_steps``. ``reset(seed=…, options={"mode": "standing" | "fallen" | "pose", "pose": [...]})``.
 ``pushes=(lo, hi)`` shoves the robot with an impulse of lo..hi N·s every ``push_every`` s
-(training for balance); ``fast=False`` steps the stack's full model in the fast backend.
+(training for balance; ``pushes_back`` another range for the backward ones); ``fast=False``
+steps the stack's full model in the fast backend.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ class DarwinStandEnv(gym.Env):
         pushes: tuple[float, float] | None = None,
         push_every: tuple[float, float] = (1.0, 3.0),
         push_spread: float = np.pi,
+        pushes_back: tuple[float, float] | None = None,
     ) -> None:
         if backend == "fast":
             from clients.learn.fast import FastBackend
@@ -64,6 +66,7 @@ class DarwinStandEnv(gym.Env):
         self.pushes = pushes
         self.push_every = push_every
         self.push_spread = push_spread
+        self.pushes_back = pushes_back
         self._next_push = np.inf
         self.max_steps = max_steps
         self.reset_mode = reset_mode
@@ -91,12 +94,15 @@ class DarwinStandEnv(gym.Env):
         return self.steps / self.rate_hz + float(self.np_random.uniform(*self.push_every))
 
     def _shove(self) -> None:
-        """A shove of a random impulse (N·s, ``pushes``) over 0.1 s, forward or backward
-        turned by up to ``push_spread`` rad (π: any horizontal direction; MuJoCo Playground's
-        push perturbation)."""
+        """A shove of a random impulse (N·s, ``pushes``; ``pushes_back`` for backward ones
+        when given: the robot takes less forward) over 0.1 s, forward or backward turned by up
+        to ``push_spread`` rad (π: any horizontal direction; MuJoCo Playground's push
+        perturbation)."""
         assert self.pushes is not None
-        impulse = float(self.np_random.uniform(*self.pushes))
-        ahead = float(self.np_random.integers(2)) * np.pi
+        back = int(self.np_random.integers(2))
+        span = self.pushes_back if back and self.pushes_back is not None else self.pushes
+        impulse = float(self.np_random.uniform(*span))
+        ahead = float(back) * np.pi
         angle = ahead + float(self.np_random.uniform(-self.push_spread, self.push_spread))
         force = impulse / PUSH_S
         self.backend.push((force * np.cos(angle), force * np.sin(angle), 0.0), PUSH_S)
