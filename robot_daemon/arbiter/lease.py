@@ -186,6 +186,19 @@ class Lease:
             return False
         return self._set(h, None, "holder vanished")
 
+    def excuse(self, seconds: float) -> None:
+        """The daemon itself did not run for ``seconds`` (its loop stalled: a loaded computer,
+        a swap storm): renewals sent meanwhile wait unread in its queue, so that time is not the
+        holder's silence. A holder that really fell silent loses the lease ``heartbeat_timeout``
+        of the daemon's own running time after its last renewal, as always."""
+        if seconds <= 0:
+            return
+        with self._lock:
+            h = self._holder
+            if h is not None:
+                later = min(self._clock(), h.last_renew + seconds)
+                self._holder = replace(h, last_renew=max(h.last_renew, later))
+
     def expire(self) -> bool:
         """Drop the lease if its holder stopped renewing or has been idle too long; True when
         it did."""

@@ -81,6 +81,8 @@ MAX_DT_TICKS = 4.0
 # The longest a stop waits for a walk's last step (half a gait period: 0.3 s at the stock 600 ms),
 # well inside the boot service's TimeoutStopSec.
 STOP_FINISH_S = 2.0
+# A gap between ticks this long is the daemon's own stall, not its lease holder's silence.
+LEASE_STALL_S = 0.1
 
 
 @dataclass
@@ -412,6 +414,9 @@ class Daemon:
         # Motion time is the time that passed (bounded), so late ticks do not slow the gait.
         last, self._last_start = self._last_start, start
         dt = self.tick_s if last is None else min(start - last, MAX_DT_TICKS * self.tick_s)
+        if last is not None and start - last > LEASE_STALL_S:
+            # The loop did not run: a holder's renewals of that time are still in the queue.
+            self.lease.excuse(start - last - self.tick_s)
         frame = self.bus.frame(self.tick, start, dt)
         self.frame = frame
         if self._safe_stop.is_set():

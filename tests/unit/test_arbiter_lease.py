@@ -176,3 +176,16 @@ def test_request_carries_client_name_token_and_verb_fields() -> None:
     assert (req.client, req.name, req.fields, req.token) == ("c1", "me", {"name": "head_pan"}, "s3")
     lease_req = parse_request("lease", command_payload("c1", op="acquire", name="notebook"))
     assert lease_req.name == "notebook"
+
+
+def test_the_daemons_own_stall_is_not_the_holders_silence() -> None:
+    lease, clock, changes = make(idle=60.0, heartbeat=1.5)
+    lease.acquire("a", "alice")
+    clock.t += 2.0  # the daemon's loop did not run for 2 s; the renewals wait in its queue
+    lease.excuse(2.0)
+    assert lease.expire() is False
+    clock.t += 1.6  # the daemon runs on, and no renewal comes: the holder is silent
+    assert lease.expire() is True
+    assert changes[-1] == ("a", None, SILENT)
+    lease.excuse(5.0)  # nobody holds it: nothing to excuse
+    assert lease.holder is None
