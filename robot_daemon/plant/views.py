@@ -3,8 +3,10 @@
 The kinematic :class:`~robot_daemon.plant.world.SimWorld` and the MuJoCo
 :class:`~robot_daemon.plant.physics.mujoco_world.MujocoWorld` differ in how the body and ball
 move; what they publish and render from that state is one piece of code, here. A plant subclasses
-:class:`WorldViews`, calls :meth:`_start_camera` in its constructor and says where things are
-(:meth:`_robot`, :meth:`_ball_now`, :meth:`_camera_pose`).
+:class:`WorldViews`, calls its constructor first (which makes the settings, the lock, the
+simulated time and the camera everything here reads: nothing is declared for a subclass to set)
+and says where things are (:meth:`_robot`, :meth:`_ball_now`, :meth:`_camera_pose`), under
+``self.lock``; it advances ``self.time``.
 """
 
 from __future__ import annotations
@@ -24,12 +26,11 @@ from schemas.messages import World
 
 
 class WorldViews(ABC):
-    settings: WorldSettings
-    lock: threading.RLock
-    time: float
-
-    def _start_camera(self, seed: int | None) -> None:
-        r = self.settings.render
+    def __init__(self, settings: WorldSettings, seed: int | None) -> None:
+        self.settings = settings
+        self.lock = threading.RLock()
+        self.time = 0.0  # simulated seconds, advanced by the plant
+        r = settings.render
         self._renderer = Renderer(
             r.camera,
             self.settings.field,

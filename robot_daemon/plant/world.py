@@ -13,7 +13,6 @@ queryable places things and the camera renders.
 from __future__ import annotations
 
 import math
-import threading
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -55,14 +54,12 @@ def make_world(
 
 class SimWorld(WorldViews):
     def __init__(self, settings: WorldSettings | None = None, seed: int | None = None) -> None:
-        self.settings = s = settings or WorldSettings()
-        self.lock = threading.RLock()
+        super().__init__(settings or WorldSettings(), seed)
+        s = self.settings
         self.body = Body(s.feet, s.falls, s.imu)
         self.ball = Ball(s.ball, s.feet)
-        self.time = 0.0
         self.falls = 0  # how many times the robot fell
         self._positions: dict[int, float] = {}
-        self._start_camera(seed)
         self.body.place(*s.robot_start)
         if s.ball_start is not None:
             self.ball.place(*s.ball_start)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import threading
 
 import numpy as np
 
@@ -17,11 +16,9 @@ class _Plant(WorldViews):
     """A plant that stands still where it is told: only what WorldViews asks for."""
 
     def __init__(self, ball: BallState | None) -> None:
-        self.settings = WorldSettings()
-        self.lock = threading.RLock()
+        super().__init__(WorldSettings(), seed=1)
         self.time = 1.5
         self.ball = ball
-        self._start_camera(seed=1)
 
     def _robot(self) -> tuple[float, float, float, str]:
         return 1.0, 2.0, 0.5, "forward"

@@ -22,7 +22,6 @@ faster than real time, deterministic) or the emulator's physics thread in real t
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -80,15 +79,14 @@ class MujocoWorld(WorldViews):
         body: Body | None = None,
     ) -> None:
         mj = self.mj = import_mujoco()
-        self.settings = s = settings or WorldSettings()
+        super().__init__(settings or WorldSettings(), seed)
+        s = self.settings
         self.physics = p = physics or PhysicsSettings()
         self.body_description = body or default_body()
         field = (s.field.length / 2 + 1.0, s.field.width / 2 + 1.0)
         self.xml = world_mjcf(self.body_description, p, s.ball.radius, field)
         self.model = mj.MjModel.from_xml_string(self.xml)
         self.data = mj.MjData(self.model)
-        self.lock = threading.RLock()
-        self.time = 0.0
         self.falls = 0
         self.fallen = "none"
         self.pushes = 0
@@ -125,7 +123,6 @@ class MujocoWorld(WorldViews):
         self._accel_adr = m.sensor_adr[accel]
         self._touching_ball = False
         self.ball = _Ball()
-        self._start_camera(seed)
         cam = s.render.camera
         self.camera = WorldCamera(self.model, cam.width, cam.height, self._render_opencv, CAMERA)
         self._positions = np.zeros(len(self.servo_ids))  # servo angles (rad) the robot stands in
