@@ -220,6 +220,7 @@ class NumpyGraph:
         values[self.input] = np.asarray(x, np.float32)
         for op, ins, outs, a in self.nodes:
             args = [values[i] if i else None for i in ins]
+            # An absent optional input is None, which each operator checks for itself.
             values[outs[0]] = np.asarray(_OPS[op](args, a))  # type: ignore[arg-type]
         return values[self.output]
 

@@ -80,6 +80,8 @@ def _load_onnx(path: str, engine: str) -> tuple[Policy, float | None]:
     why = contract_mismatch(meta)
     if why:
         raise PolicyLoadError(f"{path} is refused: {why}")
+    # The loaded model carries its metadata and engine for the runner's report (a Policy is
+    # typed as a plain callable).
     run.meta = meta  # type: ignore[attr-defined]
     run.engine = used  # type: ignore[attr-defined]
     return run, float(meta[META_RATE]) if META_RATE in meta else None
