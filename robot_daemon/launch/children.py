@@ -1,6 +1,10 @@
 """Child processes of ``darwin up`` and ``darwin daemon --sim``: start a ``darwin`` subcommand,
 wait for the line that says where it listens, relay the rest, stop it cleanly.
 
+A child may be started *held* (``Child(held=True)``): it imports its program and parses its
+options, then waits on a pipe from the parent (``DARWIN_GO_FD``) until :meth:`Child.go`, so its
+start-up overlaps whatever the parent waits for first (``darwin up``'s adapters, the daemon).
+
 A child never outlives its parent, however the parent ends (SIGKILL included): on Linux the
 kernel sends it SIGTERM when the parent dies (``PR_SET_PDEATHSIG``), and everywhere it watches a
 pipe from the parent (``DARWIN_PARENT_FD``) whose end-of-file means the same. SIGTERM is the
@@ -24,6 +28,7 @@ from typing import IO
 from schemas.errors import DarwinError
 
 PARENT_FD_ENV = "DARWIN_PARENT_FD"
+GO_FD_ENV = "DARWIN_GO_FD"
 _PR_SET_PDEATHSIG = 1
 
 
@@ -72,6 +77,21 @@ def watch_parent() -> None:
     threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
+def wait_for_go() -> bool:
+    """In a child started held: wait until the parent says go (True), or lets go of the pipe
+    without saying it (False: it will not run). Not held: True at once."""
+    fd_text = os.environ.pop(GO_FD_ENV, "")
+    if not fd_text.isdigit():
+        return True
+    fd = int(fd_text)
+    try:
+        return os.read(fd, 1) == b"1"
+    except OSError:
+        return False
+    finally:
+        os.close(fd)
+
+
 class ChildError(DarwinError):
     """A child program exited, or never printed its address; the message says which."""
 
@@ -87,11 +107,13 @@ class Child:
         ready: bool = False,
         own_group: bool = False,
         env: Mapping[str, str] | None = None,
+        held: bool = False,
     ) -> None:
         """``ready=True``: relay every line at once (nobody waits for an address line).
         ``own_group=True``: out of the terminal's process group, so Ctrl-C reaches only the
         parent, which stops this child when it is done with it (still dying with the parent).
-        ``env``: its environment (default this process's)."""
+        ``env``: its environment (default this process's). ``held=True``: it loads and then
+        waits for :meth:`go` before it runs."""
         self.name = name
         self.args = args
         self.env = env
@@ -103,6 +125,10 @@ class Child:
         self._held_errors: list[str] = []
         self._ready_lock = threading.Lock()
         watch_r, self._watch_w = os.pipe()  # our end stays open until we die
+        passed = {PARENT_FD_ENV: watch_r}
+        self._go_w = -1
+        if held:
+            passed[GO_FD_ENV], self._go_w = os.pipe()
         try:
             self.proc = subprocess.Popen(
                 [sys.executable, "-m", "robot_daemon.launch.cli", *args],
@@ -113,13 +139,14 @@ class Child:
                 env=dict(
                     os.environ if env is None else env,
                     PYTHONUNBUFFERED="1",
-                    **{PARENT_FD_ENV: str(watch_r)},
+                    **{k: str(fd) for k, fd in passed.items()},
                 ),
-                pass_fds=(watch_r,),
+                pass_fds=tuple(passed.values()),
                 preexec_fn=_die_with(os.getpid(), own_group),
             )
         finally:
-            os.close(watch_r)
+            for fd in passed.values():
+                os.close(fd)
         self._reader = threading.Thread(target=self._read, name=f"{name}-out", daemon=True)
         self._reader.start()
         self._err_reader = threading.Thread(target=self._read_err, name=f"{name}-err", daemon=True)
@@ -196,11 +223,22 @@ class Child:
             if self._relay is not None:
                 self._relay(self.name, line)
 
+    def go(self) -> None:
+        """Let a child started held run (nothing for one that was not)."""
+        if self._go_w >= 0:
+            with contextlib.suppress(OSError):  # it died meanwhile: wait_line says so
+                os.write(self._go_w, b"1")
+            os.close(self._go_w)
+            self._go_w = -1
+
     def running(self) -> bool:
         return self.proc.poll() is None
 
     def stop(self, timeout: float = 5.0) -> int | None:
         """SIGTERM, then SIGKILL after ``timeout``; returns the exit code."""
+        if self._go_w >= 0:  # held and never let go: it ends without running
+            os.close(self._go_w)
+            self._go_w = -1
         if self._watch_w >= 0:
             os.close(self._watch_w)
             self._watch_w = -1

@@ -14,7 +14,7 @@ import sys
 from types import ModuleType
 from typing import Any
 
-from robot_daemon.launch.children import watch_parent
+from robot_daemon.launch.children import wait_for_go, watch_parent
 from schemas import registry
 from schemas.errors import DarwinError
 from schemas.extras import explain
@@ -85,6 +85,8 @@ def main(argv: list[str] | None = None) -> int:
         format="%(asctime)s %(name)s %(levelname)s: %(message)s",
         stream=sys.stderr,
     )
+    if not wait_for_go():  # started held (children.Child) and then not wanted
+        return 0
     try:
         return int(module.run(args) or 0)
     except DarwinError as exc:

@@ -32,7 +32,7 @@ from typing import Any
 from config.loader import load_all
 from robot_daemon.emulator.settings import add_forwarded_options, add_physics_option
 from robot_daemon.engine.fleet_join import check_login_needs_router
-from robot_daemon.launch.adapter_logins import adapter_login, names, roles, ui_login
+from robot_daemon.launch.adapter_logins import Login, adapter_login, names, roles, ui_login
 from robot_daemon.launch.children import Child, ChildError, relay_to_stderr
 from robot_daemon.launch.endpoints import resolve_listen, router_of
 from robot_daemon.security.acl import check_listen
@@ -255,33 +255,34 @@ def _run(
     try:
         daemon = Child("daemon", daemon_args(args, listen, router, internal), relay)
         children.append(daemon)
+        # The adapters start now, held before they connect (Child(held=True)): their imports
+        # overlap the daemon's start instead of following it. They are told where the daemon
+        # will be, which `darwin up` chose: the router, else the listen endpoint it resolved.
+        guess = (router or listen or "", args.robot or settings["robot"].get("name", "op1"))
+        plan = adapter_plan(args, settings, servers, logins, free)
+        held = {
+            p.name: Child(p.name, p.command(*guess), relay, env=p.env, held=True)
+            for p in plan
+            if p.command is not None
+        }
+        children.extend(held.values())
         endpoint = daemon.wait_line("zenoh:", START_TIMEOUT)
-        robot = daemon_robot(daemon, args.robot or settings["robot"].get("name", "op1"))
+        robot = daemon_robot(daemon, guess[1])
         print(f"zenoh: {endpoint}", flush=True)
         print(f"robot: {robot}", flush=True)
-        for adapter in servers:
-            name, login = adapter.name, logins[adapter.name]
-            if not wanted(args, adapter):
-                if adapter.default:
-                    print(f"{name}: none (--no-{name})", flush=True)
+        for p in plan:
+            name = p.name
+            if p.command is None:
+                print(f"{name}: none ({p.why_not})", flush=True)
                 continue
-            if not available(name):
-                print(f"{name}: none (not in this build)", flush=True)
-                continue
-            if login.refused:
-                print(f"{name}: none ({login.refused})", flush=True)
-                continue
-            command = [name, "--connect", endpoint, "--robot", robot, *login.args]
-            if adapter.pass_role:
-                command += ["--role", str(login.role)]  # at most its role, whoever it is
-            if adapter.listen_help:
-                where = getattr(args, f"{name.replace('-', '_')}_listen")
-                where = where or free or setting(settings, adapter.listen_setting)
-                command += ["--listen", where] if where else []
-            if adapter.pass_config and args.config:
-                command += ["--config", args.config]
-            child = Child(name, command, relay, env=login.env())
-            children.append(child)
+            child = held.pop(name)
+            if (endpoint, robot) == guess:
+                child.go()
+            else:  # not where it was told: start it afresh, told the daemon's own words
+                child.stop()
+                children.remove(child)
+                child = Child(name, p.command(endpoint, robot), relay, env=p.env)
+                children.append(child)
             adapters.append(Adapter(child))
             print(f"{name}: {child.wait_line(f'{name}:', START_TIMEOUT)}", flush=True)
         if ui is not None and ui_adapter is not None:
@@ -305,6 +306,58 @@ def _run(
     finally:
         for c in reversed(children):
             c.stop()
+
+
+@dataclass
+class Planned:
+    """A server adapter this run starts (``command`` of the daemon's endpoint and robot name,
+    in ``env``), or names on a line ``NAME: none (why_not)`` (``command`` None)."""
+
+    name: str
+    command: Callable[[str, str], list[str]] | None = None
+    env: dict[str, str] | None = None
+    why_not: str = ""
+
+
+def adapter_plan(
+    args: argparse.Namespace,
+    settings: dict[str, Any],
+    servers: list[registry.Adapter],
+    logins: dict[str, Login],
+    free: str | None,
+) -> list[Planned]:
+    """The server adapters in order, each started or said not to be (an adapter off by default
+    and not asked for is left out: it gets no line)."""
+    plan: list[Planned] = []
+    for adapter in servers:
+        name, login = adapter.name, logins[adapter.name]
+        if not wanted(args, adapter):
+            if adapter.default:
+                plan.append(Planned(name, why_not=f"--no-{name}"))
+            continue
+        if not available(name):
+            plan.append(Planned(name, why_not="not in this build"))
+            continue
+        if login.refused:
+            plan.append(Planned(name, why_not=login.refused))
+            continue
+        tail = [*login.args]
+        if adapter.pass_role:
+            tail += ["--role", str(login.role)]  # at most its role, whoever it is
+        if adapter.listen_help:
+            where = getattr(args, f"{name.replace('-', '_')}_listen")
+            where = where or free or setting(settings, adapter.listen_setting)
+            tail += ["--listen", where] if where else []
+        if adapter.pass_config and args.config:
+            tail += ["--config", args.config]
+
+        def command(
+            endpoint: str, robot: str, name: str = name, tail: list[str] = tail
+        ) -> list[str]:
+            return [name, "--connect", endpoint, "--robot", robot, *tail]
+
+        plan.append(Planned(name, command, login.env()))
+    return plan
 
 
 def say(line: str) -> None:

@@ -15,7 +15,7 @@ from robot_daemon.bus.tables import MX28
 from robot_daemon.doctor import checks as C
 from robot_daemon.emulator import Emulator
 from schemas.session import free_tcp_port
-from tests.fixtures.system import REPO, darwin_command, start_system
+from tests.fixtures.system import REPO, RunningSystem, darwin_command
 
 
 def doctor(*args: str) -> tuple[int, str]:
@@ -115,19 +115,21 @@ def test_a_missing_port_fails_in_one_line_with_its_fix(tmp_path: Path) -> None:
     assert f"FAIL  serial: {tmp_path / 'ttyUSB9'} does not exist — fix: plug in" in out
 
 
-def test_with_the_daemon_running_it_asks_the_daemon() -> None:
-    with start_system(gateway=False) as system:
-        with system.robot_client() as robot:
-            robot.wait_for("joints")
-        code, out = doctor(
-            "--json",
-            "--connect",
-            system.endpoint,
-            "--robot",
-            system.robot,
-            "--port",
-            "/nonexistent/tty",
-        )
+def test_with_the_daemon_running_it_asks_the_daemon(robot_system: RunningSystem) -> None:
+    # The session's system: the doctor only reads a running daemon (a process of its own is
+    # not what this is about; tests/integration/test_daemon_up.py is).
+    system = robot_system
+    with system.robot_client() as robot:
+        robot.wait_for("joints")
+    code, out = doctor(
+        "--json",
+        "--connect",
+        system.endpoint,
+        "--robot",
+        system.robot,
+        "--port",
+        "/nonexistent/tty",
+    )
     assert code == 0, out
     checks = by_name(out)
     assert json.loads(out)["source"] == "daemon"

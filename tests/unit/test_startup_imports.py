@@ -71,3 +71,25 @@ def test_units_make_their_tables_on_first_use() -> None:
     assert list(units.signed_11bit(np.array([0x400 | 7, 7]))) == [-7, 7]
     with pytest.raises(AttributeError):
         units.NO_SUCH_TABLE  # noqa: B018
+
+
+def test_a_held_child_runs_only_when_let_go() -> None:
+    """``darwin up`` starts its adapters held (their imports overlap the daemon's start): one
+    let go runs, one stopped while held ends without having run (no output at all)."""
+    from robot_daemon.launch.children import Child
+
+    let_go = Child("urdf", ["urdf"], held=True)
+    never = Child("urdf", ["urdf"], held=True)
+    try:
+        let_go.go()
+        assert let_go.wait_line("<robot", timeout=60).startswith('name="darwin_op"')
+        never.stop(timeout=60)
+    finally:
+        for child in (let_go, never):
+            child.stop()
+            child._reader.join(timeout=10)  # its pipes read to the end, then closed
+            child._err_reader.join(timeout=10)
+            for stream in (child.proc.stdout, child.proc.stderr):
+                if stream is not None:
+                    stream.close()
+    assert never.output == [] and never.errors == []
