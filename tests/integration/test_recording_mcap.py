@@ -22,6 +22,7 @@ from config.loader import load_robot
 from schemas.keys import Keys
 from schemas.messages import CameraFrame, Event, Imu, Joints, Status, encode
 from schemas.session import open_client, open_server
+from schemas.versions import PROTOCOL_VERSION
 from tests.fixtures.emulator import wait_until
 from tests.fixtures.mcap import finished_file, summary_counts
 from tests.fixtures.system import darwin_command, run_darwin
@@ -88,7 +89,10 @@ class Source:
             self.put("joints", encode(joints_msg(tick)))
             self.put("imu", encode(imu_msg(tick)))
             if tick % 10 == 0:
-                self.put("status", encode(Status(state="running", robot=ROBOT, voltage=12.1)))
+                # Announced as a daemon of this version does, so a replay of it serves clients.
+                status = Status(state="running", robot=ROBOT, voltage=12.1,
+                                protocol=list(PROTOCOL_VERSION))
+                self.put("status", encode(status))
             if tick % 25 == 0:
                 self.put(
                     "camera",
