@@ -100,14 +100,12 @@ def main() -> None:
     ap.add_argument("--impulses", type=float, nargs="+", default=[1.0, 1.2, 1.4, 1.6])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--trained", default=POLICIES["trained"], help="the trained policy's file")
-    ap.add_argument("--policies", nargs="+", choices=list(POLICIES), default=list(POLICIES))
     args = ap.parse_args()
     POLICIES["trained"] = args.trained
-    policies = {name: POLICIES[name] for name in args.policies}
     rng = np.random.default_rng(args.seed)
     both = [1.0, -1.0] * ((args.tries + 1) // 2)
     signs = [rng.permutation(both)[: args.tries] for _ in args.impulses]
-    falls: dict[str, list[int]] = {name: [] for name in policies}
+    falls: dict[str, list[int]] = {name: [] for name in POLICIES}
     config = Path(tempfile.mkdtemp()) / "patient.toml"
     config.write_text("[policy]\ndamp_after = 1.0\nsilence_timeout = 3.0\n")
     with (
@@ -118,13 +116,13 @@ def main() -> None:
         robot.wait_for("joints", timeout=30)
         sim = SimControl(robot.session, robot.target.robot)
         for i, impulse in enumerate(args.impulses):
-            for name, spec in policies.items():
+            for name, spec in POLICIES.items():
                 fell = [one_try(system, robot, sim, spec, s * impulse / PUSH_S) for s in signs[i]]
                 falls[name].append(sum(fell))
                 print(f"{impulse:.1f} N·s {name}: {sum(fell)}/{args.tries} fell "
                       f"({', '.join('forward' if s > 0 else 'backward' for s in signs[i])})",
                       flush=True)  # fmt: skip
-    names = list(policies)
+    names = list(POLICIES)
     print(f"\nfalls out of {args.tries} per shove (whole stack, `darwin policy run`):")
     print("| impulse (N·s) | " + " | ".join(names) + " |")
     print("|---|" + "---|" * len(names))
