@@ -119,6 +119,7 @@ class BusSupervisor:
         self.down = False  # the port is lost: commands that need the bus are refused
         self.hold_on_return = False  # the next tick holds the pose (port or power back)
         self.servos_off = False  # DXL power is off and stays off until asked
+        self.stopping = False  # the daemon is stopping: nothing new may start
         self.power_request: str | None = None  # who asked to power the servos (next tick)
         self.had_torque: list[int] = []  # the servos that had torque when power went
         self._buttons_last = 0
@@ -339,6 +340,12 @@ class BusSupervisor:
                 ErrorCode.UNAVAILABLE,
                 f"the servos are off (DXL power, status.state is servos_off): {req.verb} not "
                 "done; power them first (`power` op=on as admin, the START button or the TUI)",
+            )
+        if self.stopping and (req.verb == "registers" or needs_lease(req.verb, req.fields)):
+            # A walk ending its last step at shutdown must not be started again.
+            raise Reject(
+                ErrorCode.UNAVAILABLE,
+                f"the daemon is stopping (status.state is stopping): {req.verb} not done",
             )
         intruders = self.holders.current if self.holders is not None else []
         if intruders and (req.verb == "registers" or needs_lease(req.verb, req.fields)):

@@ -251,6 +251,8 @@ class Daemon:
         self._update_state()
 
     def _update_state(self, snap: TickSnapshot | None = None) -> None:
+        if self.supervisor.stopping:
+            return  # stopping stays stopping until the daemon is gone
         if self.supervisor.servos_off:
             self._set_state(DaemonState.SERVOS_OFF)
             return
@@ -391,6 +393,8 @@ class Daemon:
             return True
         if self._stop_by is None:
             self._stop_by = time.monotonic() + STOP_FINISH_S
+            self.supervisor.stopping = True  # no command starts anything from here on
+            self._set_state(DaemonState.STOPPING)
             if not any(m.in_motion for m in self.manager.modules):
                 return False
             self.manager.halt(finish_step=True)

@@ -76,18 +76,24 @@ def test_a_servo_with_old_firmware_gets_no_torque_and_one_line(
 ) -> None:
     emulator = emulator_factory(old_firmware_ids=[7])
     with running_daemon(emulator.port) as daemon:
-        assert daemon.stderr is not None
-        lines = []
-        for raw in daemon.stderr:
-            lines.append(raw)
-            if "firmware 26" in raw:
-                break
+        lines = stderr_until(daemon, "firmware 26")
         line = lines[-1]
         assert "servo 7" in line and "27 (0x1B)" in line and "firmware_installer" in line
         assert len([x for x in lines if "firmware" in x]) == 1
         emulator.wait_quiet()
         assert emulator.bus.servo(7).table[MX28.TORQUE_ENABLE] == 0
         assert emulator.bus.servo(8).table[MX28.TORQUE_ENABLE] == 1
+
+
+def stderr_until(daemon: subprocess.Popen[str], text: str) -> list[str]:
+    """The daemon's log lines up to the first that contains ``text``."""
+    assert daemon.stderr is not None
+    lines = []
+    for raw in daemon.stderr:
+        lines.append(raw)
+        if text in raw:
+            return lines
+    raise AssertionError(f"the daemon ended without saying {text!r}: {lines}")
 
 
 class running_daemon:
@@ -128,13 +134,7 @@ def test_two_servos_answering_one_id_are_left_offline_with_one_line(
         emulator.bus.servo(8).set_position(1500)
         emulator.bus.set_id(8, 7)  # a replaced servo given servo 7's ID
     with running_daemon(emulator.port) as daemon:
-        assert daemon.stderr is not None
-        lines = []
-        for raw in daemon.stderr:
-            lines.append(raw)
-            if "two servos answer" in raw:
-                break
-        line = lines[-1]
+        line = stderr_until(daemon, "two servos answer")[-1]
         assert "servo 7" in line and "ID 7" in line and "torque refused" in line
         emulator.wait_quiet()
         # Neither the hip nor the servo wrongly given its ID gets torque or a goal.

@@ -11,8 +11,11 @@ import signal
 import threading
 from pathlib import Path
 
+import pytest
+
 from clients.robot import Robot
 from robot_daemon.launch.service import STOP_TIMEOUT_S
+from schemas.errors import CommandTimeoutError, RobotUnreachableError, UnavailableError
 from schemas.session import free_tcp_port, open_client
 from schemas.sim_control import SimControl
 from tests.fixtures.emulator import start_emulator_process
@@ -56,8 +59,13 @@ def test_sigterm_holds_the_pose_and_exits_cleanly_within_the_stop_timeout(
                     proc.send_signal(signal.SIGTERM)  # the main process only, as systemd does
                     # Not frozen on one foot: the walk ends its step at the next double
                     # support, then the daemon stops, holding the pose it ended in.
-                    events.wait(lambda e: e.kind == "walk" and "double support" in e.message)
                     events.wait(lambda e: e.kind == "state" and e.data.get("state") == "stopping")
+                    # Nothing starts again while the last step ends (nor once it has gone).
+                    with pytest.raises(
+                        (UnavailableError, CommandTimeoutError, RobotUnreachableError)
+                    ):
+                        robot.walk(x=0.02)
+                    events.wait(lambda e: e.kind == "walk" and "double support" in e.message)
                     # The present pose written as the goal, on the bus.
                     events.wait(lambda e: e.kind == "halt" and "holding" in e.message)
                 assert proc.wait(timeout=STOP_TIMEOUT_S) == 0
