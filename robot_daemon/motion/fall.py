@@ -8,7 +8,9 @@ not the framework's: only samples whose accel Z (the up axis) is below ``fall_ly
 A shove accelerates an upright body along its fore/aft axis for longer than the window (the
 MuJoCo plant: 40 N for 0.2 s reads accel Y ~250 while the body is still upright), and on the
 framework's rule alone the detector latched the wrong direction before the robot landed on the
-other side.
+other side. Ours too: a fall is called only when the present reading is gravity (within
+``fall_gravity_band``, 0.3, of 1 g) on the side the window says, so a tumbling or landing body's
+readings in the window cannot call the side it does not lie on.
 As the framework (``MotionManager::Process``), falls are computed only once the gyro is
 calibrated (``frame.imu_calibrated``, motion/gyro_centre.py), only error-free CM-730 readings
 enter the window (``frame.imu_valid``: before the CM-730 first answered the block is zeros, which
@@ -41,6 +43,7 @@ One event when the robot falls, one when it has been upright for ``settle_ticks`
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import Any
@@ -54,7 +57,7 @@ from robot_daemon.motion_authority import (
     RECOVERS_FROM_FALLS,
     RECOVERS_FROM_FALLS_WORDS,
 )
-from schemas.units import IMU_CENTER
+from schemas.units import ACCEL_G_PER_COUNT, IMU_CENTER
 
 UPRIGHT, FORWARD, BACKWARD = "upright", "fallen_forward", "fallen_backward"
 # The state's word in ``imu.fall`` and the event's ``direction``.
@@ -83,6 +86,7 @@ class FallMonitor(MotionModule):
         self.forward_below = float(imu.get("fall_forward_below", 390))
         self.backward_above = float(imu.get("fall_backward_above", 580))
         self.lying_z_below = float(imu.get("fall_lying_z_below", 590))
+        self.gravity_band = float(imu.get("fall_gravity_band", 0.3))
         self.window: deque[float] = deque(maxlen=int(imu.get("fall_window", 30)))
         self._at_neutral = False
         self._neutral()
@@ -133,6 +137,8 @@ class FallMonitor(MotionModule):
             self.window.append(float(frame.accel_raw[0]))
             self._at_neutral = False
         now = self.now = self.classify()
+        if now != UPRIGHT and self.state == UPRIGHT and not self._lies(now, frame):
+            now = self.now = UPRIGHT  # not yet: see _lies
         if self._getting_up():
             self._upright_ticks = 0
             return
@@ -148,6 +154,20 @@ class FallMonitor(MotionModule):
         self.state = now
         self.falls += 1
         self._on_fall(now, frame)
+
+    def _lies(self, state: str, frame: JointFrame) -> bool:
+        """Whether the body now lies the way the window says: the present reading is gravity
+        (about 1 g, within ``fall_gravity_band``) and points that way. The window's mean can
+        carry a shove's or a landing's acceleration (an 80 N forward shove read as a backward
+        fall in 3 of 3 lock-step tries), and the get-up page for the wrong side would fold the
+        robot against the floor; so a fall is called only once a reading at rest agrees."""
+        if not frame.imu_valid:
+            return False
+        x, y, z = (float(v) - IMU_CENTER for v in frame.accel_raw)
+        g = math.sqrt(x * x + y * y + z * z) * ACCEL_G_PER_COUNT
+        if abs(g - 1.0) > self.gravity_band:
+            return False
+        return x < 0.0 if state == FORWARD else x > 0.0
 
     def _note_client_motion(self, frame: JointFrame) -> None:
         manager = self.manager

@@ -42,8 +42,8 @@ def _frame(rig: PerfectServos, accel_x: float, gyro: tuple[float, float, float])
 def test_no_fall_before_the_gyro_is_calibrated_and_the_centre_is_published() -> None:
     rig, _ = _rig()
     rng = np.random.default_rng(1)
-    for _ in range(300):  # face down, but the robot is moving: the gyro SD is far above 2
-        rig.step(_frame(rig, 300, tuple(512 + rng.normal(0, 20, 3))))
+    for _ in range(300):  # face down (1 g along −Y), but moving: the gyro SD is far above 2
+        rig.step(_frame(rig, 384, tuple(512 + rng.normal(0, 20, 3))))
     imu = rig.manager.module("imu")
     assert not imu.calibrated and imu.status()["attempts"] == 3
     assert rig.manager.module("fall").falls == 0
@@ -52,7 +52,7 @@ def test_no_fall_before_the_gyro_is_calibrated_and_the_centre_is_published() -> 
     assert imu.calibrated
     assert rig.manager.status()["imu"]["gyro_centre"] == [515.0, 509.0, 512.0]
     for _ in range(40):  # now lying face down on valid data: a fall (no page: nobody's
-        rig.step(_frame(rig, 300, (515, 509, 512)))  # motion runs, motion_authority.py)
+        rig.step(_frame(rig, 384, (515, 509, 512)))  # motion runs, motion_authority.py)
     assert rig.manager.module("fall").falls == 1
     assert rig.manager.module("fall").state == "fallen_forward"
     assert not rig.manager.module("action").status()["playing"]

@@ -19,7 +19,7 @@ def _falls(rig: Rig) -> list[tuple[str, dict]]:
 
 
 def _lie_face_down(rig: Rig) -> None:
-    rig.accel_y = 300
+    rig.accel_y = 384
     rig.run(40)
 
 

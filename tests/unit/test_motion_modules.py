@@ -73,7 +73,7 @@ def test_a_forward_fall_stops_walking_emits_and_plays_get_up_front() -> None:
     rig.run(200)
     assert rig.m("walking").running
     rig.manager.drain_events()
-    rig.accel_y = 300  # face down: gravity along −y
+    rig.accel_y = 384  # face down: gravity along −y (1 g)
     rig.run(40)
     assert not rig.m("walking").running
     falls = [d for k, _, d in rig.manager.drain_events() if k == "fall"]
@@ -95,13 +95,13 @@ def _holders_walk(rig: Rig) -> None:
 def test_a_backward_fall_plays_get_up_back_and_recovery_can_be_disabled() -> None:
     rig = Rig()
     _holders_walk(rig)
-    rig.accel_y = 700
+    rig.accel_y = 640
     rig.run(31)
     assert rig.m("action").status()["page"] == 11
     rig = Rig()
     _holders_walk(rig)
     rig.m("fall").recover = False
-    rig.accel_y = 700
+    rig.accel_y = 640
     rig.run(31)
     assert not rig.m("action").playing
     assert rig.m("fall").state == "fallen_backward"
@@ -117,13 +117,13 @@ def test_sitting_up_during_the_get_up_page_does_not_restart_it() -> None:
     rig = Rig()
     fall, action = rig.m("fall"), rig.m("action")
     _holders_walk(rig)
-    rig.accel_y = 700
+    rig.accel_y = 640
     rig.run(31)
     assert action.status()["page"] == 11
     rig.accel_y = 512  # sitting up
     rig.run(fall.settle_ticks + 20)
     assert fall.state == "fallen_backward"  # not upright again while the page plays
-    rig.accel_y = 700  # leaning back on the hands
+    rig.accel_y = 640  # leaning back on the hands
     rig.run(40)
     assert action.status()["page"] == 11 and action.status()["step"] > 1
     rig.accel_y = 512
@@ -167,3 +167,28 @@ def test_a_shove_of_an_upright_body_is_not_a_fall() -> None:
         f.accel_raw = np.array([225, 512, 640])
         fall.observe(f)
     assert fall.state == "upright" and fall.falls == 0
+
+
+def test_a_shove_in_the_window_does_not_call_the_side_the_robot_does_not_lie_on() -> None:
+    """A strong backward shove reads like a forward fall (accel Y far below centre) while the
+    body already tilts back past the Z threshold; on the window alone that was called forward,
+    and page 10 would then fold a robot lying on its back. Only a reading of gravity (about 1 g)
+    on the window's side calls the fall."""
+    rig = Rig()
+    fall = rig.m("fall")
+    tick = 0
+
+    def feed(reading: list[int], n: int) -> None:
+        nonlocal tick
+        for _ in range(n):
+            f = JointFrame(tick, tick * DT, DT, position=rig.pos.copy())
+            f.accel_raw = np.array(reading)
+            fall.observe(f)
+            tick += 1
+
+    feed([250, 512, 560], 25)  # shoved: 2.1 g, the window's mean reads forward
+    assert fall.falls == 0 and fall.state == "upright"
+    feed([300, 512, 500], 5)  # striking the floor: 1.7 g
+    assert fall.falls == 0
+    feed([640, 512, 512], 60)  # lying on its back: 1 g along +Y
+    assert fall.falls == 1 and fall.state == "fallen_backward"
