@@ -1,8 +1,8 @@
 """The Textual app (``DarwinApp``), which the CLI and the tests both build.
 
-Telemetry arrives as messages posted by the link from Zenoh threads; handlers only store it
-in the model. A timer (~15 Hz) draws what changed, and only in the tab that shows, so 125 Hz
-streams cost the screen nothing more than 15 redraws a second.
+Telemetry arrives through the link's inbox (one wake-up message however many samples wait);
+the handler only stores it in the model. A timer (~15 Hz) draws what changed, and only in the
+tab that shows, so 125 Hz streams cost the screen nothing more than 15 redraws a second.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from clients.tui.connect import ConnectScreen, RobotFinder
 from clients.tui.help import HelpScreen
 from clients.tui.i18n import N_, _
 from clients.tui.link import CommandDone, Link
-from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
+from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry, TelemetryReady
 from clients.tui.model import Model
 from clients.tui.settings import Settings, default_path
 from clients.tui.tabs.actions import ActionsTab
@@ -259,12 +259,17 @@ class DarwinApp(App[None]):
         self.notify(_("Switched to {robot}.").format(robot=nxt))
 
     # -- telemetry (store only; the timer draws) -----------------------------------------------
+    def on_telemetry_ready(self, _message: TelemetryReady) -> None:
+        for topic, sample in self.link.inbox.take():
+            self._store(topic, sample)
+
     def on_telemetry(self, message: Telemetry) -> None:
-        if message.topic == "camera" and not (
-            self.link.watching_camera or not self._connect_on_mount
-        ):
+        self._store(message.topic, message.sample)
+
+    def _store(self, topic: str, sample: Any) -> None:
+        if topic == "camera" and not (self.link.watching_camera or not self._connect_on_mount):
             return  # a frame still in flight after the camera went out of view
-        self.model.add(message.topic, message.sample)
+        self.model.add(topic, sample)
 
     def on_link_changed(self, message: LinkChanged) -> None:
         info = message.info

@@ -79,7 +79,9 @@ class CommandRouter:
             self.notify(done, timeout=4)
         elif tag == "lease":
             holds = message.applied.get("holder", message.applied.get("client"))
-            self.notify(_("Lease: {state}").format(state=holds or message.applied or "ok"))
+            if isinstance(holds, dict):  # the holder as the daemon describes it
+                holds = holds.get("name") or holds.get("client")
+            self.notify(_("Lease: {state}").format(state=holds or _("free")))
 
 
 def daemon_robot_config(reply: dict[str, Any], local: RobotConfig) -> RobotConfig:

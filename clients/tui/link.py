@@ -2,7 +2,8 @@
 
 A connector thread opens the Zenoh session (retrying while the endpoint is unreachable) and
 watches the daemon's liveliness token; Zenoh itself re-links a client session when the daemon
-comes back. Robot callbacks run on Zenoh threads and only ``post_message`` to the app.
+comes back. Robot callbacks run on Zenoh threads: they put samples in the :class:`Inbox` and
+wake the app with at most one queued message (clients/tui/messages.py says why).
 
 Commands go through one queue and one thread so they reach the arbiter in the order the user
 gave them (walk start before walk stop); ``halt`` skips the queue.
@@ -15,6 +16,7 @@ import functools
 import logging
 import queue
 import threading
+from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,7 +25,7 @@ from textual.app import App
 from textual.message import Message
 
 from clients.robot import Robot, Subscription
-from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
+from clients.tui.messages import LinkChanged, LinkInfo, LinkState, TelemetryReady
 from schemas import messages as wire
 from schemas.errors import ClientError, DarwinError, IncompatibleProtocolError
 from schemas.roles import Role
@@ -31,6 +33,49 @@ from schemas.session import Credentials, resolve
 
 log = logging.getLogger(__name__)
 RETRY_S = 2.0
+# Samples kept for an app that is not taking them: > 15 s of joints and IMU at 125 Hz; older
+# ones go first (the plots' oldest points). Events are never dropped; of camera frames only the
+# newest is kept.
+INBOX_SAMPLES = 4000
+
+
+class Inbox:
+    """Samples from Zenoh threads for the app's thread, with one wake-up message at most."""
+
+    def __init__(self, app: App[Any]) -> None:
+        self.app = app
+        self._samples: deque[tuple[str, Any]] = deque(maxlen=INBOX_SAMPLES)
+        self._events: deque[Any] = deque()
+        self._frame: Any = None
+        self._woken = threading.Event()
+
+    def put(self, topic: str, sample: Any) -> None:
+        if topic == "events":
+            self._events.append(sample)
+        elif topic == "camera":
+            self._frame = sample
+        else:
+            self._samples.append((topic, sample))
+        if not self._woken.is_set():
+            self._woken.set()
+            self.app.post_message(TelemetryReady())
+
+    def take(self) -> list[tuple[str, Any]]:
+        """Everything put since the last take, each stream oldest first (the app's thread)."""
+        # Cleared before taking: a put racing with this take wakes the app once more.
+        self._woken.clear()
+        out: list[tuple[str, Any]] = []
+        for queue_, topic in ((self._events, "events"), (self._samples, None)):
+            while True:
+                try:
+                    item = queue_.popleft()
+                except IndexError:
+                    break
+                out.append((topic, item) if topic else item)
+        frame, self._frame = self._frame, None
+        if frame is not None:
+            out.append(("camera", frame))
+        return out
 
 
 @dataclass
@@ -71,6 +116,7 @@ class Link:
         self._camera: Subscription | None = None
         self._liveliness: Any = None
         self._lock = threading.Lock()
+        self.inbox = Inbox(app)
 
     @property
     def client_id(self) -> str:
@@ -111,7 +157,7 @@ class Link:
             return
 
     def _telemetry(self, topic: str, msg: wire.Message) -> None:
-        self.app.post_message(Telemetry(topic, msg))
+        self.inbox.put(topic, msg)
 
     def _attach(self, robot: Robot) -> None:
         for topic in ("joints", "imu", "status", "events", "vision"):  # camera: watch_camera
@@ -176,7 +222,7 @@ class Link:
         return self._camera is not None
 
     def _on_frame(self, frame: Any) -> None:
-        self.app.post_message(Telemetry("camera", frame))
+        self.inbox.put("camera", frame)
 
     # -- commands --------------------------------------------------------------------------------
     def send(self, verb: str, *, tag: str = "", quiet: bool = False, **fields: Any) -> None:

@@ -1,7 +1,11 @@
 """Messages the link posts to the app from Zenoh threads.
 
-Telemetry messages replace an older queued one of the same topic (``can_replace``), so a 125 Hz
-stream can never back up the screen: the app only ever sees the newest sample.
+The robot's streams do not come one message per sample: joints and IMU at 125 Hz each,
+interleaved, never merged under ``can_replace`` (it only merges a sample with the next queued one
+of the same topic), and a starved app (a loaded machine, the robot's own one-core computer) fell
+behind for good, with the keys queued behind the backlog. The link keeps the samples
+(clients/tui/link.py ``Inbox``) and posts one :class:`TelemetryReady` while none is waiting;
+the app takes them all at once, so the more it is starved, the more it takes per message.
 """
 
 from __future__ import annotations
@@ -19,6 +23,10 @@ class LinkState(StrEnum):
     UNREACHABLE = "unreachable"  # no Zenoh session to the endpoint (retrying)
     NO_DAEMON = "no_daemon"  # session open, the daemon's liveliness token is absent
     CONNECTED = "connected"
+
+
+class TelemetryReady(Message, bubble=False):
+    """The link's inbox has samples: the app takes them (``Link.take``)."""
 
 
 class Telemetry(Message, bubble=False):

@@ -84,6 +84,41 @@ async def test_commands_without_a_robot_say_so_in_the_log(scene_app) -> None:
         assert app.model.event_count == before + 1  # no robot: nothing else is logged
 
 
+async def test_a_starved_app_takes_every_waiting_sample_with_one_message(scene_app) -> None:
+    """Joints and IMU interleave at 125 Hz each: one message per sample backed the app up for
+    good once it was starved (keys queued behind the backlog). However many samples wait, one
+    TelemetryReady is queued, and taking it stores them all, every event too."""
+    import threading
+
+    from clients.tui.messages import TelemetryReady
+
+    app = scene_app()
+    async with app.run_test(size=(120, 30)) as pilot:
+        await pilot.pause(0.1)
+        joints_before, events_before = len(app.model.joint_hist), app.model.event_count
+        n = 500
+
+        def zenoh_thread() -> None:  # the link's callbacks, on a thread of their own
+            for k in range(n):
+                app.link.inbox.put("joints", scene.joints(tick=k, stamp=scene.T0 + k * 0.008))
+                app.link.inbox.put("imu", scene.imu(k))
+                if k % 50 == 0:
+                    app.link.inbox.put("events", Event(kind="lease", message=f"e{k}"))
+
+        # The app's thread is held (as a starved one is) while the samples arrive.
+        posted: list[object] = []
+        post = app.post_message
+        app.post_message = lambda m: posted.append(m) or post(m)  # type: ignore[method-assign]
+        thread = threading.Thread(target=zenoh_thread)
+        thread.start()
+        thread.join()
+        app.post_message = post  # type: ignore[method-assign]
+        assert [type(m) for m in posted] == [TelemetryReady]
+        await until(pilot, lambda: len(app.model.joint_hist) - joints_before == n, "every sample")
+        assert app.model.event_count - events_before == n // 50
+        assert [e.message for e in app.model.events][-2:] == ["e400", "e450"]
+
+
 async def test_telemetry_messages_replace_older_queued_ones() -> None:
     a, b = Telemetry("imu", scene.imu(1)), Telemetry("imu", scene.imu(2))
     assert b.can_replace(a)
