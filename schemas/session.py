@@ -53,6 +53,10 @@ VIDEO_QUEUE_BATCHES = 8
 # up to five at once (joints, IMU, the policy's observation and answer, a ball detection); with
 # Zenoh's 2 the last ones of a tick were dropped whenever the link's sender was a moment late.
 TELEMETRY_QUEUE_BATCHES = 8
+# How long (µs) a message that may not be dropped (a declaration, a reply; a replay's samples)
+# waits for room in a congested client's link queue before Zenoh closes that client's transport.
+# The daemon's: short, because meanwhile its whole session stalls (server_config says more).
+DAEMON_BLOCK_WAIT_US = 500_000
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 ENV_ENDPOINT = "DARWIN_ENDPOINT"
 ENV_ROBOT = "DARWIN_ROBOT"
@@ -153,9 +157,12 @@ def server_config(
     lease_ms: int | None = 3000,
     max_message_bytes: int = MAX_MESSAGE_BYTES,
     mode: str = "peer",
+    block_wait_us: int = DAEMON_BLOCK_WAIT_US,
 ) -> zenoh.Config:
     """A session that listens (daemon, simulator world, replay): a peer, or a Zenoh router
-    (``mode="router"``) that other machines' sessions, ROS 2 nodes included, join as clients."""
+    (``mode="router"``) that other machines' sessions, ROS 2 nodes included, join as clients.
+    A peer closes the link of a client that takes no message for ``block_wait_us`` while a
+    message that may not be dropped waits for it."""
     if mode not in SERVER_MODES:
         raise ValueError(f"zenoh mode {mode!r} is not one of {', '.join(SERVER_MODES)}")
     for ep in listen:
@@ -175,10 +182,11 @@ def server_config(
         # Zenoh's 1000 let one slow client hold up every other subscriber, and the tick.
         conf.insert_json5(f"{congestion}/drop/wait_before_drop", "50")
         # A message that may not be dropped (a declaration, a reply) to a client whose link is
-        # dead with a full queue blocks this long (µs) before that client's transport closes,
+        # dead with a full queue blocks ``block_wait_us`` before that client's transport closes,
         # and meanwhile the whole session stalls: with Zenoh's 5 s every other client of the
-        # robot went silent (leases and heartbeats too) after one operator's link was cut.
-        conf.insert_json5(f"{congestion}/block/wait_before_close", "500000")
+        # robot went silent (leases and heartbeats too) after one operator's link was cut. A
+        # replay passes its own (clients/recording/replay.py): its samples may not be lost.
+        conf.insert_json5(f"{congestion}/block/wait_before_close", str(int(block_wait_us)))
     return conf
 
 

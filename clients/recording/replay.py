@@ -30,6 +30,17 @@ from schemas.query import serve
 log = logging.getLogger(__name__)
 
 MAX_RATE = 100.0
+# How long (µs) a replayed sample waits for room in a slow subscriber's link queue before Zenoh
+# closes that link (``server_config(block_wait_us=…)`` of a listening replay). The daemon's
+# 0.5 s closed the link of a test's subscriber that a loaded host had not run for half a second,
+# and it lost every sample queued for it. Longer than the link lease (3 s): a subscriber whose
+# link is cut is closed by its lease, one whose link lives is waited for (the replay slows
+# down) until it has taken nothing for this long (hung), so the others go on.
+BLOCK_WAIT_US = 5_000_000
+# At its end a replay that exits keeps its session open while anyone still subscribes, up to
+# this long (s): Zenoh takes a link down as soon as its session closes, and a subscriber still
+# behind (a loaded host) lost the samples it had received but not yet read.
+END_LINGER_S = 5.0
 
 
 def default_robot_name(rec: Recording) -> str:
@@ -152,6 +163,14 @@ class Replayer:
         """True when some subscriber matches the replay's publisher of ``topic``."""
         pub = self._pubs.get(topic)
         return pub is not None and pub.matching_status.matching
+
+    def linger(self, stop: threading.Event, timeout: float = END_LINGER_S) -> None:
+        """Return once no subscriber matches any of the replay's topics, ``stop`` is set or
+        ``timeout`` passed: what a subscriber still behind takes before the session closes."""
+        deadline = time.monotonic() + timeout
+        while any(map(self.watched, list(self._pubs))) and time.monotonic() < deadline:
+            if stop.wait(0.05):  # a check of Zenoh's matching state, and a signal ends it
+                return
 
     # -- control (thread-safe) ------------------------------------------------------------------
     def _position(self) -> float:

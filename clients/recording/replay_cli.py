@@ -11,7 +11,7 @@ import threading
 from types import FrameType
 
 from clients.recording.reader import read_session
-from clients.recording.replay import Replayer, default_robot_name
+from clients.recording.replay import BLOCK_WAIT_US, Replayer, default_robot_name
 from clients.robot import TOPICS
 from schemas.errors import ProtocolError
 from schemas.session import (
@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     if args.listen:
-        conf = server_config([args.listen])
+        conf = server_config([args.listen], block_wait_us=BLOCK_WAIT_US)
         where = f"listening on {args.listen}"
     else:
         endpoint = resolve(args.connect, robot).endpoint
@@ -128,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
         def wait_then_stop() -> None:
             replayer.wait()
             if not args.stay:
+                replayer.linger(stop)
                 stop.set()
 
         finished = threading.Thread(target=wait_then_stop, daemon=True)

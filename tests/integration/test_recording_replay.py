@@ -12,17 +12,25 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
+import zenoh
 
 from clients.recording import Recorder, Recording, ReplayControl, Replayer, read_recording
 from clients.robot import Robot
 from schemas.errors import InvalidCommandError, RobotUnreachableError
 from schemas.keys import Keys
-from schemas.messages import Joints, decode
+from schemas.messages import CameraFrame, Joints, decode, encode
 from schemas.session import free_tcp_port, open_client, open_server
 from tests.fixtures.emulator import wait_until
 from tests.fixtures.system import darwin_command
-from tests.integration.test_recording_mcap import ROBOT, Source, subscribed
+from tests.integration.test_recording_mcap import (
+    ROBOT,
+    Source,
+    imu_msg,
+    joints_msg,
+    subscribed,
+)
 
 
 @pytest.fixture(scope="module")
@@ -43,24 +51,32 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str,
 
 
 class Listener:
-    """A client subscribed to every topic of one robot name, queueing (topic, payload)."""
+    """A client subscribed to every topic of one robot name, queueing (topic, payload).
+    ``stall``: on its first sample it holds Zenoh's receiving thread that many seconds, as a
+    loaded host that does not run the subscriber for a while does."""
 
-    def __init__(self, endpoint: str, robot: str) -> None:
+    def __init__(self, endpoint: str, robot: str, stall: float = 0.0) -> None:
         self.endpoint = endpoint
         self.session = open_client(endpoint)
         self.got: queue.Queue[tuple[str, bytes]] = queue.Queue()
+        self._stall = stall
         self.subs = [
-            self.session.declare_subscriber(
-                key, lambda s, t=topic: self.got.put((t, s.payload.to_bytes()))
-            )
+            self.session.declare_subscriber(key, lambda s, t=topic: self._take(t, s))
             for topic, key in Keys(robot).topics().items()
         ]
+
+    def _take(self, topic: str, sample: zenoh.Sample) -> None:
+        if self._stall:
+            stall, self._stall = self._stall, 0.0
+            time.sleep(stall)  # the subscriber not running: the condition under test
+        self.got.put((topic, sample.payload.to_bytes()))
 
     def take(self, n: int, timeout: float = 20.0) -> list[tuple[str, bytes]]:
         return [self.got.get(timeout=timeout) for _ in range(n)]
 
     def close(self) -> None:
-        self.session.close()
+        if not self.session.is_closed():
+            self.session.close()
 
 
 def by_topic(items: list[tuple[str, bytes]]) -> dict[str, list[bytes]]:
@@ -84,11 +100,12 @@ def replay_to_the_end(
     count: int,
     first_line_ok: Callable[[str], bool],
     timeout: float = 20.0,
+    stall: float = 0.0,
 ) -> tuple[list[tuple[str, bytes]], str, Listener]:
     """``darwin replay`` of ``files`` as ``robot``, resumed from paused and run to its end:
-    the ``count`` messages a listener got, the replay's stderr after its first line (which
-    ``first_line_ok`` checks) and the (closed) listener. The replay must exit 0 saying it
-    replayed ``count`` messages."""
+    the ``count`` messages a listener (stalled ``stall`` s at its first sample) got, the
+    replay's stderr after its first line (which ``first_line_ok`` checks) and the (closed)
+    listener. The replay must exit 0 saying it replayed ``count`` messages."""
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     proc = darwin_replay(*files, "--listen", endpoint, "--robot", robot, "--rate", rate)
     listener = None
@@ -96,11 +113,12 @@ def replay_to_the_end(
         assert proc.stderr is not None
         line = proc.stderr.readline()
         assert first_line_ok(line), line
-        listener = Listener(endpoint, robot)
+        listener = Listener(endpoint, robot, stall)
         ctl = ReplayControl(listener.session, robot, timeout=5.0)
         assert ctl.status()["state"] == "paused"
         assert ctl.resume()["state"] == "playing"
         got = listener.take(count)
+        listener.close()  # it has everything: the replay need not wait for it at its end
         _, err = proc.communicate(timeout=timeout)  # exits by itself at the end
         assert proc.returncode == 0, err
         assert f"replayed {count} messages" in err
@@ -127,6 +145,65 @@ def test_darwin_replay_republishes_the_same_payloads(recording) -> None:
     )
     assert by_topic(got) == sent
     assert listener.got.empty()
+
+
+def record_frames(path: Path, ticks: int, frame_every: int, pace: float) -> dict[str, list[bytes]]:
+    """Record joints and IMU every tick and a ~12 kB camera frame every ``frame_every``th, a
+    tick every ``pace`` s; returns what was sent, by topic."""
+    src = Source()
+    rng = np.random.default_rng(3)
+    try:
+        with open_client(src.endpoint) as session:
+            rec = Recorder(session, path, robot=ROBOT).start()
+            subscribed(src, ("joints", "imu", "camera"))
+            for tick in range(ticks):
+                src.put("joints", encode(joints_msg(tick)))
+                src.put("imu", encode(imu_msg(tick)))
+                if tick % frame_every == 0:
+                    jpeg = b"\xff\xd8" + rng.bytes(12_000) + b"\xff\xd9"
+                    frame = CameraFrame(jpeg=jpeg, width=320, height=240, seq=tick)
+                    src.put("camera", encode(frame))
+                if pace:
+                    time.sleep(pace)  # pacing a publisher, not synchronising the test
+            total = sum(map(len, src.sent.values()))
+            wait_until(lambda: rec.stats.total == total, what="recording")
+            rec.stop()
+    finally:
+        src.close()
+    return src.sent
+
+
+# A subscriber a loaded host does not run for a while: its first sample holds Zenoh's receiving
+# thread this long (s).
+STALL_S = 2.0
+
+
+def test_a_stalled_subscriber_is_waited_for_while_the_replay_plays(tmp_path: Path) -> None:
+    """~6 MB of camera frames, more than the link's queues and socket buffers hold: the replay
+    waits for room while the subscriber stalls. With the daemon's session settings a sample
+    that may not be dropped waited 0.5 s for room in that subscriber's link queue, then Zenoh
+    closed the link and every sample queued for it was lost."""
+    path = tmp_path / "frames.mcap"
+    sent = record_frames(path, 2000, 4, 0.0)
+    total = sum(map(len, sent.values()))
+    got, _, _ = replay_to_the_end(
+        [str(path)], "slow", "10", total, lambda line: line.startswith("replaying"), stall=STALL_S
+    )
+    assert by_topic(got) == sent
+
+
+def test_a_replay_that_ends_waits_for_a_subscriber_still_behind(tmp_path: Path) -> None:
+    """~1.2 MB of camera frames in a burst, at 100×: all of it is sent while the subscriber
+    stalls, and the replay ends. Closing its session at once took the link down under the
+    subscriber before it had read what had been sent."""
+    path = tmp_path / "burst.mcap"
+    sent = record_frames(path, 300, 3, 0.0)
+    total = sum(map(len, sent.values()))
+    got, _, _ = replay_to_the_end(
+        [str(path)], "behind", "100", total, lambda line: line.startswith("replaying"),
+        stall=STALL_S,
+    )  # fmt: skip
+    assert by_topic(got) == sent
 
 
 @contextmanager
