@@ -2,7 +2,7 @@
 callgrind, and the time they model on the robot's Atom Z530.
 
     python benchmarks/tick_count.py tick [--ticks 40]        # the tick's own work, hot and cold
-    python benchmarks/tick_count.py breakdown                # where the walking tick's go
+    python benchmarks/tick_count.py breakdown [--parts a,b]  # where the walking tick's go
     python benchmarks/tick_count.py vision [--frames 5]      # per 320×240 frame: JPEG, ball
     python benchmarks/tick_count.py guard                    # CI: within 3 % of the record?
     python benchmarks/tick_count.py record                   # record this interpreter's figure
@@ -286,17 +286,22 @@ BREAKDOWN = (
 
 
 def _resolve(daemon: Any, name: str) -> tuple[Any, str]:
+    import robot_daemon.bus.dxl as dxl
     import robot_daemon.engine.daemon as engine
     import robot_daemon.motion.walking.gait as gait
 
     where = {"daemon": daemon, "bus": daemon.bus, "manager": daemon.manager, "engine": engine,
-             "gait": gait, "walking": daemon.manager.module("walking"), "pub": daemon.pub,
-             "stats": daemon.stats}
+             "dxl": dxl, "gait": gait, "walking": daemon.manager.module("walking"),
+             "pub": daemon.pub, "stats": daemon.stats}
     head, *path, attr = name.split(".")
     obj = where[head]
     for part in path:
         obj = getattr(obj, part)
     return obj, attr
+
+
+def breakdown_parts(args: argparse.Namespace) -> tuple[str, ...]:
+    return tuple(args.parts.split(",")) if args.parts else BREAKDOWN
 
 
 def child_breakdown(args: argparse.Namespace) -> None:
@@ -322,7 +327,7 @@ def child_breakdown(args: argparse.Namespace) -> None:
     for _ in range(args.ticks):
         wrapped_empty()
     cg.dump("overhead")
-    for name in BREAKDOWN:
+    for name in breakdown_parts(args):
         obj, attr = _resolve(daemon, name)
         original = getattr(obj, attr)
         setattr(obj, attr, counted(original))
@@ -337,11 +342,11 @@ def child_breakdown(args: argparse.Namespace) -> None:
 
 def count_breakdown(args: argparse.Namespace, out_dir: Path) -> list[Count]:
     out = out_dir / "breakdown.out"
-    valgrind(["child-breakdown", "--ticks", str(args.ticks), "--warm", str(args.warm)],
-             args.python, out)
+    child = ["child-breakdown", "--ticks", str(args.ticks), "--warm", str(args.warm)]
+    valgrind(child + (["--parts", args.parts] if args.parts else []), args.python, out)
     found = parts(out)
     over = Count.from_events("", args.ticks, found["overhead"])
-    return [Count.from_events(name, args.ticks, found[name]) for name in BREAKDOWN] + [over]
+    return [Count.from_events(n, args.ticks, found[n]) for n in breakdown_parts(args)] + [over]
 
 
 # The guard's recorded figures: hot walking tick, instructions, by interpreter (callgrind counts
@@ -517,6 +522,8 @@ def main() -> int:
     parser.add_argument("--frames", type=int, default=5, help="camera frames counted per part")
     parser.add_argument("--ticks", type=int, default=40, help="ticks counted per figure")
     parser.add_argument("--warm", type=int, default=60, help="ticks run before counting")
+    parser.add_argument("--parts", help="breakdown: only these parts (comma-separated names "
+                        "as BREAKDOWN spells them, e.g. bus.frame,engine.take)")
     parser.add_argument("--python", default=sys.executable, help="the interpreter to count")
     parser.add_argument("--json", help="also write the figures here")
     args = parser.parse_args()

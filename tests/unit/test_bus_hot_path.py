@@ -3,13 +3,24 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
 
 from config.loader import load_all, robot_from_dict
-from robot_daemon.bus.bulk_receive import LATENESS_STEP_MS, MAX_LATENESS_MS, next_lateness
+from robot_daemon.bus.bulk_receive import (
+    LATENESS_STEP_MS,
+    MAX_LATENESS_MS,
+    BulkPlan,
+    BulkResult,
+    next_lateness,
+    receive,
+)
 from robot_daemon.bus.calibration import Calibration
+from robot_daemon.bus.dxl import ReplyBudget
+from robot_daemon.bus.packet import status_packet
+from robot_daemon.bus.transport import Transport
 from schemas import units
 
 
@@ -60,3 +71,63 @@ def test_lateness_goes_towards_what_was_seen_after_more_reads() -> None:
 
 def test_lateness_is_bounded_whatever_was_seen() -> None:
     assert next_lateness(1.9, 2, 500.0) == MAX_LATENESS_MS
+
+
+class _Chunks(Transport):
+    """Hands out the given chunks one read at a time, on a clock that never waits."""
+
+    def __init__(self, chunks: list[bytes]) -> None:
+        super().__init__("chunks")
+        self.set_baud(1_000_000)
+        self.chunks = list(chunks)
+        self.now = 0.0
+
+    def open(self, baudrate: int) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+    def getCurrentTime(self) -> float:
+        return self.now
+
+    def idle_until(self, clock_ms: float) -> None:
+        self.now = max(self.now, clock_ms)
+
+    def read_chunk(self, deadline_ms: float) -> bytes:
+        return self.chunks.pop(0) if self.chunks else b""
+
+
+def _received(plan: BulkPlan, chunks: list[bytes]) -> tuple[Any, ...]:
+    out = BulkResult()
+    got = receive(_Chunks(chunks), plan, 0.0, 0.0, out)
+    return out.data, list(out.errors.items()), out.corrupt, got.missing, got.heard
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_a_whole_answer_at_once_is_taken_as_reply_by_reply(seed: int) -> None:
+    """The bulk read's whole-answer shortcut (one unpack, one checksum pass) gives what the
+    reply-by-reply loop gives: data, error bits, corrupt replies, who is missing or heard."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 23))
+    ids = [int(i) for i in rng.choice(np.arange(1, 60), n, replace=False)]
+    blocks = [(i, 24, int(rng.integers(1, 31))) for i in ids]
+    plan = BulkPlan.make(blocks, ReplyBudget(), 0.01)
+    replies = [
+        bytearray(status_packet(i, int(rng.choice([0, 0, 0, 4, 32])), rng.bytes(length)))
+        for i, _, length in blocks
+    ]
+    fault = int(rng.integers(0, 4))
+    bad = int(rng.integers(0, n))
+    if fault == 1:
+        replies[bad][-1] ^= 0x01  # a bad checksum
+    elif fault == 2:
+        replies[bad][2] = 99  # a header naming someone else
+    whole = b"".join(replies)
+    # The loop's way: the first reply alone, then the rest (never all at once).
+    cut = len(replies[0])
+    one_by_one = _received(plan, [whole[:cut], whole[cut:]] if n > 1 else [whole[:-1], whole[-1:]])
+    at_once = _received(plan, [whole])
+    assert at_once == one_by_one
+    if fault == 0:
+        assert at_once[0] == {i: bytes(r[5:-1]) for i, r in zip(ids, replies, strict=True)}
