@@ -7,11 +7,12 @@ constants (contract version, joint order, default pose, observation layout, acti
 must match the contract and the daemon's, or a Python callable
 ``module:name`` / ``path.py:name`` taking the observation vector and returning the action (an
 object with ``reset()`` is reset first; ``rate_hz`` on it sets the rate). The loop is the
-daemon's policy stream: take the lease, start the stream, answer each observation with one
-action. Any key (or Ctrl-C) is an e-stop: ``halt``, then the lease goes. ``--dry-run`` takes no
-lease and only publishes what it would send on ``…/policy/dry_run``. ``--sim`` runs the fast
-backend (on the stack's full MuJoCo model) instead of a robot (``--push N`` shoves it every 2 s)
-and says how long it stood.
+daemon's policy stream: take the lease, bring the robot to the default pose at rest (the stand
+page when it stands elsewhere: clients/learn/stream.py), start the stream, answer each
+observation with one action. Any key (or Ctrl-C) is an e-stop: ``halt``, then the lease goes.
+``--dry-run`` takes no lease and only publishes what it would send on ``…/policy/dry_run``.
+``--sim`` runs the fast backend (on the stack's full MuJoCo model) instead of a robot (``--push
+N`` shoves it every 2 s) and says how long it stood.
 """
 
 from __future__ import annotations
@@ -169,6 +170,8 @@ def run_robot(args: argparse.Namespace, policy: Policy, rate: float) -> int:
         meta = getattr(policy, "meta", None)
         if not args.dry_run:
             robot.acquire()
+            # The policy starts where it was trained to: at rest in the default pose.
+            print(f"pose: {stream.stand()}", flush=True)
             scale = float(meta[META_SCALE]) if meta else None
             stream.start(rate_hz=rate, scale=scale)
             why = contract_mismatch(meta, stream.info) if meta else ""

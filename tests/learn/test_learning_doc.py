@@ -99,6 +99,9 @@ def test_the_shipped_policy_runs_on_the_simulated_stack_and_as_on_the_robot(
             assert res.returncode == 0, res.stdout + res.stderr
             lines = res.stdout.splitlines()
             assert lines[0].endswith(f"at 50 Hz ({engine})")
+            # `darwin up` leaves the servos centred (legs straight): the run stood the robot in
+            # the default pose first, or its first actions would have jumped the joints there.
+            assert lines[2].startswith("pose: played the stand page (r_knee was 0.93 rad"), lines
             sent = int(lines[-1].split()[1])
             assert lines[-1].startswith("actions: ") and sent > 50, lines[-1]
 
@@ -129,7 +132,7 @@ def test_the_page_python_examples_run(
     monkeypatch.setenv("DARWIN_ENDPOINT", robot_system.endpoint)
     monkeypatch.setenv("DARWIN_ROBOT", robot_system.robot)
     exec(compile(stream_example, str(PAGE), "exec"), {})
-    # target (20 rad), clipped (capped by max_delta unless the robot already stood there), latency
+    # target (20 rad), clipped, latency
     out = capsys.readouterr().out.strip()
     target = re.match(r"\[([^\]]*)\]", out)
     assert target is not None and len(target.group(1).split(",")) == 20
