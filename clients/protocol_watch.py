@@ -1,13 +1,15 @@
 """A client's watch on the daemon's announced versions (``status.version``/``status.protocol``):
 every status is checked by the one check, :func:`schemas.versions.check_daemon`; a minor skew is
-logged once per announcement, a major one is kept and refuses every later command."""
+logged once per announcement, a major one is kept and refuses every later command. A UI
+listens for both (:meth:`~ProtocolWatch.listen`): a daemon's first status can come later than any
+wait at connect on a loaded machine, and its upgrade may announce another version later."""
 
 from __future__ import annotations
 
 import contextlib
 import logging
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import zenoh
@@ -27,6 +29,18 @@ class ProtocolWatch:
         self.error: IncompatibleProtocolError | None = None
         self._seen: Any = None  # the last announcement checked
         self._cond = threading.Condition()
+        self._listeners: list[Callable[[str | None, IncompatibleProtocolError | None], None]] = []
+
+    def listen(
+        self, callback: Callable[[str | None, IncompatibleProtocolError | None], None]
+    ) -> None:
+        """``callback(warning, error)`` for the announcement already seen (if any) and each new
+        one, on the thread that saw it."""
+        with self._cond:
+            self._listeners.append(callback)
+            seen, warning, error = self._seen is not None, self.warning, self.error
+        if seen:
+            callback(warning, error)
 
     def observe(self, payload: bytes | Mapping[str, Any]) -> None:
         """A status arrived: decoded (its fields), or the raw payload (a daemon of another major
@@ -54,6 +68,9 @@ class ProtocolWatch:
         with self._cond:
             self._seen, self.warning, self.error = seen, warning, error
             self._cond.notify_all()
+            listeners = list(self._listeners)
+        for callback in listeners:
+            callback(warning, error)
         if warning:
             log.warning("%s", warning)
         if error:

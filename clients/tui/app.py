@@ -25,7 +25,14 @@ from clients.tui.connect import ConnectScreen, RobotFinder
 from clients.tui.help import HelpScreen
 from clients.tui.i18n import N_, _
 from clients.tui.link import CommandDone, Link
-from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry, TelemetryReady
+from clients.tui.messages import (
+    LinkChanged,
+    LinkInfo,
+    LinkState,
+    Telemetry,
+    TelemetryReady,
+    VersionNotice,
+)
 from clients.tui.model import Model
 from clients.tui.settings import Settings, default_path
 from clients.tui.tabs.actions import ActionsTab
@@ -270,6 +277,9 @@ class DarwinApp(App[None]):
         if topic == "camera" and not (self.link.watching_camera or not self._connect_on_mount):
             return  # a frame still in flight after the camera went out of view
         self.model.add(topic, sample)
+
+    def on_version_notice(self, message: VersionNotice) -> None:
+        self.notify(message.text, severity="warning", timeout=10)
 
     def on_link_changed(self, message: LinkChanged) -> None:
         info = message.info

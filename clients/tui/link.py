@@ -25,7 +25,13 @@ from textual.app import App
 from textual.message import Message
 
 from clients.robot import Robot, Subscription
-from clients.tui.messages import LinkChanged, LinkInfo, LinkState, TelemetryReady
+from clients.tui.messages import (
+    LinkChanged,
+    LinkInfo,
+    LinkState,
+    TelemetryReady,
+    VersionNotice,
+)
 from schemas import messages as wire
 from schemas.errors import ClientError, DarwinError, IncompatibleProtocolError
 from schemas.roles import Role
@@ -169,15 +175,23 @@ class Link:
             self.role = None
         alive = robot.alive(1.0)
         try:
-            # Its first status says its versions (a later one: commands refuse).
-            skew = robot.check_protocol(3.0) if alive else None
-            if skew:
-                with contextlib.suppress(Exception):  # an app closing under us
-                    self.app.call_from_thread(self.app.notify, skew, severity="warning")
+            # Its first status says its versions: another major is refused before CONNECTED
+            # shows, when that status comes in time.
+            if alive:
+                robot.check_protocol(3.0)
         except IncompatibleProtocolError as exc:
             self._set(LinkState.UNREACHABLE, ep, name, str(exc))
             return
         self._set(LinkState.CONNECTED if alive else LinkState.NO_DAEMON, ep, name)
+
+        def on_versions(warning: str | None, error: IncompatibleProtocolError | None) -> None:
+            # Whenever the announcement comes (a loaded machine, a daemon upgraded under us).
+            if error is not None:
+                self._set(LinkState.UNREACHABLE, ep, name, str(error))
+            elif warning:
+                self.app.post_message(VersionNotice(warning))
+
+        robot.protocol.listen(on_versions)
 
         def on_token(sample: zenoh.Sample) -> None:
             up = sample.kind == zenoh.SampleKind.PUT

@@ -25,6 +25,14 @@ class LinkState(StrEnum):
     CONNECTED = "connected"
 
 
+class VersionNotice(Message, bubble=False):
+    """The daemon announced a version this client works with but is older than (``text``)."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__()
+        self.text = text
+
+
 class TelemetryReady(Message, bubble=False):
     """The link's inbox has samples: the app takes them (``Link.take``)."""
 

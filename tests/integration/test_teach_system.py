@@ -89,10 +89,14 @@ def test_limp_move_capture_mirror_save_reload_play(teach_system) -> None:
                 "joints", lambda m: all(abs(m.position[i]) < 0.02 for i in range(6)), timeout=10
             )
             robot.page_play(200)
-            events.wait(
+            finished = events.wait(
                 lambda e: e.kind == "action" and e.message == "page 200 (taught) finished",
                 timeout=15,
             )
+            # The event goes out after that tick's goals are written, but the emulator may not
+            # have read them off the pty yet (a loaded host): a later tick's reading was answered
+            # after them (one ordered stream), so then its registers hold them.
+            robot.wait_for("joints", lambda m: m.stamp > finished.stamp, timeout=10)
             servos = sim_servos(sim)
             for name, deg in step.items():
                 if name in ("time", "pause"):

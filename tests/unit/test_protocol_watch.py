@@ -1,4 +1,6 @@
-"""A client's watch on the daemon's announced versions judges status messages only."""
+"""A client's watch on the daemon's announced versions: it judges status messages only, and a
+UI hears of them whenever a status says them, not only within a wait at connect (on a loaded
+machine the first status came after the TUI's 3 s wait and the skew was never shown)."""
 
 from __future__ import annotations
 
@@ -26,3 +28,32 @@ def test_a_status_of_another_major_is_still_refused() -> None:
     watch.observe(msgpack.packb(other))
     with pytest.raises(IncompatibleProtocolError, match="speaks protocol"):
         watch.refuse()
+
+
+MAJOR, MINOR = PROTOCOL_VERSION
+
+
+def status(protocol: tuple[int, int]) -> dict[str, object]:
+    return {"type": "status", "robot": "r1", "protocol": list(protocol), "version": "9.9.9"}
+
+
+def test_a_listener_hears_an_announcement_that_comes_after_the_wait() -> None:
+    watch = ProtocolWatch("this test")
+    assert watch.wait(0.0) is None  # nothing announced yet: the wait at connect gives up
+    heard: list[tuple[str | None, IncompatibleProtocolError | None]] = []
+    watch.listen(lambda w, e: heard.append((w, e)))
+    assert heard == []
+    watch.observe(status((MAJOR, MINOR + 1)))
+    watch.observe(status((MAJOR, MINOR + 1)))  # the same announcement again: heard once
+    assert len(heard) == 1 and heard[0][1] is None
+    assert heard[0][0] is not None and "upgrade this client" in heard[0][0]
+    watch.observe(status((MAJOR + 1, 0)))  # upgraded under us to another major
+    assert len(heard) == 2 and isinstance(heard[1][1], IncompatibleProtocolError)
+
+
+def test_a_listener_added_later_hears_what_was_already_announced() -> None:
+    watch = ProtocolWatch("this test")
+    watch.observe(status((MAJOR, MINOR + 1)))
+    heard: list[str | None] = []
+    watch.listen(lambda w, e: heard.append(w))
+    assert len(heard) == 1 and heard[0] is not None and "upgrade this client" in heard[0]
