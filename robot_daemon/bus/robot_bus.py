@@ -110,6 +110,9 @@ class RobotBus:
         self._gain_rows = [(0, 0, 0)] * N_SLOTS
         for j in robot.joints:
             self._gain_rows[j.id] = (j.d, j.i, j.p)
+        # The goals' slots of the state by the joints written (a handful of sets in use): an
+        # index array made once, not a list turned into one every tick.
+        self._goal_at: dict[tuple[int, ...], np.ndarray] = {}
 
     # -- calibration ---------------------------------------------------------------------------
     def raw_to_joint(self, jid: int, raw: int | float) -> float:
@@ -413,7 +416,12 @@ class RobotBus:
         c.limit_clamps += clamps
         if not written:
             return
-        st.goal[list(written)] = list(written.values())
+        at = self._goal_at.get(tuple(written))
+        if at is None:
+            if len(self._goal_at) > 64:
+                self._goal_at.clear()
+            at = self._goal_at[tuple(written)] = np.array(list(written), np.intp)
+        st.goal[at] = np.fromiter(written.values(), st.goal.dtype, len(written))
         self._bus().sync_write_rows(SYNC_WRITE_START, SYNC_WRITE_LENGTH, bytes(row))
         c.sync_writes += 1
         c.goal_writes += len(written)

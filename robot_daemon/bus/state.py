@@ -3,7 +3,9 @@ block decoded, and the bus counters published in ``status.bus``."""
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import Any
 
 import numpy as np
@@ -76,9 +78,14 @@ def cm730_field(block: bytes, reg: CM730) -> int:
     return field_value(block, CM730_BULK_START, reg.reg)
 
 
-# Where each axis's word is in the CM-730's bulk-read block, in robot axes (x, y, z).
+# The IMU's six words are one run of the CM-730's bulk-read block (GYRO_Z … ACCEL_Z), read
+# with one unpack; each axis's word in it, in robot axes (x, y, z), picked in one call.
 _GYRO_AT = tuple(reg.reg.address - CM730_BULK_START for reg, _ in IMU_GYRO_AXES)
 _ACCEL_AT = tuple(reg.reg.address - CM730_BULK_START for reg, _ in IMU_ACCEL_AXES)
+_IMU_FIRST = min(_GYRO_AT + _ACCEL_AT)
+_IMU_WORDS = struct.Struct(f"<{(max(_GYRO_AT + _ACCEL_AT) - _IMU_FIRST) // 2 + 1}H")
+_GYRO_PICK = itemgetter(*((o - _IMU_FIRST) // 2 for o in _GYRO_AT))
+_ACCEL_PICK = itemgetter(*((o - _IMU_FIRST) // 2 for o in _ACCEL_AT))
 _GYRO_SIGN = tuple(s for _, s in IMU_GYRO_AXES)
 _ACCEL_SIGN = tuple(s for _, s in IMU_ACCEL_AXES)
 
@@ -87,10 +94,8 @@ def imu_raw(block: bytes) -> tuple[list[int], list[int]]:
     """Gyro and accelerometer counts in robot axes (x, y, z)."""
     if not block:
         return [units.IMU_CENTER] * 3, [units.IMU_CENTER] * 3
-    return (
-        [block[o] | block[o + 1] << 8 for o in _GYRO_AT],
-        [block[o] | block[o + 1] << 8 for o in _ACCEL_AT],
-    )
+    words = _IMU_WORDS.unpack_from(block, _IMU_FIRST)
+    return list(_GYRO_PICK(words)), list(_ACCEL_PICK(words))
 
 
 def imu_si(
