@@ -25,29 +25,53 @@ from schemas.messages import Message
 class Prepacked:
     """``pack(values)`` → the bytes of ``encode(cls(**fixed, **values))``; ``values`` in the
     order of :attr:`fields` (the message's fields that are not ``fixed``). Not thread-safe:
-    one per thread that packs."""
+    one per thread that packs.
+
+    Each run of consecutive fields given per call is packed by one C call, as a map of just
+    those fields whose header is left off: a map's pairs are its keys and values packed one
+    after the other, so the bytes are those of packing each key and value alone, without a
+    Python step per field."""
 
     def __init__(self, cls: type[Message], fixed: Mapping[str, Any]) -> None:
         packer = msgpack.Packer(use_bin_type=True)
         names = (*(f.name for f in dataclasses.fields(cls)), "v", "type")
         fixed = {**fixed, "v": SCHEMA_VERSION, "type": cls.TYPE}
         chunks = [bytearray(packer.pack_map_header(len(names)))]
+        runs: list[list[str]] = []
         fields: list[str] = []
         for name in names:
-            chunks[-1] += packer.pack(name)
             if name in fixed:
+                if runs and len(chunks) == len(runs):
+                    chunks.append(bytearray())  # the fixed bytes after a run
+                chunks[-1] += packer.pack(name)
                 chunks[-1] += packer.pack(fixed[name])
             else:
                 fields.append(name)
-                chunks.append(bytearray())
+                if len(runs) < len(chunks):
+                    runs.append([])  # a run starts after fixed bytes
+                runs[-1].append(name)
+        if len(chunks) == len(runs):
+            chunks.append(bytearray())
         self.fields = tuple(fields)
         self._chunks = [bytes(c) for c in chunks]
+        # (names, the length of a map header of that many, where its values start)
+        self._runs = [
+            (tuple(r), len(packer.pack_map_header(len(r))), fields.index(r[0])) for r in runs
+        ]
         self._pack = msgpack.Packer(use_bin_type=True).pack
 
     def pack(self, values: list[Any]) -> bytes:
+        if len(values) != len(self.fields):
+            raise ValueError(f"{len(values)} values for the {len(self.fields)} fields "
+                             f"{', '.join(self.fields)}")
         chunks, pack = self._chunks, self._pack
-        out = [chunks[0]]
-        for value, chunk in zip(values, chunks[1:], strict=True):
-            out.append(pack(value))
+        if len(self._runs) == 1:  # joints and IMU: one C call
+            names, header, _ = self._runs[0]
+            body = pack(dict(zip(names, values, strict=True)))
+            return b"".join((chunks[0], memoryview(body)[header:], chunks[1]))
+        out: list[bytes | memoryview] = [chunks[0]]
+        for (names, header, at), chunk in zip(self._runs, chunks[1:], strict=True):
+            body = pack(dict(zip(names, values[at : at + len(names)], strict=True)))
+            out.append(memoryview(body)[header:])
             out.append(chunk)
         return b"".join(out)
