@@ -102,8 +102,12 @@ def test_the_shipped_policy_runs_on_the_simulated_stack_and_as_on_the_robot(
             # `darwin up` leaves the servos centred (legs straight): the run stood the robot in
             # the default pose first, or its first actions would have jumped the joints there.
             assert lines[2].startswith("pose: played the stand page (r_knee was 0.93 rad"), lines
-            sent = int(lines[-1].split()[1])
-            assert lines[-1].startswith("actions: ") and sent > 50, lines[-1]
+            # It streamed until --seconds and the daemon applied what came. How many: a starved
+            # test process sends fewer (the daemon holds the targets meanwhile); the rate is
+            # benchmarks/learn_benchmark.py's, whether a policy stands a shove push_table.py's.
+            summary = r"actions: (\d+) sent, applied (\d+), missed deadlines \d+"
+            done = re.fullmatch(summary, lines[-1])
+            assert done is not None and 0 < int(done[2]) <= int(done[1]), lines[-1]
 
 
 def test_the_page_record_command_writes_a_dataset(
