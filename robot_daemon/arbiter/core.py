@@ -13,6 +13,7 @@ the intake thread, so a busy loop never makes a holder look silent.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import queue
 import threading
@@ -45,6 +46,17 @@ log = logging.getLogger(__name__)
 BUS_VERBS = frozenset(v.name for v in SPEC.values() if v.bus)
 # Halts are cheap (no bus I/O) and always first; this only bounds a flood of them per tick.
 MAX_HALTS_PER_TICK = 64
+
+
+def misdirected(key: str, served: str) -> None:
+    """Refuse a query whose key is not exactly ``served``, the key of the queryable it reached
+    (``Reject``, nothing run)."""
+    if key != served:
+        raise Reject(
+            ErrorCode.INVALID,
+            f"query on {key!r} reached the queryable of {served!r}: refused, nothing was run "
+            "(a command goes to one robot's one verb, darwin/<robot>/cmd/<verb>, no wildcards)",
+        )
 
 
 @dataclass
@@ -88,7 +100,8 @@ class Arbiter:
         self._credit_at = time.monotonic()
         self._read_cost = 0.002  # s, running estimate of one client read
         self._qlock = threading.Lock()
-        self._incoming: queue.SimpleQueue[zenoh.Query | None] = queue.SimpleQueue()
+        # Each query with the key of the queryable it reached (see _intake).
+        self._incoming: queue.SimpleQueue[tuple[str, zenoh.Query] | None] = queue.SimpleQueue()
         self._done: queue.SimpleQueue[Pending | None] = queue.SimpleQueue()
         self._outstanding: dict[int, Pending] = {}
         self._parked = ParkedAnswers(self._finish_query)  # throttled answers, held back
@@ -107,7 +120,8 @@ class Arbiter:
         served = [*map(keys.cmd, VERBS), *map(keys.admin, ADMIN_VERBS)]
         served += map(keys.read, READ_OP_VERBS)
         self._queryables = [
-            session.declare_queryable(key, self._incoming.put, complete=True) for key in served
+            session.declare_queryable(key, functools.partial(self._arrived, key), complete=True)
+            for key in served
         ]
         self._threads = [
             threading.Thread(target=self._intake, name="arbiter-intake", daemon=True),
@@ -125,14 +139,23 @@ class Arbiter:
             client = str(sample.key_expr).rsplit("/", 1)[-1]
             self.lease.client_gone(client)
 
+    def _arrived(self, served: str, query: zenoh.Query) -> None:
+        self._incoming.put((served, query))
+
     def _intake(self) -> None:
         """Check queries and queue them for the motion thread, in arrival order."""
         while True:
-            query = self._incoming.get()
-            if query is None:
+            item = self._incoming.get()
+            if item is None:
                 return
-            verb_name = verb_of(str(query.key_expr))
+            served, query = item
+            # The verb is the queryable's own, never read off the query's key: the envelope
+            # does not name it, so a query whose key is not exactly this queryable's (a wildcard
+            # such as darwin/*/cmd/led, or one Zenoh handed to the wrong queryable) would
+            # otherwise run as whichever verb its key happens to end in.
+            verb_name = verb_of(served)
             try:
+                misdirected(str(query.key_expr), served)
                 self._admit(query, verb_name)
             except Reject as r:
                 if r.code == ErrorCode.RATE_LIMITED:
