@@ -335,9 +335,6 @@ class WalkingModule(MotionModule):
         y_swap = _wsin(t, self.period, 0, y_swap_amp, 0)
         z_swap = _wsin(t, self.period / 2, math.pi * 3 / 2, p.swing_top_down, p.swing_top_down)
 
-        def move(tt: float, period: float, start: float, extra: float, mag: float, shift: float):
-            return _wsin(tt, period, math.pi / 2 + 2 * math.pi / period * start + extra, mag, shift)
-
         # Left foot swings in [start_l, end_l], the right in [start_r, end_r]; outside its own
         # window each trajectory holds the value at the window's edge (Walking.cpp).
         sl, el, sr, er = self.ssp_start_l, self.ssp_end_l, self.ssp_start_r, self.ssp_end_r
@@ -351,16 +348,23 @@ class WalkingModule(MotionModule):
             txy, start, extra, zl_t, zr_t = t, sr, math.pi, el, t
         else:
             txy, start, extra, zl_t, zr_t = er, sr, math.pi, el, er
-        tl = tr = txy
-        el = extra
-        x_l = move(tl, self.x_move_period, start, el, xm, 0)
-        y_l = move(tl, self.y_move_period, start, el, ym, abs(ym))
-        c_l = move(tl, self.a_move_period, start, el, am, abs(am))
-        x_r = move(tr, self.x_move_period, start, el, -xm, 0)
-        y_r = move(tr, self.y_move_period, start, el, -ym, -abs(ym))
-        c_r = move(tr, self.a_move_period, start, el, -am, -abs(am))
-        z_l = move(zl_t, self.z_move_period, self.ssp_start_l, 0, zm, zm)
-        z_r = move(zr_t, self.z_move_period, self.ssp_start_r, 0, zm, zm)
+        # Walking.cpp's wsin(t, period, π/2 + 2π/period · start + extra, mag, shift) for each
+        # foot's move, written out: both feet's x, y and yaw moves share one sine of one
+        # phase (only their magnitude and shift differ), so six calls are three sines, in the
+        # same arithmetic as _wsin (the same bits).
+        sin = math.sin
+        w = 2 * math.pi / self.x_move_period
+        s_x = sin(w * txy - (math.pi / 2 + w * start + extra))
+        w = 2 * math.pi / self.y_move_period
+        s_y = sin(w * txy - (math.pi / 2 + w * start + extra))
+        w = 2 * math.pi / self.a_move_period
+        s_a = sin(w * txy - (math.pi / 2 + w * start + extra))
+        x_l, x_r = xm * s_x + 0, -xm * s_x + 0
+        y_l, y_r = ym * s_y + abs(ym), -ym * s_y + -abs(ym)
+        c_l, c_r = am * s_a + abs(am), -am * s_a + -abs(am)
+        w = 2 * math.pi / self.z_move_period
+        z_l = zm * sin(w * zl_t - (math.pi / 2 + w * self.ssp_start_l + 0)) + zm
+        z_r = zm * sin(w * zr_t - (math.pi / 2 + w * self.ssp_start_r + 0)) + zm
 
         pelvis = math.radians(p.pelvis_offset)
         pelvis_swing = pelvis * 0.35
