@@ -213,7 +213,11 @@ def test_lossy_slow_operator_link_neither_slows_observers_nor_repeats_commands(
             operator.call("led", head=SENTINEL)
             break
         except AgentError as exc:
-            retry = ("NoLeaseError", "RobotUnreachableError", "CommandTimeoutError")
+            # UnavailableError: the CM-730 did not answer the LED write (the emulator on a
+            # loaded host, seen in 1 of 15 runs): nothing to do with the link, so sent again.
+            retry = (
+                "NoLeaseError", "RobotUnreachableError", "CommandTimeoutError", "UnavailableError"
+            )  # fmt: skip
             if exc.kind not in retry or time.monotonic() > deadline:
                 raise
             with contextlib.suppress(AgentError):
