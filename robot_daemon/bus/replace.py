@@ -53,6 +53,9 @@ def baud_register(bps: int) -> int:
     return max(0, round(2_000_000 / bps) - 1)
 
 
+SWEEPS = 2  # sweeps of every rate and ID while none answers
+
+
 def find_candidates(
     bus: DxlBus,
     set_rate: Callable[[int], None],
@@ -65,14 +68,20 @@ def find_candidates(
     taken = {*robot_ids, CM730_ID}
     scan = list(scan_ids)
     found: list[Candidate] = []
-    for rate in (57_600, *(b for b in STANDARD_BAUDS if b != 57_600)):
-        set_rate(rate)
-        for dxl_id in scan:
-            if rate == robot_baud and dxl_id in taken:
-                continue
-            ident = identify(bus, dxl_id, tries=1)
-            if ident is not None:
-                found.append(Candidate(dxl_id, rate, ident.model, ident.firmware))
+    # One ping per ID and rate keeps the sweep short; a sweep that heard nothing is made once
+    # more, since one lost reply (a noisy line, a busy computer: the emulator on a loaded host
+    # answered a ping late) would otherwise read as "no new servo".
+    for _sweep in range(SWEEPS):
+        for rate in (57_600, *(b for b in STANDARD_BAUDS if b != 57_600)):
+            set_rate(rate)
+            for dxl_id in scan:
+                if rate == robot_baud and dxl_id in taken:
+                    continue
+                ident = identify(bus, dxl_id, tries=1)
+                if ident is not None:
+                    found.append(Candidate(dxl_id, rate, ident.model, ident.firmware))
+        if found:
+            break
     set_rate(robot_baud)
     return found
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.fixtures.system import REPO, RunningSystem, darwin_command
+from tests.fixtures.system import REPO, RunningSystem, darwin_command, start_system
 
 DEADLINE_S = 30.0
 
@@ -71,7 +71,16 @@ def tmux(tmp_path: Path) -> Iterator[Tmux]:
         subprocess.run(["tmux", "-L", t.socket, "kill-server"], capture_output=True, timeout=10)
 
 
-def test_tui_in_tmux(robot_system: RunningSystem, tmux: Tmux, tmp_path: Path) -> None:
+@pytest.fixture
+def own_system() -> Iterator[RunningSystem]:
+    # A daemon of its own: the shared one has served every UI test of this worker before (in
+    # two CI runs, overloaded with a thousand overruns, the TUI's screen froze on the log tab).
+    with start_system(gateway=False) as system:
+        yield system
+
+
+def test_tui_in_tmux(own_system: RunningSystem, tmux: Tmux, tmp_path: Path) -> None:
+    robot_system = own_system
     env = {
         "XDG_CONFIG_HOME": str(tmp_path / "config"),
         "TERM": "xterm-256color",
