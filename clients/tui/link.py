@@ -45,6 +45,14 @@ RETRY_S = 2.0
 INBOX_SAMPLES = 4000
 
 
+def _drain(items: deque[Any]) -> list[Any]:
+    """Everything in ``items``, oldest first; appends from other threads meanwhile may stay."""
+    out = []
+    for _ in range(len(items)):
+        out.append(items.popleft())
+    return out
+
+
 class Inbox:
     """Samples from Zenoh threads for the app's thread, with one wake-up message at most."""
 
@@ -70,14 +78,8 @@ class Inbox:
         """Everything put since the last take, each stream oldest first (the app's thread)."""
         # Cleared before taking: a put racing with this take wakes the app once more.
         self._woken.clear()
-        out: list[tuple[str, Any]] = []
-        for queue_, topic in ((self._events, "events"), (self._samples, None)):
-            while True:
-                try:
-                    item = queue_.popleft()
-                except IndexError:
-                    break
-                out.append((topic, item) if topic else item)
+        out: list[tuple[str, Any]] = [("events", e) for e in _drain(self._events)]
+        out += _drain(self._samples)
         frame, self._frame = self._frame, None
         if frame is not None:
             out.append(("camera", frame))
