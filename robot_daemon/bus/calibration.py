@@ -8,7 +8,7 @@ come from the robot config. The functions work on one joint (scalars) or on ever
 from __future__ import annotations
 
 import math
-from typing import TypeVar
+from typing import TypeVar, cast
 
 import numpy as np
 
@@ -17,6 +17,9 @@ from robot_daemon.frames import N_SLOTS
 from schemas import units
 
 Angles = TypeVar("Angles", float, np.ndarray)
+# goals_raw's columns of a set of joints: sign, offset, lower and upper limit as goal_raw tests
+# them, and whether every goal within the limits lands inside the servo's range.
+_Columns = tuple[list[float], list[float], list[float], list[float], bool]
 
 
 def servo_to_joint(raw: Angles, direction: Angles, offset_rad: Angles) -> Angles:
@@ -60,6 +63,8 @@ class Calibration:
         # every tick: indexing a list costs a fraction of indexing a numpy array.
         self._sign, self._offset = self.sign.tolist(), self.offset.tolist()
         self._min, self._max = self.min.tolist(), self.max.tolist()
+        # goals_raw's columns by the joints written (a handful of sets in use).
+        self._columns: dict[tuple[int, ...], _Columns] = {}
 
     def set_offset(self, jid: int, offset_deg: float) -> None:
         """A new offset for joint ``jid``, used from the next conversion on (the next goal
@@ -95,6 +100,45 @@ class Calibration:
         raw = int(round((self._sign[jid] * rad + self._offset[jid]) / units.RAD_PER_UNIT))
         raw += units.POSITION_CENTER
         return (0 if raw < 0 else units.POSITION_MAX if raw > units.POSITION_MAX else raw), clamped
+
+    def goals_raw(self, ids: tuple[int, ...], rads: list[float]) -> list[int] | None:
+        """:meth:`goal_raw` of every goal of a tick at once (``ids`` and their ``rads`` in the
+        same order), or None when one is outside its joint's limits or not a number: the
+        caller then converts them one by one, clamping and counting. The same arithmetic, run
+        by one comprehension over columns made once per set of joints (18 calls of
+        :meth:`goal_raw` cost twice as much)."""
+        cols = self._columns.get(ids)
+        if cols is None:
+            if len(self._columns) > 64:
+                self._columns.clear()
+            cols = self._columns[ids] = self._goal_columns(ids)
+        sign, offset, lo, hi, inside = cols
+        k, c = units.RAD_PER_UNIT, units.POSITION_CENTER
+        # Within limits is not below the lower one nor above the upper one; a NaN is neither
+        # (goal_raw's round refuses it).
+        raws = [
+            round((s * r + o) / k) + c if lo_ <= r <= hi_ else None
+            for s, r, o, lo_, hi_ in zip(sign, rads, offset, lo, hi, strict=True)
+        ]
+        if None in raws:
+            return None
+        if not inside:
+            top = units.POSITION_MAX
+            return [0 if r < 0 else top if r > top else r for r in cast("list[int]", raws)]
+        return cast("list[int]", raws)
+
+    def _goal_columns(self, ids: tuple[int, ...]) -> _Columns:
+        """Sign, offset and the limits goal_raw tests of each joint of ``ids``, and whether
+        every goal within them lands inside the servo's 0..4095: the conversion is monotonic
+        (each IEEE operation and ``round`` are), so the ends' goals bound every other."""
+        sign = [self._sign[j] for j in ids]
+        offset = [self._offset[j] for j in ids]
+        lo = [self._min[j] - 1e-9 for j in ids]
+        hi = [self._max[j] + 1e-9 for j in ids]
+        k, c, top = units.RAD_PER_UNIT, units.POSITION_CENTER, units.POSITION_MAX
+        ends = [round((s * r + o) / k) + c for s, o, a, b in zip(sign, offset, lo, hi, strict=True)
+                for r in (a, b)]
+        return sign, offset, lo, hi, all(0 <= e <= top for e in ends)
 
     def in_limits(self, jid: int, rad: float) -> bool:
         return bool(self.min[jid] - 1e-9 <= rad <= self.max[jid] + 1e-9)

@@ -10,8 +10,11 @@ the bulk read and what it tells are the bus's :class:`SensorReader` (``bus/senso
 from __future__ import annotations
 
 import logging
+import struct
 import time
 from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
+from operator import itemgetter
 from typing import Any
 
 import numpy as np
@@ -45,6 +48,17 @@ log = logging.getLogger(__name__)
 SCAN_TRIES = 3
 # How long the daemon keeps asking the CM-730 at start before it gives up (s).
 CM730_WAIT_S = 5.0
+
+
+@dataclass
+class _WritePlan:
+    """The sync write of one set of joints with one set of gains (RobotBus.write_targets)."""
+
+    gains: dict[int, tuple[int, int, int]]  # the gains it was made with
+    torqued: Callable[[list[bool]], tuple[bool, ...]]  # its joints' torque flags
+    at: np.ndarray  # its joints' slots in the state
+    flat: list[int]  # id, D, I, P, 0, goal of each row: the goals filled in each tick
+    rows: struct.Struct  # packs ``flat`` into the rows' bytes
 
 
 class RobotBus:
@@ -113,6 +127,7 @@ class RobotBus:
         # The goals' slots of the state by the joints written (a handful of sets in use): an
         # index array made once, not a list turned into one every tick.
         self._goal_at: dict[tuple[int, ...], np.ndarray] = {}
+        self._write_plans: dict[tuple[int, ...], _WritePlan] = {}
 
     # -- calibration ---------------------------------------------------------------------------
     def raw_to_joint(self, jid: int, raw: int | float) -> float:
@@ -384,8 +399,59 @@ class RobotBus:
 
     def write_targets(self, targets: Targets) -> None:
         """Sync-write gains and goals of the joints the motion layer drives this tick."""
-        if not targets.goal:
+        goal = targets.goal
+        if not goal:
             return
+        # The usual tick: the same joints as a tick before, with the same gains, every one
+        # torqued and within its limits. Their rows are a template made once (ids and gains)
+        # and the goals converted as one batch: the same bytes as the loop below, at a third
+        # of its cost.
+        ids = tuple(goal)
+        plan = self._write_plans.get(ids)
+        if plan is None or plan.gains != targets.gains:
+            plan = self._write_plan(ids, targets.gains)
+        if plan is not None and all(plan.torqued(self.state.torque.tolist())):
+            raws = self.calibration.goals_raw(ids, list(goal.values()))
+            if raws is not None:
+                flat = plan.flat
+                flat[5::6] = raws
+                self.state.goal[plan.at] = raws
+                self._bus().sync_write_rows(SYNC_WRITE_START, SYNC_WRITE_LENGTH,
+                                            plan.rows.pack(*flat))
+                c = self.counters
+                c.sync_writes += 1
+                c.goal_writes += len(ids)
+                return
+        self._write_each(targets)
+
+    def _write_plan(self, ids: tuple[int, ...], gains: dict[int, tuple[int, int, int]]
+                    ) -> _WritePlan | None:
+        """The rows' template of a set of joints with these gains (None for one joint, or a
+        gain that is not a byte: the loop says what is wrong with it)."""
+        flat: list[int] = []
+        for jid in ids:
+            pid = gains.get(jid)
+            if pid is None:
+                d, i, p = self._gain_rows[jid]
+            else:
+                p, i, d = pid
+            flat += (jid, d, i, p, 0, 0)
+        if len(ids) < 2 or not all(type(v) is int and 0 <= v <= 0xFF for v in flat):
+            return None
+        if len(self._write_plans) > 64:
+            self._write_plans.clear()
+        plan = self._write_plans[ids] = _WritePlan(
+            gains=dict(gains),
+            torqued=itemgetter(*ids),
+            at=np.array(ids, np.intp),
+            flat=flat,
+            rows=struct.Struct("<" + "5BH" * len(ids)),
+        )
+        return plan
+
+    def _write_each(self, targets: Targets) -> None:
+        """:meth:`write_targets` a goal at a time: joints without torque skipped, goals
+        outside their limits clamped and counted."""
         st = self.state
         torque = st.torque.tolist()
         goal_raw = self.calibration.goal_raw
@@ -393,8 +459,6 @@ class RobotBus:
         row: list[int] = []  # the packet's rows: id, D, I, P, 0, goal low, goal high
         written: dict[int, int] = {}
         clamps = 0
-        # One plain loop over the goals (about 20): numpy's per-call cost is more than the
-        # work on arrays this small.
         for jid, rad in targets.goal.items():
             # An offline joint that had torque keeps getting its goal, as ROBOTIS's framework
             # writes every enabled joint every tick whatever the replies: a servo whose replies

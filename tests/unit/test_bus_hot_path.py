@@ -131,3 +131,78 @@ def test_a_whole_answer_at_once_is_taken_as_reply_by_reply(seed: int) -> None:
     assert at_once == one_by_one
     if fault == 0:
         assert at_once[0] == {i: bytes(r[5:-1]) for i, r in zip(ids, replies, strict=True)}
+
+
+class _SyncWrites:
+    """The bus's sync writes, as the rows' bytes handed to it."""
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[int, int, bytes]] = []
+
+    def sync_write_rows(self, start: int, length: int, rows: bytes) -> int:
+        self.rows.append((start, length, rows))
+        return len(rows)
+
+
+def _bus_writing_to(writes: _SyncWrites) -> Any:
+    from robot_daemon.bus.robot_bus import RobotBus
+
+    settings = load_all()
+    rb = RobotBus("none", robot_from_dict(settings["robot"]), settings, lambda *a, **k: None)
+    rb.dxl = writes  # type: ignore[assignment]
+    rb.calibration.set_offset(4, 7.5)
+    # Joint 20 allowed further than the servo turns: its goals past 0..4095 are clamped there.
+    rb.calibration.min[20], rb.calibration.max[20] = -3.5, 3.5
+    rb.calibration.set_offset(20, 20.0)
+    rb.state.torque[1:] = True
+    return rb
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_goals_written_as_a_batch_are_the_goals_written_one_by_one(seed: int) -> None:
+    """A tick's goals converted as one batch against a template of rows give the bytes, the
+    state's goals and the counters the goal-by-goal loop gives, over walks of random ticks:
+    joint sets and gains that repeat or change, torque off, goals outside their limits or
+    not a number."""
+    from robot_daemon.frames import Targets
+
+    rng = np.random.default_rng(seed)
+    fast_w, each_w = _SyncWrites(), _SyncWrites()
+    fast, each = _bus_writing_to(fast_w), _bus_writing_to(each_w)
+    legs = [7, 9, 11, 13, 15, 17, 8, 10, 12, 14, 16, 18]
+    sets = [[*legs, 1, 2, 3, 4, 5, 6], list(range(1, 21)), [19, 20], [5], legs[::-1]]
+    gain_sets: list[dict[int, tuple[int, int, int]]] = [
+        {}, dict.fromkeys(legs, (32, 0, 0)), {**dict.fromkeys(legs, (24, 2, 1)), 1: (8, 0, 0)},
+    ]
+    for _ in range(300):
+        ids = sets[int(rng.integers(len(sets)))] if rng.random() < 0.3 else sets[0]
+        gains = dict(gain_sets[int(rng.integers(len(gain_sets)))]) if rng.random() < 0.2 \
+            else dict(gain_sets[1])
+        rads = rng.uniform(-1.2, 1.2, len(ids))
+        if 20 in ids:
+            rads[ids.index(20)] = rng.uniform(-3.5, 3.5)
+        if rng.random() < 0.1:
+            rads[int(rng.integers(len(ids)))] = rng.choice([-4.0, 4.0, math.inf])
+        nan = rng.random() < 0.03
+        if nan:
+            rads[int(rng.integers(len(ids)))] = math.nan
+        if rng.random() < 0.1:
+            off = int(rng.integers(1, 21))
+            fast.state.torque[off] = each.state.torque[off] = False
+        elif rng.random() < 0.2:
+            fast.state.torque[1:] = each.state.torque[1:] = True
+        targets = Targets(goal=dict(zip(ids, rads.tolist(), strict=True)), gains=gains)
+        # A NaN goal of a torqued joint is refused (round's ValueError), by both ways alike.
+        refused: list[str | None] = []
+        for write in (each._write_each, fast.write_targets):
+            try:
+                write(targets)
+                refused.append(None)
+            except ValueError as exc:
+                refused.append(str(exc))
+        assert refused[0] == refused[1]
+        assert nan or refused[0] is None
+        assert fast_w.rows == each_w.rows
+        assert np.array_equal(fast.state.goal, each.state.goal)
+        assert fast.counters == each.counters
+    assert fast._write_plans  # the batch's way was taken
