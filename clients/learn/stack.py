@@ -44,9 +44,13 @@ class StackBackend:
             self.stream.stop()
         self.robot.command("halt")
         self.robot.acquire()
-        self.robot.action("stand")
-        self.robot.wait_for("status", lambda s: not s.motion["action"]["playing"], WAIT)
+        # The stand page when off the default pose (where the robot lies, if it fell), waited
+        # for by its end event, not a status polled for "not playing" (which could be one from
+        # before the page started); then placed upright in that pose and, again on the
+        # observations, at rest.
+        self.stream.stand(timeout=WAIT)
         self.sim.call("place_robot", x=-1.0, y=0.0, yaw=0.0)
+        self.stream.stand(timeout=WAIT)
         self.robot.wait_for("status", lambda s: s.motion["fall"]["state"] == "upright", WAIT)
         self.stream.start(rate_hz=self.rate_hz)
         self.obs = self.stream.next_observation(timeout=WAIT)

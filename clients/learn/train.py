@@ -16,6 +16,9 @@ The file is the deterministic policy (the Gaussian's mean), the observation norm
 and the action clipped to ±1, with the deploy constants in its metadata
 (:func:`clients.learn.onnx_policy.deploy_metadata`) and how it was made (``darwin.training``).
 Each iteration prints one line: steps, mean return and length of the episodes that ended.
+
+``--method ars`` searches a linear reflex instead (:func:`search`: random search scored on the
+shoves stood, docs/learning.md says why); it writes the same kind of file.
 """
 
 from __future__ import annotations
@@ -534,6 +537,323 @@ def export(agent: PPO, out: Path, made: dict[str, Any]) -> None:
     tmp.replace(out)
 
 
+
+# -- augmented random search: a linear reflex, scored on the shoves themselves ----------------
+# PPO fine-tuning the copied controller (above) learnt a stance, not a reflex: its reward pays
+# ~2 a step for staying alive and ~0.01 for the pose, and a shove is one step in 150. Random
+# search (Mania, Guy & Recht 2018, "Simple random search provides a competitive approach to
+# reinforcement learning": ARS V1-t) scores each candidate on what the push table asks, the
+# shoves stood, and needs no value function: a linear map from the sagittal state to the four
+# mirrored pairs, 56 numbers, which is what a standing reflex (ankle and hip strategy) is.
+ARS_SCALES = {"gravity": 0.1, "gyro": 1.0, "joint_pos": 0.1, "joint_vel": 1.0, "last_action": 1.0}
+
+
+def ars_features(pairs: Sequence[str]) -> tuple[np.ndarray, list[str]]:
+    """``[69, n]``: the observation → the features the reflex reads, each scaled to ~1: the
+    gravity's x (tilt forward), the pitch rate, and per pair the position, velocity and last
+    action, (right − left) / 2 (the pairs are mirrored)."""
+    from schemas.policy import OBSERVATION_SLICES as at
+
+    cols, names = [], []
+
+    def col(entries: dict[int, float], name: str) -> None:
+        c = np.zeros(OBSERVATION_SIZE)
+        for i, v in entries.items():
+            c[i] = v
+        cols.append(c)
+        names.append(name)
+
+    col({at["gravity"].start: 1 / ARS_SCALES["gravity"]}, "gravity_x")
+    col({at["gyro"].start + 1: 1 / ARS_SCALES["gyro"]}, "pitch_rate")
+    for field in ("joint_pos", "joint_vel", "last_action"):
+        for joint in pairs:
+            r = at[field].start + JOINT_NAMES.index(f"r_{joint}")
+            lft = at[field].start + JOINT_NAMES.index(f"l_{joint}")
+            k = 0.5 / ARS_SCALES[field]
+            col({r: k, lft: -k}, f"{field}.{joint}")
+    return np.stack(cols, axis=1), names
+
+
+@dataclass
+class SearchSettings:
+    pairs: tuple[str, ...] = Settings.pairs
+    directions: int = 6  # perturbations per generation (each tried + and −)
+    top: int = 3  # the best directions the step follows
+    # Perturbation std per feature (action units per scaled unit): 0.03 threw the copied
+    # controller over before most shoves (a tilt fed to the hips is a loop through the torso).
+    noise: float = 0.02
+    step: float = 0.02
+    # Which of the map's numbers are searched: "reflex" (each pair's answer to the tilt and
+    # the pitch rate, and its own position, velocity and last action: 20 numbers) or "all"
+    # (56: every feature to every pair). On a shared machine a generation of the 56 took
+    # 15–90 s and 10 of them moved nothing: the cross terms add noise faster than signal.
+    search: str = "reflex"
+    episodes: int = 8  # per candidate: half shoved forward, half backward, the same for ±δ
+    # N·s of the shoves forward and backward, each direction's range following the policy (a
+    # curriculum): while the candidates stand more than ``raise_at`` of that direction's
+    # shoves it moves up 0.1 (to ``push_max`` at most), under ``lower_at`` down 0.1: a range
+    # where every candidate falls, or every one stands, scores them all alike and teaches
+    # nothing. Forward starts lower: the robot takes less that way.
+    push: tuple[float, float] = (0.9, 1.5)
+    push_back: tuple[float, float] = (1.2, 1.8)
+    push_max: float = 2.4
+    raise_at: float = 0.7
+    lower_at: float = 0.3
+    shove_at: float = 0.5  # s into a settled start
+    after: float = 2.5  # s run after the shove
+    pose_weight: float = 1.0  # per rad of RMS pose error, averaged over the episode
+    probe_every: int = 5
+    workers: int = 1
+    # "playground": MuJoCo Playground OP3's domain randomisation (:class:`Randomization`);
+    # "latency": only what the simulated stack has that the nominal model lacks (0–10 ms of
+    # action latency, IMU noise). The push table's stack is the nominal model: worlds of low
+    # floor friction and soft servos where no candidate stands a shove score all alike.
+    randomize: str = "playground"
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _worker_env(fast: bool) -> Any:
+    key = f"env{fast}"
+    if key not in _WORKER:
+        import gymnasium as gym
+
+        import clients.learn.env  # noqa: F401
+        from clients.learn.fast import Randomization
+
+        rnd = Randomization.off()
+        if fast and _WORKER.get("randomize", "playground") == "playground":
+            rnd = Randomization()
+        elif fast:
+            rnd.latency, rnd.gyro_noise, rnd.accel_noise = (0.0, 0.01), 0.02, 0.1
+        _WORKER[key] = gym.make("darwin/Stand-v0", randomize=rnd, max_steps=10**6, fast=fast)
+    return _WORKER[key]
+
+
+Task = tuple[np.ndarray, int, float, float, float, float, bool]
+
+
+def _episode(task: Task) -> tuple[float, int]:
+    """One shoved episode of the linear policy ``w`` ([69, outputs] after the features);
+    returns (score, steps stood after the shove)."""
+    from clients.learn.env import PUSH_S
+
+    w, seed, force, shove_at, after, pose_weight, fast = task
+    out_map = _WORKER["out_map"]
+    env = _worker_env(fast)
+    obs, _ = env.reset(seed=seed)
+    at, total = int(shove_at * RATE), int((shove_at + after) * RATE)
+    pos = OBSERVATION_SLICES_JOINT_POS
+    pose_err, stood = 0.0, total - at
+    for k in range(total):
+        if k == at:
+            env.unwrapped.push((force, 0.0, 0.0), PUSH_S)
+        a = np.clip((obs.astype(float) @ w) @ out_map, -1.0, 1.0)
+        obs, _, term, _, _ = env.step(a)
+        q = obs[pos].astype(float)
+        pose_err += math.sqrt(float(q @ q) / len(q))
+        if term:
+            stood = max(0, k + 1 - at)
+            break
+    steps = k + 1
+    up = stood >= total - at
+    score = (1.0 if up else 0.5 * stood / (total - at)) - pose_weight * pose_err / steps
+    return score, stood
+
+
+def _init_worker(out_map: np.ndarray, randomize: str = "playground") -> None:
+    _WORKER["out_map"] = out_map
+    _WORKER["randomize"] = randomize
+
+
+OBSERVATION_SLICES_JOINT_POS = slice(9, 29)
+
+
+class Search:
+    """ARS V1-t over the linear reflex ``M`` ([features, pairs]); the policy's action is
+    ``clip(((obs @ F) @ M) @ out_map, ±1)``."""
+
+    def __init__(self, s: SearchSettings, seed: int) -> None:
+        from schemas.policy import OBSERVATION_SLICES
+
+        assert OBSERVATION_SLICES["joint_pos"] == OBSERVATION_SLICES_JOINT_POS
+        self.s = s
+        self.rng = np.random.default_rng(seed)
+        self.out_map = action_map(s.pairs)
+        self.features, self.names = ars_features(s.pairs)
+        self.m = np.zeros((len(self.names), len(s.pairs)))
+        self.mask = np.ones_like(self.m)
+        if s.search == "reflex":
+            self.mask[:] = 0.0
+            self.mask[:2] = 1.0  # the tilt and the pitch rate, to every pair
+            for k, joint in enumerate(s.pairs):  # each pair's own state
+                for field in ("joint_pos", "joint_vel", "last_action"):
+                    self.mask[self.names.index(f"{field}.{joint}"), k] = 1.0
+        self.push = {1.0: s.push, -1.0: s.push_back}
+        self.best: tuple[int, int, int] = (-1, -1, -1)
+        self.best_m = self.m.copy()
+        self.best_made: dict[str, Any] = {}
+
+    def copy_stand_balance(self) -> None:
+        """Start from stand_balance.py's ankle law, written on these features: its leaky
+        integral is the last ankle action kept (×0.95) plus the tilt's and the rate's share."""
+        from clients.learn.examples import stand_balance as sb
+
+        ankle = list(self.s.pairs).index("ankle_pitch")
+        f = self.names.index
+        self.m[f("last_action.ankle_pitch"), ankle] = sb.LEAK
+        self.m[f("gravity_x"), ankle] = sb.KI / RATE * ARS_SCALES["gravity"]
+        self.m[f("pitch_rate"), ankle] = sb.KD * (1 - sb.LEAK) * ARS_SCALES["gyro"]
+
+    def weights(self, m: np.ndarray | None = None) -> np.ndarray:
+        return self.features @ (self.m if m is None else m)
+
+    def deterministic(self, obs: np.ndarray) -> np.ndarray:
+        return np.clip((np.asarray(obs, float) @ self.weights()) @ self.out_map, -1.0, 1.0)
+
+    def tasks(self, m: np.ndarray, seeds: np.ndarray) -> list[Task]:
+        s, n = self.s, len(seeds)
+        out = []
+        for j, seed in enumerate(seeds):
+            sign = 1.0 if j % 2 == 0 else -1.0
+            lo, hi = self.push[sign]
+            impulse = lo + (hi - lo) * ((j // 2) + 0.5) / max(1, n // 2)
+            out.append((self.weights(m), int(seed), sign * impulse / 0.1, s.shove_at, s.after,
+                        s.pose_weight, True))  # fmt: skip
+        return out
+
+    def generation(self, pool: Any) -> dict[str, Any]:
+        s = self.s
+        deltas = self.rng.normal(size=(s.directions, *self.m.shape)) * self.mask
+        seeds = self.rng.integers(2**31, size=s.episodes)  # the same episodes for every candidate
+        tasks = []
+        for d in deltas:
+            tasks += self.tasks(self.m + s.noise * d, seeds)
+            tasks += self.tasks(self.m - s.noise * d, seeds)
+        results = pool.map(_episode, tasks) if pool is not None else list(map(_episode, tasks))
+        scores = np.array([r[0] for r in results]).reshape(s.directions, 2, s.episodes)
+        stood = np.array([r[1] for r in results]).reshape(s.directions, 2, s.episodes)
+        total = int((s.after) * RATE)
+        r_plus, r_minus = scores[:, 0].mean(axis=1), scores[:, 1].mean(axis=1)
+        order = np.argsort(-np.maximum(r_plus, r_minus))[: s.top]
+        sigma = float(np.concatenate([r_plus[order], r_minus[order]]).std()) + 1e-6
+        step = np.tensordot(r_plus[order] - r_minus[order], deltas[order], axes=1)
+        self.m = self.m + s.step / (s.top * sigma) * step
+        up = float(np.mean(stood >= total))
+        push = dict(self.push)
+        for sign, k in ((1.0, 0), (-1.0, 1)):
+            lo, hi = self.push[sign]
+            frac = float(np.mean(stood[:, :, k::2] >= total))
+            if frac > s.raise_at and hi < s.push_max:
+                self.push[sign] = (lo + 0.1, hi + 0.1)
+            elif frac < s.lower_at and lo > 0.5:
+                self.push[sign] = (lo - 0.1, hi - 0.1)
+        return {"score": float(scores.mean()), "stood": up, "forward": push[1.0],
+                "backward": push[-1.0]}
+
+    def probe(self, pool: Any, impulses: Sequence[float]) -> tuple[list[int], list[int]]:
+        """The push table's protocol on the nominal full model: per impulse, whether a shove
+        forward and one backward were stood (steps after the shove)."""
+        tasks = [(self.weights(), 0, sign * i / 0.1, SHOVE_AT, SHOVE_RUN - SHOVE_AT, 0.0, False)
+                 for i in impulses for sign in (1.0, -1.0)]  # fmt: skip
+        results = pool.map(_episode, tasks) if pool is not None else list(map(_episode, tasks))
+        stood = [r[1] >= SHOVE_STEPS for r in results]
+        return [int(x) for x in stood[0::2]], [int(x) for x in stood[1::2]]
+
+
+def search(
+    s: SearchSettings,
+    seed: int,
+    generations: int,
+    minutes: float = 0.0,
+    out: Path | None = None,
+    log: Any = sys.stdout,
+    imitate: bool = True,
+) -> Search:
+    """Random search; every ``probe_every`` generations the policy is shoved on the full model
+    as the push table shoves it (1.0–2.0 N·s each way) and the file keeps the best: most
+    impulses stood in the weaker direction, then in all, then the later."""
+    import multiprocessing
+
+    agent = Search(s, seed)
+    if imitate:
+        agent.copy_stand_balance()
+    ctx = multiprocessing.get_context("fork")
+    init = (agent.out_map, s.randomize)
+    pool = ctx.Pool(s.workers, _init_worker, init) if s.workers > 1 else None
+    _init_worker(*init)
+    t0 = time.monotonic()
+    impulses = PROBE_SWEEP
+    try:
+        for g in range(generations):
+            stats = agent.generation(pool)
+            elapsed = time.monotonic() - t0
+            fwd_r, back_r = stats["forward"], stats["backward"]
+            print(f"generation {g + 1} shoves forward {fwd_r[0]:.1f}-{fwd_r[1]:.1f} backward "
+                  f"{back_r[0]:.1f}-{back_r[1]:.1f} N·s "
+                  f"score {stats['score']:.3f} stood {stats['stood']:.2f} "
+                  f"|M| {float(np.abs(agent.m).sum()):.2f} elapsed {elapsed:.0f} s",
+                  file=log, flush=True)  # fmt: skip
+            last = minutes and elapsed > minutes * 60
+            if (g + 1) % s.probe_every == 0 or last or g + 1 == generations:
+                fwd, back = agent.probe(pool, impulses)
+                score = (min(sum(fwd), sum(back)), sum(fwd) + sum(back), g + 1)
+                better = score[:2] >= agent.best[:2]
+                print(f"probe {g + 1}: stood forward {_stood(impulses, fwd)}; backward "
+                      f"{_stood(impulses, back)}{' (best so far, written)' if better else ''}",
+                      file=log, flush=True)  # fmt: skip
+                if better:
+                    agent.best, agent.best_m = score, agent.m.copy()
+                    agent.best_made = {"generations": g + 1, "probe": {
+                        "impulses": list(impulses), "forward": fwd, "backward": back}}
+                    if out is not None:
+                        export_linear(agent, out, agent.best_made)
+            if last:
+                break
+    finally:
+        if pool is not None:
+            pool.close()
+            pool.join()
+    agent.m = agent.best_m
+    if out is not None:
+        export_linear(agent, out, {**agent.best_made, "trained_generations": g + 1})
+    return agent
+
+
+PROBE_SWEEP = (1.0, 1.2, 1.4, 1.6, 1.8, 2.0)
+
+
+def _stood(impulses: Sequence[float], up: Sequence[int]) -> str:
+    return " ".join(f"{i:g}{'+' if u else '-'}" for i, u in zip(impulses, up, strict=True))
+
+
+def export_linear(agent: Search, out: Path, made: dict[str, Any]) -> None:
+    """The reflex as an ONNX graph of one Gemm (the features folded into its weights), the
+    pairs' mirror map and the clip, with the deploy constants (written atomically)."""
+    import onnx
+
+    from clients.learn.onnx_policy import deploy_metadata, mlp_model
+    from config.loader import load_all, load_robot
+    from robot_daemon.motion.policy import PolicySettings
+    from schemas.joints import JOINT_IDS
+
+    robot = load_robot()
+    scale = PolicySettings.from_config(load_all().get("policy")).scale
+    training = {"algorithm": "ARS (random search, numpy, clients/learn/train.py)", **made,
+                "settings": {k: v for k, v in vars(agent.s).items()},
+                "reflex": dict(zip(agent.names, agent.m.tolist(), strict=True))}  # fmt: skip
+    meta = deploy_metadata(RATE, scale, [robot.by_id[j].p for j in JOINT_IDS],
+                           **{"darwin.training": json.dumps(training)})  # fmt: skip
+    w = agent.weights()
+    model = mlp_model([(w, np.zeros(w.shape[1]))], "Tanh", None, None, meta,
+                      out_map=agent.out_map)  # fmt: skip
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_suffix(".onnx.tmp")
+    onnx.save(model, str(tmp))
+    tmp.replace(out)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, required=True, help="the .onnx file to write")
@@ -552,11 +872,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=Settings.imitate_steps,
         help="steps of stand_balance.py to copy first (0: start from holding)",
     )
+    ap.add_argument("--method", choices=("ppo", "ars"), default="ppo",
+                    help="ppo: the MLP, fine-tuned from the copy; ars: random search of a "
+                    "linear reflex scored on the shoves stood (--iterations: generations)")
+    ap.add_argument("--workers", type=int, default=1, help="ars: processes the episodes run in")
+    ap.add_argument("--randomize", choices=("playground", "latency"), default="playground",
+                    help="ars: Playground's domain randomisation, or latency and IMU noise only")
     args = ap.parse_args(argv)
+    given = sys.argv[1:] if argv is None else argv
+    if args.method == "ars":
+        print(f"training: python -m clients.learn.train {' '.join(given)}", flush=True)
+        ss = SearchSettings(workers=args.workers, randomize=args.randomize)
+        if args.push != Settings.push:
+            ss.push = ss.push_back = tuple(args.push)
+        if args.push_back:
+            ss.push_back = tuple(args.push_back)
+        search(ss, args.seed, args.iterations, args.minutes, args.out,
+               imitate=bool(args.imitate))  # fmt: skip
+        print(f"policy: {args.out}", flush=True)
+        return 0
     s = Settings(envs=args.envs, horizon=args.horizon, push=tuple(args.push),
                  push_back=tuple(args.push_back) if args.push_back else None,
                  imitate_steps=args.imitate)  # fmt: skip
-    given = sys.argv[1:] if argv is None else argv
     print(f"training: python -m clients.learn.train {' '.join(given)}", flush=True)
     train(s, args.seed, args.iterations, args.minutes, args.out)
     print(f"policy: {args.out}", flush=True)
