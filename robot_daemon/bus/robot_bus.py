@@ -50,6 +50,12 @@ SCAN_TRIES = 3
 CM730_WAIT_S = 5.0
 
 
+# The gyro's counts at rest until the gyro calibration module sets the frame's measured ones:
+# one read-only array for every frame (the field's default made one a tick through np.full).
+_AT_REST = np.full(3, float(units.IMU_CENTER))
+_AT_REST.flags.writeable = False
+
+
 @dataclass
 class _WritePlan:
     """The sync write of one set of joints with one set of gains (RobotBus.write_targets)."""
@@ -514,6 +520,7 @@ class RobotBus:
             gyro_raw=np.array(gyro_raw),
             accel_raw=np.array(accel_raw),
             imu_valid=self.cm730_valid,
+            gyro_centre=_AT_REST,
         )
 
     def imu_raw(self) -> tuple[list[int], list[int]]:

@@ -3,6 +3,7 @@ block decoded, and the bus counters published in ``status.bus``."""
 
 from __future__ import annotations
 
+import math
 import struct
 from dataclasses import dataclass, field
 from operator import itemgetter
@@ -101,10 +102,13 @@ def imu_raw(block: bytes) -> tuple[list[int], list[int]]:
 def imu_si(
     gyro_raw: list[int], accel_raw: list[int], gyro_dps: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Gyro (rad/s) and accelerometer (m/s²) in robot axes from :func:`imu_raw`'s counts."""
-    to_rad_s, to_ms2 = units.gyro_raw_to_rad_s, units.accel_raw_to_ms2
-    gyro = [s * to_rad_s(r, gyro_dps) for r, s in zip(gyro_raw, _GYRO_SIGN, strict=True)]
-    accel = [s * to_ms2(r) for r, s in zip(accel_raw, _ACCEL_SIGN, strict=True)]
+    """Gyro (rad/s) and accelerometer (m/s²) in robot axes from :func:`imu_raw`'s counts:
+    ``units.gyro_raw_to_rad_s`` and ``units.accel_raw_to_ms2`` written out in their own order
+    of operations (the same bits; six Python calls a tick fewer)."""
+    c, f, pi = units.IMU_CENTER, 2 * gyro_dps / units.IMU_MAX, math.pi
+    a, g = units.ACCEL_G_PER_COUNT, units.GRAVITY
+    gyro = [s * ((r - c) * f * pi / 180.0) for r, s in zip(gyro_raw, _GYRO_SIGN, strict=True)]
+    accel = [s * ((r - c) * a * g) for r, s in zip(accel_raw, _ACCEL_SIGN, strict=True)]
     return np.array(gyro), np.array(accel)
 
 

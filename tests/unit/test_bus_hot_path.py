@@ -49,6 +49,25 @@ def test_goal_raw_follows_a_new_offset(calibration: Calibration) -> None:
     assert abs(after - before) == round(math.radians(10.0) / units.RAD_PER_UNIT)
 
 
+@pytest.mark.parametrize("dps", [500.0, 2000.0])
+def test_imu_si_is_the_unit_conversions(dps: float) -> None:
+    """The frame's gyro and accelerometer, written out, are units' conversions to the bit."""
+    from robot_daemon.bus.state import imu_si
+    from robot_daemon.bus.tables import IMU_ACCEL_AXES, IMU_GYRO_AXES
+
+    for r in range(units.IMU_MAX + 1):
+        counts = [r, units.IMU_MAX - r, (r * 7) % (units.IMU_MAX + 1)]
+        gyro, accel = imu_si(counts, counts, dps)
+        assert gyro.tolist() == [
+            s * units.gyro_raw_to_rad_s(c, dps) for c, (_, s) in zip(counts, IMU_GYRO_AXES,
+                                                                     strict=True)
+        ]
+        assert accel.tolist() == [
+            s * units.accel_raw_to_ms2(c) for c, (_, s) in zip(counts, IMU_ACCEL_AXES,
+                                                              strict=True)
+        ]
+
+
 def test_speed_and_load_tables_are_the_conversions() -> None:
     raw = np.arange(0x800)
     assert np.array_equal(units.SPEED_RAD_S_TABLE, units.speed_raw_to_rad_s(raw))
