@@ -80,3 +80,25 @@ def test_gait_goals_unchanged_by_the_float_ik(monkeypatch) -> None:
         assert g_new.keys() == g_old.keys()
         ids = sorted(g_new)
         assert np.allclose([g_new[j] for j in ids], [g_old[j] for j in ids], rtol=0, atol=1e-9)
+
+
+def test_leg_servo_angles_are_the_leg_angles_turned_to_servos() -> None:
+    """The gait's servo angles of a leg are ``leg_angles_to_servo`` of its IK with the hip
+    pitch offset, to the bit (the shortcut maps the directions in one call)."""
+    from robot_daemon.motion.walking.ik import leg_servo_angles
+    from schemas.kinematics import leg_angles_to_servo
+
+    rng = random.Random(31)
+    for _ in range(5000):
+        x, y, z = rng.uniform(-0.08, 0.08), rng.uniform(-0.08, 0.08), rng.uniform(-0.02, 0.12)
+        point = (x, y, z, rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6))
+        side = rng.choice(["right", "left"])
+        offset = rng.uniform(-0.3, 0.3)
+        angles = leg_ik_end_point(*point)
+        got = leg_servo_angles(side, point, offset)  # type: ignore[arg-type]
+        if angles is None:
+            assert got is None
+            continue
+        want = leg_angles_to_servo(angles, side)  # type: ignore[arg-type]
+        want[11 if side == "right" else 12] -= (1.0 if side == "right" else -1.0) * offset
+        assert repr(got) == repr(want)

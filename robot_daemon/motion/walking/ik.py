@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from operator import mul
 
 import numpy as np
 
 from schemas.kinematics import (
     ANKLE_LENGTH,
     CALF_LENGTH,
+    LEG_DIRECTION,
+    LEG_IDS,
     LEG_LENGTH,
     THIGH_LENGTH,
     Side,
@@ -59,6 +62,11 @@ def leg_ik(target: np.ndarray) -> LegAngles | None:
 
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+_TAU = 2 * math.pi
+# Each leg's servo ids and directions (schemas.kinematics), for leg_servo_angles.
+_LEG_SERVOS = {side: (LEG_IDS[side], LEG_DIRECTION[side]) for side in LEG_IDS}
 
 
 def foot_target(x: float, y: float, z: float, roll: float, pitch: float, yaw: float) -> np.ndarray:
@@ -110,8 +118,10 @@ def leg_ik_end_point(
     q2 = math.cos(hip_roll) * az - math.sin(hip_roll) * p1
     ux = -CALF_LENGTH * math.sin(knee)
     uz = -THIGH_LENGTH - CALF_LENGTH * math.cos(knee)
-    hip_pitch = _wrap(math.atan2(q0, q2) - math.atan2(ux, uz))
-    ankle_pitch = _wrap(pitch_sum - hip_pitch - knee)
+    # _wrap written out (two Python calls a leg fewer; the same operations in the same order)
+    pi = math.pi
+    hip_pitch = (math.atan2(q0, q2) - math.atan2(ux, uz) + pi) % _TAU - pi
+    ankle_pitch = (pitch_sum - hip_pitch - knee + pi) % _TAU - pi
     return (hip_yaw, hip_roll, hip_pitch, knee, ankle_pitch, ankle_roll)
 
 
@@ -123,7 +133,11 @@ def leg_servo_angles(
     angles = leg_ik_end_point(*end_point)
     if angles is None:
         return None
-    servo = leg_angles_to_servo(angles, side)
+    leg = _LEG_SERVOS.get(side)
+    if leg is None:
+        servo = leg_angles_to_servo(angles, side)  # which says what is wrong with ``side``
+    else:  # leg_angles_to_servo on the IK's floats in one C call: the same products
+        servo = dict(zip(leg[0], map(mul, leg[1], angles), strict=True))
     pitch_id = 11 if side == "right" else 12
     direction = 1.0 if side == "right" else -1.0
     servo[pitch_id] -= direction * hip_pitch_offset
