@@ -148,6 +148,9 @@ class Robot(Commander, TeachMixin):
     (:mod:`clients.teach`)."""
 
     protocol: ProtocolWatch  # a Robot always watches (made as it opens)
+    # The topics followed from the start and for as long as the Robot is open (``state``
+    # shows them); any other topic only while someone subscribes or waits for it.
+    followed: tuple[str, ...] = ALWAYS
 
     def _open_extra(self) -> None:
         self._lock = threading.Lock()
@@ -160,7 +163,7 @@ class Robot(Commander, TeachMixin):
         self._strays_seen: set[tuple[str, str, str]] = set()
         self._arrivals = Arrivals()
         self.protocol = ProtocolWatch(f"this client ({self.name})")
-        for topic in ALWAYS:
+        for topic in self.followed:
             self._ensure_zsub(topic)
 
     def check_protocol(self, timeout: float = 3.0) -> str | None:
@@ -301,7 +304,7 @@ class Robot(Commander, TeachMixin):
             subs = self._listeners.get(sub.topic, [])
             if sub in subs:
                 subs.remove(sub)
-            drop = sub.topic not in ALWAYS and not subs
+            drop = sub.topic not in self.followed and not subs
         if drop and sub.topic in self._zsubs:
             # Undeclaring lets the daemon see nobody watches (the camera stops capturing).
             self._zsubs.pop(sub.topic).undeclare()

@@ -1,11 +1,14 @@
 """One Zenoh subscription per stream, shared by every legacy connection.
 
-The hub is a :class:`clients.robot.Robot` on the gateway's one Zenoh session: it follows
-joints, IMU, status and events always (cheap, and the orchestrate/playball replies need them)
-and the camera only while at least one client monitors it, since the daemon captures frames only
-while someone subscribes. Latest-value streams are read when a client's period comes due, so
-125 Hz publications never wake the event loop; events are handed to it with
-``call_soon_threadsafe`` (Zenoh callbacks run in Zenoh's threads).
+The hub is a :class:`clients.robot.Robot` on the gateway's one Zenoh session: it follows status
+and events always (the orchestrate/playball replies need them), joints and IMU only while at
+least one legacy client is connected, and the camera only while at least one client monitors
+it, since the daemon captures frames only while someone subscribes. A gateway nobody uses
+decodes no 125 Hz stream (that cost 5 % of a core here, and the daemon's building of them for it
+3 % more: more on the robot's Atom, where the gateway runs beside the loop), and the daemon,
+seeing nobody watch joints or IMU, builds neither. Latest-value streams are read when a client's
+period comes due, so 125 Hz publications never wake the event loop; events are handed to it
+with ``call_soon_threadsafe`` (Zenoh callbacks run in Zenoh's threads).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from gateway.monitor import (
     gyroscope_from_imu,
     motors_from_joints,
 )
-from schemas.messages import CameraFrame, Event, Message, Status
+from schemas.messages import CameraFrame, Event, Imu, Joints, Message, Status
 
 log = logging.getLogger(__name__)
 
@@ -33,10 +36,22 @@ EventListener = Callable[[Event], None]
 StatusListener = Callable[[Status], None]
 
 
+class HubRobot(Robot):
+    """The gateway's :class:`Robot`: status and events from the start; joints and IMU are the
+    hub's to follow while clients are connected (:meth:`Hub.join`)."""
+
+    followed = ("status", "events")
+
+
 class Hub:
     def __init__(self, robot: Robot, loop: asyncio.AbstractEventLoop) -> None:
         self.robot = robot
         self._loop = loop
+        self._clients = 0
+        self._telemetry: list[Subscription] = []
+        # The newest of each while clients are connected (None: none since the first joined).
+        self._joints: Joints | None = None
+        self._imu: Imu | None = None
         self._camera_users = 0
         self._camera_sub: Subscription | None = None
         self._camera_frame: CameraFrame | None = None
@@ -51,7 +66,7 @@ class Hub:
         ]
 
     def close(self) -> None:
-        for sub in self._subs:
+        for sub in self._subs + self._telemetry:
             with contextlib.suppress(Exception):
                 sub.close()
         if self._camera_sub is not None:
@@ -71,13 +86,43 @@ class Hub:
         return value
 
     def snapshot(self) -> Snapshot:
-        state = self.robot.state
+        joints, imu = self._joints, self._imu
         return Snapshot(
-            motors=self._converted("motors", state.joints, motors_from_joints),
-            accelerometer=self._converted("accel", state.imu, accelerometer_from_imu),
-            gyroscope=self._converted("gyro", state.imu, gyroscope_from_imu),
+            motors=self._converted("motors", joints, motors_from_joints),
+            accelerometer=self._converted("accel", imu, accelerometer_from_imu),
+            gyroscope=self._converted("gyro", imu, gyroscope_from_imu),
             camera=self._camera_image(),
         )
+
+    # -- joints and IMU, only while clients are connected -----------------------------------
+    def join(self) -> None:
+        """A legacy client connected: the first one starts the joints and IMU streams."""
+        self._clients += 1
+        if not self._telemetry:
+            log.info("first client connected: following joints and IMU")
+            self._telemetry = [
+                self.robot.subscribe("joints", self._on_telemetry),
+                self.robot.subscribe("imu", self._on_telemetry),
+            ]
+
+    def leave(self) -> None:
+        """A legacy client disconnected: the last one stops them (a later client never sees
+        values older than its connection)."""
+        self._clients = max(0, self._clients - 1)
+        if self._clients == 0 and self._telemetry:
+            log.info("no client connected: no longer following joints and IMU")
+            for sub in self._telemetry:
+                with contextlib.suppress(Exception):
+                    sub.close()
+            self._telemetry = []
+            self._joints = self._imu = None
+
+    def _on_telemetry(self, msg: Message) -> None:
+        # A Zenoh thread: swapping one reference is atomic, readers take whichever is newest.
+        if isinstance(msg, Joints):
+            self._joints = msg
+        elif isinstance(msg, Imu):
+            self._imu = msg
 
     def _camera_image(self) -> CameraImage | None:
         return self._converted("camera", self._camera_frame, camera_from_frame)

@@ -19,7 +19,7 @@ import zenoh
 from clients.robot import Robot
 from gateway.connection import Connection
 from gateway.framing import DEFAULT_CONVENTION, encode_frame
-from gateway.hub import Hub
+from gateway.hub import Hub, HubRobot
 from gateway.limits import RateLimitedLog
 from gateway.messages import error_message
 from gateway.orchestrate import Orchestrator
@@ -59,7 +59,7 @@ class Gateway:
         self.session = await self.blocking(lambda: connect(self.target, failed))
         session = self.session
         self._hub_robot = hub_robot = await self.blocking(
-            lambda: Robot(
+            lambda: HubRobot(
                 self.target.endpoint,
                 self.target.robot,
                 name="gateway",
@@ -90,6 +90,7 @@ class Gateway:
                     )
         conn = Connection(self, reader, writer)
         self.connections.add(conn)
+        self.hub.join()
         self.connlog(
             "connect", logging.INFO, "%s connected (%d clients)", conn.peer, len(self.connections)
         )
@@ -102,6 +103,7 @@ class Gateway:
             )
         finally:
             self.connections.discard(conn)
+            self.hub.leave()
             self.connlog(
                 "disconnect",
                 logging.INFO,

@@ -5,11 +5,15 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import queue
 import threading
 import time
 from collections.abc import Iterator
 
-from tests.fixtures.system import RunningSystem
+from clients.robot import topic_key
+from schemas.keys import Keys
+from schemas.session import connect, resolve
+from tests.fixtures.system import RunningSystem, start_system
 from tests.legacy_client import CONVENTIONS, LegacyClient, start_gateway
 
 SENSOR_STREAMS = ("accelerometer", "gyroscope", "motors")
@@ -113,3 +117,42 @@ def test_a_client_that_never_reads_does_not_slow_the_others(robot_system: Runnin
                 c.close()
     # Same gateway, same robot, same run: the others' rate is not dragged down by the stall.
     assert loaded > 0.7 * baseline, (loaded, baseline)
+
+
+def test_a_gateway_follows_joints_and_imu_only_while_a_legacy_client_is_connected() -> None:
+    """Nobody connected, the gateway subscribes to neither stream, so the daemon builds neither
+    for it; the first client brings both back, the last one leaving ends them again."""
+    with start_system() as system:
+        assert system.gateway is not None
+        host, port = system.gateway
+        session = connect(resolve(system.endpoint, system.robot))
+        matching: dict[str, queue.SimpleQueue[bool]] = {}
+        publishers = []
+        try:
+            for topic in ("joints", "imu"):
+                heard: queue.SimpleQueue[bool] = queue.SimpleQueue()
+                pub = session.declare_publisher(topic_key(Keys(system.robot), topic))
+                pub.declare_matching_listener(lambda s, q=heard: q.put(bool(s.matching)))
+                heard.put(bool(pub.matching_status.matching))  # type: ignore[attr-defined]
+                matching[topic] = heard
+                publishers.append(pub)
+
+            def settles_at(topic: str, value: bool) -> None:
+                heard = matching[topic]
+                while heard.get(timeout=30) is not value:
+                    pass
+
+            for topic in matching:
+                settles_at(topic, False)
+            with LegacyClient(host, port, timeout=20.0) as client:
+                for topic in matching:
+                    settles_at(topic, True)
+                client.send({"monitor": {"motors": 1, "gyroscope": 1, "period": 20}})
+                msg = client.recv()
+                assert msg is not None and {"motors", "gyroscope"} & set(msg["monitor"]), msg
+            for topic in matching:
+                settles_at(topic, False)
+        finally:
+            for pub in publishers:
+                pub.undeclare()
+            session.close()
