@@ -631,11 +631,11 @@ def _worker_env(fast: bool) -> Any:
     return _WORKER[key]
 
 
-Task = tuple[np.ndarray, int, float, float, float, float, bool]
+Task = tuple[tuple[np.ndarray, np.ndarray], int, float, float, float, float, bool]
 
 
 def _episode(task: Task) -> tuple[float, int]:
-    """One shoved episode of the linear policy ``w`` ([69, outputs] after the features);
+    """One shoved episode of the reflex ``w`` (its two layers, :meth:`Search.layers`);
     returns (score, steps stood after the shove)."""
     from clients.learn.env import PUSH_S
 
@@ -649,7 +649,7 @@ def _episode(task: Task) -> tuple[float, int]:
     for k in range(total):
         if k == at:
             env.unwrapped.push((force, 0.0, 0.0), PUSH_S)
-        a = np.clip((obs.astype(float) @ w) @ out_map, -1.0, 1.0)
+        a = np.clip((np.maximum(obs.astype(float) @ w[0], 0.0) @ w[1]) @ out_map, -1.0, 1.0)
         obs, _, term, _, _ = env.step(a)
         q = obs[pos].astype(float)
         pose_err += math.sqrt(float(q @ q) / len(q))
@@ -682,11 +682,17 @@ class Search:
         self.rng = np.random.default_rng(seed)
         self.out_map = action_map(s.pairs)
         self.features, self.names = ars_features(s.pairs)
-        self.m = np.zeros((len(self.names), len(s.pairs)))
+        # The tilt and the pitch rate are answered on each side of zero by rows of their
+        # own: a shove forward and one backward may take different answers (a linear map
+        # traded one direction for the other: backward 1.6 N·s stood, forward 1.0 not).
+        self.split = [self.names.index("gravity_x"), self.names.index("pitch_rate")]
+        n = len(self.names)
+        self.m = np.zeros((n + len(self.split), len(s.pairs)))
         self.mask = np.ones_like(self.m)
         if s.search == "reflex":
             self.mask[:] = 0.0
             self.mask[:2] = 1.0  # the tilt and the pitch rate, to every pair
+            self.mask[n:] = 1.0  # and their other side
             for k, joint in enumerate(s.pairs):  # each pair's own state
                 for field in ("joint_pos", "joint_vel", "last_action"):
                     self.mask[self.names.index(f"{field}.{joint}"), k] = 1.0
@@ -705,12 +711,24 @@ class Search:
         self.m[f("last_action.ankle_pitch"), ankle] = sb.LEAK
         self.m[f("gravity_x"), ankle] = sb.KI / RATE * ARS_SCALES["gravity"]
         self.m[f("pitch_rate"), ankle] = sb.KD * (1 - sb.LEAK) * ARS_SCALES["gyro"]
+        self.m[len(self.names) :] = self.m[self.split]  # the same answer either side
 
-    def weights(self, m: np.ndarray | None = None) -> np.ndarray:
-        return self.features @ (self.m if m is None else m)
+    def layers(self, m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The reflex as two layers around a ReLU: [69, 2n] (each feature and its negative),
+        [2n, pairs] (a feature's rows (m, −m) are linear in it; a split one's are its two
+        sides' own)."""
+        m = self.m if m is None else m
+        n = len(self.names)
+        w1 = np.concatenate([self.features, -self.features], axis=1)
+        w2 = np.concatenate([m[:n], -m[:n]])
+        for k, i in enumerate(self.split):
+            w2[n + i] = -m[n + k]
+        return w1, w2
 
     def deterministic(self, obs: np.ndarray) -> np.ndarray:
-        return np.clip((np.asarray(obs, float) @ self.weights()) @ self.out_map, -1.0, 1.0)
+        w1, w2 = self.layers()
+        h = np.maximum(np.asarray(obs, float) @ w1, 0.0)
+        return np.clip((h @ w2) @ self.out_map, -1.0, 1.0)
 
     def tasks(self, m: np.ndarray, seeds: np.ndarray) -> list[Task]:
         s, n = self.s, len(seeds)
@@ -719,7 +737,7 @@ class Search:
             sign = 1.0 if j % 2 == 0 else -1.0
             lo, hi = self.push[sign]
             impulse = lo + (hi - lo) * ((j // 2) + 0.5) / max(1, n // 2)
-            out.append((self.weights(m), int(seed), sign * impulse / 0.1, s.shove_at, s.after,
+            out.append((self.layers(m), int(seed), sign * impulse / 0.1, s.shove_at, s.after,
                         s.pose_weight, True))  # fmt: skip
         return out
 
@@ -755,7 +773,7 @@ class Search:
     def probe(self, pool: Any, impulses: Sequence[float]) -> tuple[list[int], list[int]]:
         """The push table's protocol on the nominal full model: per impulse, whether a shove
         forward and one backward were stood (steps after the shove)."""
-        tasks = [(self.weights(), 0, sign * i / 0.1, SHOVE_AT, SHOVE_RUN - SHOVE_AT, 0.0, False)
+        tasks = [(self.layers(), 0, sign * i / 0.1, SHOVE_AT, SHOVE_RUN - SHOVE_AT, 0.0, False)
                  for i in impulses for sign in (1.0, -1.0)]  # fmt: skip
         results = pool.map(_episode, tasks) if pool is not None else list(map(_episode, tasks))
         stood = [r[1] >= SHOVE_STEPS for r in results]
@@ -829,7 +847,7 @@ def _stood(impulses: Sequence[float], up: Sequence[int]) -> str:
 
 
 def export_linear(agent: Search, out: Path, made: dict[str, Any]) -> None:
-    """The reflex as an ONNX graph of one Gemm (the features folded into its weights), the
+    """The reflex as an ONNX graph: Gemm (the features and their negatives), Relu, Gemm, the
     pairs' mirror map and the clip, with the deploy constants (written atomically)."""
     import onnx
 
@@ -842,12 +860,13 @@ def export_linear(agent: Search, out: Path, made: dict[str, Any]) -> None:
     scale = PolicySettings.from_config(load_all().get("policy")).scale
     training = {"algorithm": "ARS (random search, numpy, clients/learn/train.py)", **made,
                 "settings": {k: v for k, v in vars(agent.s).items()},
-                "reflex": dict(zip(agent.names, agent.m.tolist(), strict=True))}  # fmt: skip
+                "reflex": dict(zip([*agent.names, *(f"{agent.names[i]}<0" for i in agent.split)],
+                                   agent.m.tolist(), strict=True))}  # fmt: skip
     meta = deploy_metadata(RATE, scale, [robot.by_id[j].p for j in JOINT_IDS],
                            **{"darwin.training": json.dumps(training)})  # fmt: skip
-    w = agent.weights()
-    model = mlp_model([(w, np.zeros(w.shape[1]))], "Tanh", None, None, meta,
-                      out_map=agent.out_map)  # fmt: skip
+    w1, w2 = agent.layers()
+    layers = [(w1, np.zeros(w1.shape[1])), (w2, np.zeros(w2.shape[1]))]
+    model = mlp_model(layers, "Relu", None, None, meta, out_map=agent.out_map)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_suffix(".onnx.tmp")
     onnx.save(model, str(tmp))
