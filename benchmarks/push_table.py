@@ -100,8 +100,12 @@ def main() -> None:
     ap.add_argument("--impulses", type=float, nargs="+", default=[1.0, 1.2, 1.4, 1.6])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--trained", default=POLICIES["trained"], help="the trained policy's file")
+    ap.add_argument("--policies", nargs="+", choices=list(POLICIES), default=list(POLICIES),
+                    help="which rows to run (the shoves' directions are the same for any)")
     args = ap.parse_args()
     POLICIES["trained"] = args.trained
+    for name in set(POLICIES) - set(args.policies):
+        del POLICIES[name]
     rng = np.random.default_rng(args.seed)
     both = [1.0, -1.0] * ((args.tries + 1) // 2)
     signs = [rng.permutation(both)[: args.tries] for _ in args.impulses]

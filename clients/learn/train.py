@@ -689,12 +689,16 @@ class Search:
         n = len(self.names)
         self.m = np.zeros((n + len(self.split), len(s.pairs)))
         self.mask = np.ones_like(self.m)
-        if s.search == "reflex":
+        if s.search in ("reflex", "tilt"):
             self.mask[:] = 0.0
             self.mask[:2] = 1.0  # the tilt and the pitch rate, to every pair
             self.mask[n:] = 1.0  # and their other side
-            for k, joint in enumerate(s.pairs):  # each pair's own state
-                for field in ("joint_pos", "joint_vel", "last_action"):
+            # Each pair's own state; "tilt": only its last action, as stand_balance.py reads
+            # only the IMU (the stack's joint readings can hold for steps: docs/learning.md).
+            own = ("last_action",) if s.search == "tilt" else ("joint_pos", "joint_vel",
+                                                              "last_action")  # fmt: skip
+            for k, joint in enumerate(s.pairs):
+                for field in own:
                     self.mask[self.names.index(f"{field}.{joint}"), k] = 1.0
         self.push = {1.0: s.push, -1.0: s.push_back}
         self.best: tuple[int, int, int] = (-1, -1, -1)
@@ -895,13 +899,15 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="ppo: the MLP, fine-tuned from the copy; ars: random search of a "
                     "linear reflex scored on the shoves stood (--iterations: generations)")
     ap.add_argument("--workers", type=int, default=1, help="ars: processes the episodes run in")
+    ap.add_argument("--search", choices=("reflex", "tilt", "all"), default="reflex",
+                    help="ars: which numbers are searched (docs/learning.md)")
     ap.add_argument("--randomize", choices=("playground", "latency"), default="playground",
                     help="ars: Playground's domain randomisation, or latency and IMU noise only")
     args = ap.parse_args(argv)
     given = sys.argv[1:] if argv is None else argv
     if args.method == "ars":
         print(f"training: python -m clients.learn.train {' '.join(given)}", flush=True)
-        ss = SearchSettings(workers=args.workers, randomize=args.randomize)
+        ss = SearchSettings(workers=args.workers, randomize=args.randomize, search=args.search)
         if args.push != Settings.push:
             ss.push = ss.push_back = tuple(args.push)
         if args.push_back:
