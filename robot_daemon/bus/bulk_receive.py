@@ -124,7 +124,8 @@ def receive(
     # Whatever has arrived is read in one call and every complete packet in it framed in
     # one pass: on an FTDI that is one wake-up per 62-byte USB packet, not one SDK round
     # trip (header, then body, each a read) per device.
-    parser = PacketParser()
+    # Made when something is not the usual in-order answer (most ticks never need it).
+    parser: PacketParser | None = None
     # The usual case costs one comparison per reply: replies in the order asked, each
     # whole, are taken straight off the bytes (``raw`` from ``pos``); the first thing that
     # is not that hands the rest to the parser, which copes with anything.
@@ -178,6 +179,8 @@ def receive(
                         whole = now + rest * port.tx_time_per_byte
                 continue
             chunk = bytes(raw[pos:])
+        if parser is None:
+            parser = PacketParser()
         for frame in parser.feed(chunk):
             dxl_id = frame.id
             k = rank.get(dxl_id)
@@ -202,11 +205,13 @@ def receive(
             deadline = port.getCurrentTime() + waits[due]
     seen = port.getCurrentTime() - (sent + plan.wire) if in_order and due == n else None
     if in_order and len(raw) - pos >= 3 and raw[pos] == 0xFF and raw[pos + 1] == 0xFF:
+        parser = parser or PacketParser()
         parser.feed(bytes(raw[pos : pos + 3]))  # a reply cut short: who was talking
-    late = parser.pending_id
+    late = parser.pending_id if parser is not None else None
     if late is not None and late in want:
         heard.add(late)  # cut short on the wire: the device was still talking
-    return Received([i for i in order if i in pending], heard, woken, seen)
+    missing = [i for i in order if i in pending] if pending else []
+    return Received(missing, heard, woken, seen)
 
 
 def _take_whole(

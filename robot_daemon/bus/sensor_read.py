@@ -206,10 +206,12 @@ class SensorReader:
     def _count(self, res: BulkResult, probe: int | None) -> None:
         c = self.counters
         c.bulk_reads += 1
-        c.missing_replies += len([j for j in res.missing if j != probe])
+        # The probed servo's silence is expected: not a missing reply nor a stale tick.
+        lost = [j for j in res.missing if j != probe] if res.missing else []
+        c.missing_replies += len(lost)
         c.corrupt_replies += res.corrupt
         c.retries += int(res.retried)
-        if (set(res.missing) - {probe}) or res.corrupt:
+        if lost or res.corrupt:
             c.stale_ticks += 1
 
     def _back(self, probe: int, data: bytes, error: int) -> None:
