@@ -52,11 +52,26 @@ class ControlTable:
         if reg.size == 2:
             self.data[a + 1] = (v >> 8) & 0xFF
 
+    # The device model reads and writes a dozen registers per servo per step, hundreds of steps
+    # a second: a member's register is taken off it (``_value_``) rather than looked up by the
+    # member, whose hash is Python code in ``enum``.
     def __getitem__(self, member: Enum) -> int:
-        return self.get(self.registers[member])
+        if type(member) is not self.kind:
+            raise KeyError(member)
+        reg: Register = member._value_
+        a = reg.address
+        if reg.size == 1:
+            return self.data[a]
+        return self.data[a] | (self.data[a + 1] << 8)
 
     def __setitem__(self, member: Enum, value: int) -> None:
-        self.put(self.registers[member], value)
+        if type(member) is not self.kind:
+            raise KeyError(member)
+        reg: Register = member._value_
+        a, v = reg.address, int(value)
+        self.data[a] = v & 0xFF
+        if reg.size == 2:
+            self.data[a + 1] = (v >> 8) & 0xFF
 
     # ---- bus access --------------------------------------------------------------------------
 

@@ -52,6 +52,21 @@ from robot_daemon.bus.tables import (
 from robot_daemon.emulator.control_table import ControlTable
 from schemas import units
 
+# The addresses Servo._sync_registers writes in place (sizes checked here, once).
+_PRESENT_POSITION = MX28.PRESENT_POSITION.value.address
+_PRESENT_SPEED = MX28.PRESENT_SPEED.value.address
+_PRESENT_LOAD = MX28.PRESENT_LOAD.value.address
+_PRESENT_VOLTAGE = MX28.PRESENT_VOLTAGE.value.address
+_PRESENT_TEMPERATURE = MX28.PRESENT_TEMPERATURE.value.address
+_MOVING = MX28.MOVING.value.address
+_GOAL_POSITION = MX28.GOAL_POSITION.value.address
+_TORQUE_ENABLE = MX28.TORQUE_ENABLE.value.address
+_TORQUE_LIMIT = MX28.TORQUE_LIMIT.value.address
+_TWO_BYTES = (MX28.PRESENT_POSITION, MX28.PRESENT_SPEED, MX28.PRESENT_LOAD, MX28.GOAL_POSITION)
+_ONE_BYTE = (MX28.PRESENT_VOLTAGE, MX28.PRESENT_TEMPERATURE, MX28.MOVING, MX28.TORQUE_ENABLE)
+assert all(r.value.size == 2 for r in (*_TWO_BYTES, MX28.TORQUE_LIMIT))
+assert all(r.value.size == 1 for r in _ONE_BYTE)
+
 # The overheating alarm, once raised, lasts until the servo is this much below its limit.
 OVERHEAT_HYSTERESIS_C = 5.0
 # Under a physics plant, a motor saturated at its torque limit this long raises OVERLOAD (s).
@@ -236,8 +251,10 @@ class Servo(Device):
 
     def drives(self) -> bool:
         """The motor holds its goal: powered, torque enabled and a torque limit above 0."""
-        t = self.table
-        return bool(self.powered and t[MX28.TORQUE_ENABLE] and t[MX28.TORQUE_LIMIT])
+        d = self.table.data  # several times a step: the bytes, not the items
+        return self.powered and d[_TORQUE_ENABLE] != 0 and (
+            d[_TORQUE_LIMIT] != 0 or d[_TORQUE_LIMIT + 1] != 0
+        )
 
     def load_fraction(self) -> float:
         if not self.drives():
@@ -294,16 +311,25 @@ class Servo(Device):
         self._sync_registers()
 
     def _sync_registers(self) -> None:
-        t = self.table
-        t[MX28.PRESENT_POSITION] = round(self.position)
+        # Every step of every servo (hundreds a second): the bytes written in place at the
+        # registers' addresses, the same values the table's item access would write.
+        d = self.table.data
+        position = round(self.position)
+        d[_PRESENT_POSITION] = position & 0xFF
+        d[_PRESENT_POSITION + 1] = (position >> 8) & 0xFF
         speed_units = self.velocity * 60.0 / units.UNITS_PER_REV / units.RPM_PER_SPEED_UNIT
-        t[MX28.PRESENT_SPEED] = units.encode_signed_11bit(round(speed_units))
+        speed = units.encode_signed_11bit(round(speed_units))
+        d[_PRESENT_SPEED] = speed & 0xFF
+        d[_PRESENT_SPEED + 1] = (speed >> 8) & 0xFF
         load_units = self.load_fraction() * 100.0 / units.LOAD_PERCENT_PER_UNIT
-        t[MX28.PRESENT_LOAD] = units.encode_signed_11bit(round(load_units))
-        t[MX28.PRESENT_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
-        t[MX28.PRESENT_TEMPERATURE] = max(0, min(255, round(self.temperature)))
-        moving = self.drives() and abs(t[MX28.GOAL_POSITION] - self.position) >= 1.0
-        t[MX28.MOVING] = 1 if moving else 0
+        load = units.encode_signed_11bit(round(load_units))
+        d[_PRESENT_LOAD] = load & 0xFF
+        d[_PRESENT_LOAD + 1] = (load >> 8) & 0xFF
+        d[_PRESENT_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
+        d[_PRESENT_TEMPERATURE] = max(0, min(255, round(self.temperature)))
+        goal = d[_GOAL_POSITION] | (d[_GOAL_POSITION + 1] << 8)
+        moving = self.drives() and abs(goal - self.position) >= 1.0
+        d[_MOVING] = 1 if moving else 0
 
 
 class CM730Device(Device):

@@ -22,7 +22,17 @@ import numpy as np
 
 from robot_daemon.plant.world_settings import FallSettings, FeetSettings, ImuSettings
 from schemas import units
-from schemas.kinematics import SIDES, Positions, Side, leg_fk, matrix_rpy, rot_y, rot_z, transform
+from schemas.kinematics import (
+    SIDES,
+    Positions,
+    Side,
+    leg_fk,
+    matrix_rpy,
+    rot_y,
+    rot_z,
+    servo_to_leg_angles,
+    transform,
+)
 
 # The other foot takes over when it is this much lower than the support foot (m).
 _SWITCH_DZ = 0.001
@@ -70,6 +80,9 @@ class Body:
         self._crouched = False
         self._initialised = False
         self._pending_place: tuple[float, float, float] | None = None
+        # Each sole's pose with the leg's servo angles it came from: a robot standing still
+        # (most of the time) does not compute the same kinematics 100 times a second.
+        self._soles_at: dict[Side, tuple[tuple[float, ...], np.ndarray]] = {}
 
     # -- placing -------------------------------------------------------------------------------
     def place(self, x: float, y: float, yaw: float) -> None:
@@ -92,8 +105,18 @@ class Body:
             self.soles_w[s] = self.T_wb @ self.soles_b[s]
 
     # -- the step --------------------------------------------------------------------------------
+    def _sole(self, positions: Positions, side: Side) -> np.ndarray:
+        angles = servo_to_leg_angles(positions, side)
+        known = self._soles_at.get(side)
+        if known is not None and known[0] == angles:
+            return known[1]
+        sole = leg_fk(positions, side)
+        sole.flags.writeable = False  # shared by later steps: nobody may change it
+        self._soles_at[side] = (angles, sole)
+        return sole
+
     def update(self, positions: Positions, dt: float) -> None:
-        soles = {s: leg_fk(positions, s) for s in SIDES}
+        soles = {s: self._sole(positions, s) for s in SIDES}
         self.soles_b = soles
         if not self._initialised:
             self.support = min(SIDES, key=lambda s: soles[s][2, 3])

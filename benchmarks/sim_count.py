@@ -1,0 +1,102 @@
+"""Count, don't clock: instructions per step of the emulator's servos and of the kinematic world,
+for a robot standing still (what a simulated robot does between a test's commands, and most of
+what `darwin up` costs when nobody drives it).
+
+    python benchmarks/sim_count.py                      # this tree
+    python benchmarks/sim_count.py --baseline DIR       # and another tree (e.g. a `git worktree`
+                                                        # of main), in the same run, with the ratio
+
+Each figure runs itself again under ``valgrind --tool=callgrind`` and counts exactly the steps
+asked for (``callgrind_requests.py`` toggles counting around them), so the figures repeat to
+±0.1 % whatever the machine's load:
+
+- ``servos``: ``Bus.step(0.004)``, every servo's motion, heat, alarms and registers (the emulator
+  runs it before answering a packet and at each physics round: ~300 times a second);
+- ``world``: ``SimWorld.step(0.01)``, the body's legs, balance and the ball (100 a second).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve()
+ROOT = HERE.parents[1]
+STEPS = 100
+
+
+def child(what: str, root: Path) -> None:
+    sys.path[:0] = [str(root), str(HERE.parent)]
+    from callgrind_requests import Callgrind
+
+    from robot_daemon.emulator.emulator import Emulator
+    from robot_daemon.emulator.settings import EmulatorSettings
+    from robot_daemon.plant.world import SimWorld
+
+    cg = Callgrind()
+    emulator = Emulator(EmulatorSettings.load(realtime=False))
+    world = SimWorld(seed=1)
+    world.attach(emulator)
+    emulator.advance(1.0)  # powered, standing, settled
+    positions = emulator.api.present_positions()
+    step = {
+        "servos": lambda: emulator.bus.step(0.004),
+        "world": lambda: world.step(0.01, positions),
+    }[what]
+    cg.start_instrumentation()
+    for _ in range(20):
+        step()
+    cg.zero()
+    cg.toggle()
+    for _ in range(STEPS):
+        step()
+    cg.toggle()
+
+
+def count(what: str, root: Path) -> float:
+    """Thousands of instructions per step of ``what`` in the tree at ``root``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "callgrind.out"
+        cmd = [
+            "valgrind", "--tool=callgrind", "--collect-atstart=no", "--instr-atstart=no",
+            f"--callgrind-out-file={out}", f"--log-file={out}.log",
+            sys.executable, str(HERE), "--child", what, "--root", str(root),
+        ]  # fmt: skip
+        env = dict(os.environ, PYTHONHASHSEED="0", PYTHONDONTWRITEBYTECODE="1")
+        done = subprocess.run(cmd, env=env, cwd=root, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise SystemExit(f"sim_count: the counted child failed: {done.stderr[-500:]}")
+        found = re.search(r"^(?:summary|totals):\s+(\d+)", out.read_text(), re.M)
+        if found is None:
+            raise SystemExit(f"sim_count: no totals in {out}")
+        return int(found.group(1)) / STEPS / 1000
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--baseline", type=Path, help="another source tree, counted in this run")
+    parser.add_argument("--child", help=argparse.SUPPRESS)
+    parser.add_argument("--root", type=Path, default=ROOT, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        child(args.child, args.root)
+        return
+    if shutil.which("valgrind") is None:
+        raise SystemExit("sim_count: valgrind is not installed: apt-get install valgrind")
+    for what in ("servos", "world"):
+        now = count(what, ROOT)
+        line = f"{what}: {now:,.0f} k instructions a step"
+        if args.baseline is not None:
+            before = count(what, args.baseline.resolve())
+            line += f" (baseline {before:,.0f} k: ×{now / before:.2f})"
+        print(line, flush=True)
+
+
+if __name__ == "__main__":
+    main()
