@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 import subprocess
-import time
+import threading
 import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import pytest
 
-from clients.fleet import discover_at
-from schemas.errors import RobotUnreachableError
-from schemas.session import Credentials, free_tcp_port
+from clients.fleet import discover
+from schemas.keys import Keys
+from schemas.session import Credentials, connect, free_tcp_port
 from tests.fixtures.emulator import darwin_command
 from tests.fixtures.fleet import RunningRouter, start_router
 from tests.fixtures.system import REPO, run_darwin, stop_group
@@ -132,20 +132,26 @@ def _start(case: Case, routers: Routers, err: Path) -> tuple[str, subprocess.Pop
     return robot, proc
 
 
-def _listed(routers: Routers, robot: str) -> bool:
+def _listed(routers: Routers, kind: str, robot: str) -> bool:
+    """Whether an operator of the router the robot was told to join lists it (one session,
+    asked again until it does: each ask waits for the statuses that come)."""
     ca = str(routers.certs / "ca.pem")
-    logins = {"open": Credentials(), "auth": Credentials("op", PASSWORDS["op"]),
-              "tls": Credentials("op", PASSWORDS["op"], ca=ca)}
-    deadline = time.monotonic() + LIST_DEADLINE_S
-    while time.monotonic() < deadline:
-        for kind, creds in logins.items():
-            try:
-                names = {r.name for r in discover_at(routers.by_kind[kind].endpoint, creds=creds)}
-            except RobotUnreachableError:
-                continue
-            if robot in names:
-                return True
-    return False
+    creds = {"open": Credentials(), "auth": Credentials("op", PASSWORDS["op"]),
+             "tls": Credentials("op", PASSWORDS["op"], ca=ca)}[kind]
+    endpoint = routers.by_kind[kind].endpoint
+    session = connect(endpoint, f"nothing answers at {endpoint}", "the router fixture", creds=creds)
+    joined = threading.Event()
+    # The robot's liveliness token says when to look (history: one already there counts).
+    token = session.liveliness().declare_subscriber(
+        Keys(robot).alive, lambda sample: joined.set(), history=True
+    )
+    try:
+        if not joined.wait(LIST_DEADLINE_S):
+            return False
+        return robot in {r.name for r in discover(session, pattern=robot)}
+    finally:
+        token.undeclare()
+        session.close()
 
 
 @pytest.mark.parametrize("name", list(CASES))
@@ -164,7 +170,9 @@ def test_every_combination_works_or_stops_at_start_with_one_line(
             assert len(lines) == 1 and case.refusal in lines[0], err
             assert "Traceback" not in err
         else:
-            assert _listed(routers, robot), f"{robot} was never listed through the router"
+            assert _listed(routers, case.router, robot), (
+                f"{robot} was never listed through the {case.router} router"
+            )
             assert proc.poll() is None
     finally:
         stop_group(proc)
