@@ -166,6 +166,7 @@ class Servo(Device):
         self.firmware: int | None = None
         self.leftover: dict = {}
         self.sag_units = 0.0
+        self._at_rest: tuple[object, ...] | None = None  # its rest key after its last step
         self._sync_registers()
 
     def apply_overrides(self) -> None:
@@ -265,9 +266,41 @@ class Servo(Device):
         top = units.MX28_MAX_RPM * units.UNITS_PER_REV / 60.0
         return max(-1.0, min(1.0, self.external_load + 0.15 * self.velocity / top))
 
+    def _rest_key(self) -> tuple[object, ...] | None:
+        """What a servo at rest depends on (None: it is not at rest). At rest, a step computes
+        exactly what it holds: it moved nothing (at its goal, or no speed to move with), it has
+        no load and it is at the ambient temperature, the only one a step cannot change."""
+        if not (
+            self.velocity == 0.0
+            and self.plant_torque is None
+            and self.forced_temperature is None
+            and self.external_load == 0.0
+            and self.temperature == self.env.ambient_c
+        ):
+            return None
+        return (
+            bytes(self.table.data),  # every register, however it was written since
+            self.powered,
+            self.position,
+            self.env.voltage,
+            self.env.ambient_c,
+            self.overheated,
+            self.overload_latched,
+        )
+
     def step(self, dt: float) -> None:
         if dt <= 0:
             return
+        # The emulator steps every servo before each packet it answers and at each physics
+        # round, and most servos stand still: one that was at rest after its last step, with
+        # nothing changed since, is skipped (the step would write the same bytes).
+        key = self._rest_key()
+        if key is not None and key == self._at_rest:
+            return
+        self._full_step(dt)
+        self._at_rest = self._rest_key()
+
+    def _full_step(self, dt: float) -> None:
         t = self.table
         if self.plant_torque is not None:
             pass  # the physics plant moved the horn (plant_update)
