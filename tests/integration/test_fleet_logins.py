@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import subprocess
 import threading
+import time
 import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -146,9 +147,15 @@ def _listed(routers: Routers, kind: str, robot: str) -> bool:
         Keys(robot).alive, lambda sample: joined.set(), history=True
     )
     try:
+        deadline = time.monotonic() + LIST_DEADLINE_S
         if not joined.wait(LIST_DEADLINE_S):
             return False
-        return robot in {r.name for r in discover(session, pattern=robot)}
+        # Joined: the list asks the router again (its token query can time out on a loaded
+        # machine), each ask waiting for the replies and statuses that come.
+        while time.monotonic() < deadline:
+            if robot in {r.name for r in discover(session, pattern=robot)}:
+                return True
+        return False
     finally:
         token.undeclare()
         session.close()
