@@ -40,8 +40,12 @@ _AT = OBSERVATION_SLICES
 class Randomization:
     """Domain randomization of the plant at each reset, MuJoCo Playground OP3's ranges by
     default (floor friction 0.4–1.0, joint friction ×0.9–1.1, armature ×1.0–1.05, link
-    masses ×0.9–1.1, torso ±0.3 kg, Kp and damping ×0.8–1.2); latency (s) and IMU noise
-    (std, rad/s and m/s²) are ours. ``Randomization.off()`` is the nominal plant."""
+    masses ×0.9–1.1, torso ±0.3 kg, Kp and damping ×0.8–1.2); latency (s), IMU noise
+    (std, rad/s and m/s²) and ``hold`` are ours. ``hold`` (lo, hi): each episode draws a
+    longest hold of lo..hi policy steps, and each sensor reading (joints, gyro, gravity) is
+    then held for 1..that many steps before the next: on a loaded machine the simulated
+    stack's readings hold for 2–4 steps (the emulator steps the plant by the time elapsed since
+    it last ran). ``Randomization.off()`` is the nominal plant."""
 
     floor_friction: tuple[float, float] = (0.4, 1.0)
     joint_friction: tuple[float, float] = (0.9, 1.1)
@@ -53,6 +57,7 @@ class Randomization:
     latency: tuple[float, float] = (0.0, 0.01)
     gyro_noise: float = 0.02
     accel_noise: float = 0.1
+    hold: tuple[int, int] = (1, 1)
 
     @classmethod
     def off(cls) -> Randomization:
@@ -100,6 +105,9 @@ class FastBackend:
         self.latency = 0.0
         self._pending: list[tuple[float, np.ndarray]] = []
         self._gyro_now = np.zeros(3)
+        self.hold_max = 1  # steps a sensor reading may hold (Randomization.hold)
+        self._held: np.ndarray | None = None
+        self._held_left = 0
 
     # -- randomization --------------------------------------------------------------------
     def _save_nominal(self) -> dict[str, np.ndarray]:
@@ -126,6 +134,8 @@ class FastBackend:
         m.body_mass[pl.torso] = max(0.05, m.body_mass[pl.torso] + u(r.torso_mass_add))
         pl.kp_scale, pl.kd_scale = u(r.kp), u(r.damping)
         self.latency = u(r.latency)
+        # Drawn only when asked for: the nominal and Playground worlds keep their seeded draws.
+        self.hold_max = int(rng.integers(r.hold[0], r.hold[1] + 1)) if r.hold != (1, 1) else 1
 
     # -- episodes -------------------------------------------------------------------------
     def reset(self, mode: str = "standing", pose: Any = None, seed: int | None = None):
@@ -144,6 +154,7 @@ class FastBackend:
         self.target = start.copy()
         self.last_action = (start - self.default) / self.scale
         self._pending = []
+        self._held, self._held_left = None, 0
         # The filter starts from the true attitude (the accelerometer reads nothing useful before
         # the first step); the daemon's starts from its first sample, the robot at rest.
         self.filter.set(self.plant.true_gravity())
@@ -211,6 +222,17 @@ class FastBackend:
         out[_AT["joint_pos"]] = q - self.default
         out[_AT["joint_vel"]] = pl.qd
         out[_AT["last_action"]] = self.last_action
+        if self.hold_max > 1:
+            # The sensor readings as a starved stack reports them: held for steps; the last
+            # action and the command are the daemon's own, never stale.
+            if self._held is not None and self._held_left > 0:
+                self._held_left -= 1
+                keep = out[_AT["last_action"]].copy(), out[_AT["command"]].copy()
+                out[:] = self._held
+                out[_AT["last_action"]], out[_AT["command"]] = keep
+            else:
+                self._held = out.copy()
+                self._held_left = int(self.rng.integers(self.hold_max))
         return out
 
     def observation(self) -> PolicyObservation:

@@ -609,6 +609,12 @@ class SearchSettings:
     # action latency, IMU noise). The push table's stack is the nominal model: worlds of low
     # floor friction and soft servos where no candidate stands a shove score all alike.
     randomize: str = "playground"
+    # Policy steps a sensor reading may hold in the training worlds (Randomization.hold):
+    # (1, 1) never; the loaded stack's readings hold 2–4 (docs/learning.md).
+    hold: tuple[int, int] = (1, 1)
+    # An episode's score × (impulse / 1 N·s) ** this: the search weighs the larger shoves of
+    # a range more (0: all alike), as the push table asks for the largest stood.
+    impulse_weight: float = 0.0
 
 
 _WORKER: dict[str, Any] = {}
@@ -627,6 +633,8 @@ def _worker_env(fast: bool) -> Any:
             rnd = Randomization()
         elif fast:
             rnd.latency, rnd.gyro_noise, rnd.accel_noise = (0.0, 0.01), 0.02, 0.1
+        if fast:
+            rnd.hold = _WORKER.get("hold", (1, 1))
         _WORKER[key] = gym.make("darwin/Stand-v0", randomize=rnd, max_steps=10**6, fast=fast)
     return _WORKER[key]
 
@@ -659,12 +667,19 @@ def _episode(task: Task) -> tuple[float, int]:
     steps = k + 1
     up = stood >= total - at
     score = (1.0 if up else 0.5 * stood / (total - at)) - pose_weight * pose_err / steps
-    return score, stood
+    return score * (abs(force) * PUSH_S) ** _WORKER.get("impulse_weight", 0.0), stood
 
 
-def _init_worker(out_map: np.ndarray, randomize: str = "playground") -> None:
+def _init_worker(
+    out_map: np.ndarray,
+    randomize: str = "playground",
+    hold: tuple[int, int] = (1, 1),
+    impulse_weight: float = 0.0,
+) -> None:
     _WORKER["out_map"] = out_map
     _WORKER["randomize"] = randomize
+    _WORKER["hold"] = hold
+    _WORKER["impulse_weight"] = impulse_weight
 
 
 OBSERVATION_SLICES_JOINT_POS = slice(9, 29)
@@ -716,6 +731,21 @@ class Search:
         self.m[f("gravity_x"), ankle] = sb.KI / RATE * ARS_SCALES["gravity"]
         self.m[f("pitch_rate"), ankle] = sb.KD * (1 - sb.LEAK) * ARS_SCALES["gyro"]
         self.m[len(self.names) :] = self.m[self.split]  # the same answer either side
+
+    def start_from(self, path: Path) -> None:
+        """Start from a reflex this trainer wrote (its ``darwin.training`` metadata): the
+        search goes on from there, with this run's settings."""
+        import onnx
+
+        meta = {p.key: p.value for p in onnx.load(str(path)).metadata_props}
+        try:
+            reflex = json.loads(meta["darwin.training"])["reflex"]
+        except (KeyError, ValueError) as exc:
+            raise ValueError(f"{path} is not a reflex written by --method ars") from exc
+        rows = [*self.names, *(f"{self.names[i]}<0" for i in self.split)]
+        if list(reflex) != rows or np.shape(list(reflex.values())) != self.m.shape:
+            raise ValueError(f"{path}'s reflex reads other features or pairs than this search")
+        self.m = np.array(list(reflex.values()), dtype=float)
 
     def layers(self, m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The reflex as two layers around a ReLU: [69, 2n] (each feature and its negative),
@@ -792,6 +822,7 @@ def search(
     out: Path | None = None,
     log: Any = sys.stdout,
     imitate: bool = True,
+    start: Path | None = None,
 ) -> Search:
     """Random search; every ``probe_every`` generations the policy is shoved on the full model
     as the push table shoves it (1.0–2.0 N·s each way) and the file keeps the best: most
@@ -799,10 +830,12 @@ def search(
     import multiprocessing
 
     agent = Search(s, seed)
-    if imitate:
+    if start is not None:
+        agent.start_from(start)
+    elif imitate:
         agent.copy_stand_balance()
     ctx = multiprocessing.get_context("fork")
-    init = (agent.out_map, s.randomize)
+    init = (agent.out_map, s.randomize, s.hold, s.impulse_weight)
     pool = ctx.Pool(s.workers, _init_worker, init) if s.workers > 1 else None
     _init_worker(*init)
     t0 = time.monotonic()
@@ -903,17 +936,26 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="ars: which numbers are searched (docs/learning.md)")
     ap.add_argument("--randomize", choices=("playground", "latency"), default="playground",
                     help="ars: Playground's domain randomisation, or latency and IMU noise only")
+    ap.add_argument("--hold", type=int, nargs=2, default=(1, 1), metavar=("LO", "HI"),
+                    help="ars: steps a sensor reading may hold in the training worlds (the "
+                    "loaded stack's hold 2-4)")
+    ap.add_argument("--impulse-weight", type=float, default=0.0, metavar="K",
+                    help="ars: an episode's score × (impulse / 1 N·s) ** K (larger shoves "
+                    "count more)")
+    ap.add_argument("--start", type=Path, help="ars: go on from this reflex (an .onnx it wrote)")
     args = ap.parse_args(argv)
     given = sys.argv[1:] if argv is None else argv
     if args.method == "ars":
         print(f"training: python -m clients.learn.train {' '.join(given)}", flush=True)
-        ss = SearchSettings(workers=args.workers, randomize=args.randomize, search=args.search)
+        ss = SearchSettings(workers=args.workers, randomize=args.randomize, search=args.search,
+                            hold=tuple(args.hold),
+                            impulse_weight=args.impulse_weight)  # fmt: skip
         if args.push != Settings.push:
             ss.push = ss.push_back = tuple(args.push)
         if args.push_back:
             ss.push_back = tuple(args.push_back)
         search(ss, args.seed, args.iterations, args.minutes, args.out,
-               imitate=bool(args.imitate))  # fmt: skip
+               imitate=bool(args.imitate), start=args.start)  # fmt: skip
         print(f"policy: {args.out}", flush=True)
         return 0
     s = Settings(envs=args.envs, horizon=args.horizon, push=tuple(args.push),

@@ -44,3 +44,62 @@ def test_a_generation_writes_the_policy_it_searched(tmp_path: Path) -> None:
     made = json.loads(meta["darwin.training"])
     assert made["algorithm"].startswith("ARS") and made["generations"] == 1
     assert set(made["probe"]) == {"impulses", "forward", "backward"}
+
+
+def test_a_search_goes_on_from_the_reflex_it_wrote_and_refuses_another_file(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "reflex.onnx"
+    s = train.SearchSettings(directions=2, top=1, episodes=2, probe_every=1, after=0.5)
+    first = train.search(s, seed=0, generations=1, out=out)
+    again = train.Search(train.SearchSettings(search="tilt"), seed=5)
+    again.start_from(out)
+    np.testing.assert_array_equal(again.m, first.m)
+    other = tmp_path / "mlp.onnx"
+    from clients.learn.onnx_policy import deploy_metadata, mlp_model
+    from tests.learn.test_onnx_policy import P_GAINS
+
+    w = np.zeros((OBSERVATION_SIZE, 20))
+    import onnx
+
+    onnx.save(mlp_model([(w, np.zeros(20))], "Relu", metadata=deploy_metadata(50.0, 0.3, P_GAINS)),
+              str(other))  # fmt: skip
+    with pytest.raises(ValueError, match="not a reflex written by --method ars"):
+        again.start_from(other)
+
+
+def test_held_sensor_readings_repeat_for_at_most_the_hold_and_the_last_action_never() -> None:
+    """``Randomization.hold``: a loaded stack's joint and IMU readings hold for 2–4 steps; the
+    fast backend holds them for 1..hi steps, never its own last action."""
+    import gymnasium as gym
+
+    import clients.learn.env  # noqa: F401
+    from clients.learn.fast import Randomization
+    from schemas.policy import OBSERVATION_SLICES as at
+
+    def runs(hold: tuple[int, int]) -> tuple[list[int], int]:
+        rnd = Randomization.off()
+        rnd.hold = hold
+        env = gym.make("darwin/Stand-v0", randomize=rnd)
+        obs, _ = env.reset(seed=3)
+        lengths, fresh_actions, prev, n = [], 0, obs, 1
+        sensors = ("gyro", "gravity", "joint_pos", "joint_vel")  # all held together
+        for k in range(60):  # an arm swing: the joints move every step
+            a = np.zeros(20)
+            a[0], a[1] = np.sin(k / 5), -np.sin(k / 5)
+            obs, *_ = env.step(a)
+            fresh_actions += not np.array_equal(obs[at["last_action"]], prev[at["last_action"]])
+            if all(np.array_equal(obs[at[f]], prev[at[f]]) for f in sensors):
+                n += 1
+            else:
+                lengths.append(n)
+                n = 1
+            prev = obs
+        env.close()
+        return lengths, fresh_actions
+
+    held, fresh = runs((3, 3))
+    assert max(held) == 3 and min(held) >= 1 and sum(h > 1 for h in held) >= 5
+    assert fresh >= 55  # the daemon's own last action is never stale
+    never, _ = runs((1, 1))
+    assert set(never) == {1}
