@@ -612,8 +612,11 @@ class SearchSettings:
     # Policy steps a sensor reading may hold in the training worlds (Randomization.hold):
     # (1, 1) never; the loaded stack's readings hold 2–4 (docs/learning.md).
     hold: tuple[int, int] = (1, 1)
-    # An episode's score × (impulse / 1 N·s) ** this: the search weighs the larger shoves of
-    # a range more (0: all alike), as the push table asks for the largest stood.
+    # An episode's score × (impulse / the middle of its direction's range) ** this: the larger
+    # shoves of each range count more (0: all alike), as the push table asks for the largest
+    # stood. Against the middle of its own range, not 1 N·s: a weight on the impulse itself
+    # let the backward shoves (the larger range) outweigh the forward ones, and the search
+    # traded forward for backward (forward 1.4 stood at generation 15, nothing at 30).
     impulse_weight: float = 0.0
 
 
@@ -667,19 +670,17 @@ def _episode(task: Task) -> tuple[float, int]:
     steps = k + 1
     up = stood >= total - at
     score = (1.0 if up else 0.5 * stood / (total - at)) - pose_weight * pose_err / steps
-    return score * (abs(force) * PUSH_S) ** _WORKER.get("impulse_weight", 0.0), stood
+    return score, stood
 
 
 def _init_worker(
     out_map: np.ndarray,
     randomize: str = "playground",
     hold: tuple[int, int] = (1, 1),
-    impulse_weight: float = 0.0,
 ) -> None:
     _WORKER["out_map"] = out_map
     _WORKER["randomize"] = randomize
     _WORKER["hold"] = hold
-    _WORKER["impulse_weight"] = impulse_weight
 
 
 OBSERVATION_SLICES_JOINT_POS = slice(9, 29)
@@ -764,14 +765,21 @@ class Search:
         h = np.maximum(np.asarray(obs, float) @ w1, 0.0)
         return np.clip((h @ w2) @ self.out_map, -1.0, 1.0)
 
-    def tasks(self, m: np.ndarray, seeds: np.ndarray) -> list[Task]:
-        s, n = self.s, len(seeds)
-        out = []
-        for j, seed in enumerate(seeds):
+    def impulses(self, n: int) -> np.ndarray:
+        """The impulse (N·s, signed) of each of a generation's ``n`` episodes: forward and
+        backward in turn, each spread over its direction's range."""
+        out = np.empty(n)
+        for j in range(n):
             sign = 1.0 if j % 2 == 0 else -1.0
             lo, hi = self.push[sign]
-            impulse = lo + (hi - lo) * ((j // 2) + 0.5) / max(1, n // 2)
-            out.append((self.layers(m), int(seed), sign * impulse / 0.1, s.shove_at, s.after,
+            out[j] = sign * (lo + (hi - lo) * ((j // 2) + 0.5) / max(1, n // 2))
+        return out
+
+    def tasks(self, m: np.ndarray, seeds: np.ndarray) -> list[Task]:
+        s = self.s
+        out = []
+        for impulse, seed in zip(self.impulses(len(seeds)), seeds, strict=True):
+            out.append((self.layers(m), int(seed), impulse / 0.1, s.shove_at, s.after,
                         s.pose_weight, True))  # fmt: skip
         return out
 
@@ -785,6 +793,11 @@ class Search:
             tasks += self.tasks(self.m - s.noise * d, seeds)
         results = pool.map(_episode, tasks) if pool is not None else list(map(_episode, tasks))
         scores = np.array([r[0] for r in results]).reshape(s.directions, 2, s.episodes)
+        if s.impulse_weight:
+            impulse = np.abs(self.impulses(s.episodes))
+            mid = np.array([sum(self.push[1.0 if j % 2 == 0 else -1.0]) / 2
+                            for j in range(s.episodes)])  # fmt: skip
+            scores = scores * (impulse / mid) ** s.impulse_weight
         stood = np.array([r[1] for r in results]).reshape(s.directions, 2, s.episodes)
         total = int((s.after) * RATE)
         r_plus, r_minus = scores[:, 0].mean(axis=1), scores[:, 1].mean(axis=1)
@@ -835,7 +848,7 @@ def search(
     elif imitate:
         agent.copy_stand_balance()
     ctx = multiprocessing.get_context("fork")
-    init = (agent.out_map, s.randomize, s.hold, s.impulse_weight)
+    init = (agent.out_map, s.randomize, s.hold)
     pool = ctx.Pool(s.workers, _init_worker, init) if s.workers > 1 else None
     _init_worker(*init)
     t0 = time.monotonic()
@@ -940,8 +953,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="ars: steps a sensor reading may hold in the training worlds (the "
                     "loaded stack's hold 2-4)")
     ap.add_argument("--impulse-weight", type=float, default=0.0, metavar="K",
-                    help="ars: an episode's score × (impulse / 1 N·s) ** K (larger shoves "
-                    "count more)")
+                    help="ars: an episode's score × (impulse / the middle of its direction's "
+                    "range) ** K (the larger shoves of each range count more)")
     ap.add_argument("--start", type=Path, help="ars: go on from this reflex (an .onnx it wrote)")
     args = ap.parse_args(argv)
     given = sys.argv[1:] if argv is None else argv
