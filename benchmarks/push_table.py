@@ -11,8 +11,10 @@ runs one shove of the impulse (N·s, over 0.1 s at the torso) forward or backwar
 tries each way (the robot falls forward more easily than backward), in a seeded order, the
 same for every policy. A fall is the daemon's own termination of the stream ("stopped by the
 daemon: fall…"). The policies: the trained one (clients/learn/policies/stand_push.onnx, or
-``--trained FILE``), the hand-made ankle controller (clients/learn/examples/stand_balance.py)
-and holding the stand pose. Prints the table: impulse → falls out of N, per policy.
+``--trained FILE [FILE…]``: several trained files are rows of their own, named by their
+file names, so a new policy meets the shipped one under the same shoves in the same run), the
+hand-made ankle controller (clients/learn/examples/stand_balance.py) and holding the stand
+pose. Prints the table: impulse → falls out of N, per policy.
 """
 
 from __future__ import annotations
@@ -99,13 +101,18 @@ def main() -> None:
     ap.add_argument("--tries", type=int, default=4)
     ap.add_argument("--impulses", type=float, nargs="+", default=[1.0, 1.2, 1.4, 1.6])
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--trained", default=POLICIES["trained"], help="the trained policy's file")
+    ap.add_argument("--trained", nargs="+", default=[POLICIES["trained"]],
+                    help="the trained policy's file (several: a row each, named by file name)")
     ap.add_argument("--policies", nargs="+", choices=list(POLICIES), default=list(POLICIES),
                     help="which rows to run (the shoves' directions are the same for any)")
     args = ap.parse_args()
-    POLICIES["trained"] = args.trained
-    for name in set(POLICIES) - set(args.policies):
-        del POLICIES[name]
+    rows = {}
+    if "trained" in args.policies:
+        for file in args.trained:
+            rows["trained" if len(args.trained) == 1 else Path(file).name] = file
+    rows.update({n: POLICIES[n] for n in ("stand_balance", "hold") if n in args.policies})
+    POLICIES.clear()
+    POLICIES.update(rows)
     rng = np.random.default_rng(args.seed)
     both = [1.0, -1.0] * ((args.tries + 1) // 2)
     signs = [rng.permutation(both)[: args.tries] for _ in args.impulses]
