@@ -618,6 +618,11 @@ class SearchSettings:
     # let the backward shoves (the larger range) outweigh the forward ones, and the search
     # traded forward for backward (forward 1.4 stood at generation 15, nothing at 30).
     impulse_weight: float = 0.0
+    # A candidate's score is that of its weaker direction (the mean of its forward shoves' or
+    # of its backward shoves', the lower), not the mean of all: on the mean the search traded
+    # one direction for the other from probe to probe (forward 1.4 N·s stood, then backward
+    # 1.8 and forward not 1.0), where the push table, and the probe, ask for both.
+    balance: bool = False
 
 
 _WORKER: dict[str, Any] = {}
@@ -800,7 +805,11 @@ class Search:
             scores = scores * (impulse / mid) ** s.impulse_weight
         stood = np.array([r[1] for r in results]).reshape(s.directions, 2, s.episodes)
         total = int((s.after) * RATE)
-        r_plus, r_minus = scores[:, 0].mean(axis=1), scores[:, 1].mean(axis=1)
+        if s.balance:
+            per_way = np.stack([scores[:, :, 0::2].mean(axis=2), scores[:, :, 1::2].mean(axis=2)])
+            r_plus, r_minus = per_way.min(axis=0).T
+        else:
+            r_plus, r_minus = scores[:, 0].mean(axis=1), scores[:, 1].mean(axis=1)
         order = np.argsort(-np.maximum(r_plus, r_minus))[: s.top]
         sigma = float(np.concatenate([r_plus[order], r_minus[order]]).std()) + 1e-6
         step = np.tensordot(r_plus[order] - r_minus[order], deltas[order], axes=1)
@@ -955,6 +964,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--impulse-weight", type=float, default=0.0, metavar="K",
                     help="ars: an episode's score × (impulse / the middle of its direction's "
                     "range) ** K (the larger shoves of each range count more)")
+    ap.add_argument("--balance", action="store_true",
+                    help="ars: score a candidate by its weaker direction's shoves")
     ap.add_argument("--start", type=Path, help="ars: go on from this reflex (an .onnx it wrote)")
     args = ap.parse_args(argv)
     given = sys.argv[1:] if argv is None else argv
@@ -962,7 +973,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"training: python -m clients.learn.train {' '.join(given)}", flush=True)
         ss = SearchSettings(workers=args.workers, randomize=args.randomize, search=args.search,
                             hold=tuple(args.hold),
-                            impulse_weight=args.impulse_weight)  # fmt: skip
+                            impulse_weight=args.impulse_weight,
+                            balance=args.balance)  # fmt: skip
         if args.push != Settings.push:
             ss.push = ss.push_back = tuple(args.push)
         if args.push_back:

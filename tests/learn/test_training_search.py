@@ -51,7 +51,7 @@ def test_a_search_goes_on_from_the_reflex_it_wrote_and_refuses_another_file(
 ) -> None:
     out = tmp_path / "reflex.onnx"
     s = train.SearchSettings(directions=2, top=1, episodes=2, probe_every=1, after=0.5,
-                             impulse_weight=1.0, hold=(1, 3))  # fmt: skip
+                             impulse_weight=1.0, hold=(1, 3), balance=True)  # fmt: skip
     first = train.search(s, seed=0, generations=1, out=out)
     # Each direction's shoves spread over its own range (the weight is against its middle).
     fresh = train.Search(train.SearchSettings(), seed=0)  # forward 0.9–1.5, backward 1.2–1.8
