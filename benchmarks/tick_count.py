@@ -358,7 +358,11 @@ GUARD_SLACK = 0.03  # a tick may grow this much over its recorded figure
 
 
 def guard_key() -> str:
-    return interpreter()
+    """The interpreter and which hot path the tick runs (robot_daemon/hotpath.py): the
+    compiled one counts fewer instructions, and each has its own figure."""
+    from robot_daemon import hotpath
+
+    return f"{interpreter()}, hot path {'compiled' if hotpath.compiled else 'Python'}"
 
 
 def child_guard(args: argparse.Namespace) -> None:

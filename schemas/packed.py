@@ -59,6 +59,13 @@ class Prepacked:
             (tuple(r), len(packer.pack_map_header(len(r))), fields.index(r[0])) for r in runs
         ]
         self._pack = msgpack.Packer(use_bin_type=True).pack
+        # A layout of one run (joints, IMU): its fixed bytes before and after the run and the
+        # run's keys packed, for a packer that writes the run's values between them itself
+        # (robot_daemon/_hotpath.c's pack_fields: the same bytes, tests/unit/test_hotpath.py).
+        self.single: tuple[bytes, tuple[bytes, ...], bytes] | None = None
+        if len(self._runs) == 1:
+            keys = tuple(packer.pack(name) for name in self._runs[0][0])
+            self.single = (self._chunks[0], keys, self._chunks[1])
 
     def pack(self, values: list[Any]) -> bytes:
         if len(values) != len(self.fields):

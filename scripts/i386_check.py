@@ -338,6 +338,15 @@ def check(log: Path) -> None:
                     got = (info.stdout + info.stderr).strip().splitlines()[-1:]
                     raise CheckFailed(f"the root's Python is not 32-bit i686: {got}")
                 say(f"python in the root: {info.stdout.strip()}")
+                hot = subprocess.run(
+                    chroot_cmd(root, "/opt/darwin/bin/python", "-c",
+                               "from robot_daemon import hotpath; print(hotpath.status)"),
+                    capture_output=True, text=True,
+                )
+                if "compiled" not in hot.stdout:
+                    got = (hot.stdout + hot.stderr).strip().splitlines()[-1:]
+                    raise CheckFailed(f"the recipe's compiled hot path is not in use: {got}")
+                say(hot.stdout.strip())
                 emulator, pty = start_emulator(log)
                 from schemas.session import free_tcp_port
 

@@ -8,12 +8,13 @@ come from the robot config. The functions work on one joint (scalars) or on ever
 from __future__ import annotations
 
 import math
-from typing import TypeVar, cast
+from typing import Any, TypeVar, cast
 
 import numpy as np
 
 from config.loader import JointConfig, RobotConfig
 from robot_daemon.frames import N_SLOTS
+from robot_daemon.hotpath import compiled as _compiled
 from schemas import units
 
 Angles = TypeVar("Angles", float, np.ndarray)
@@ -42,6 +43,19 @@ def joint_angle(joint: JointConfig, raw: int | float) -> float:
 def joint_raw(joint: JointConfig, rad: float) -> int:
     """:func:`joint_to_servo` for one configured joint."""
     return joint_to_servo(rad, joint.direction, math.radians(joint.offset_deg))
+
+
+def goals_raw_py(sign: list[float], offset: list[float], lo: list[float], hi: list[float],
+                 rads: list[float], k: float, c: int) -> list[int] | None:
+    """``round((s · r + o) / k) + c`` of each goal ``r`` with its joint's sign, offset and
+    limits, or None when one is not within its limits (a NaN is neither below nor above: it is
+    refused too). The definition of what ``robot_daemon/_hotpath.c`` computes for
+    :meth:`Calibration.goals_raw` where it is built."""
+    raws = [
+        round((s * r + o) / k) + c if lo_ <= r <= hi_ else None
+        for s, r, o, lo_, hi_ in zip(sign, rads, offset, lo, hi, strict=True)
+    ]
+    return None if None in raws else cast("list[int]", raws)
 
 
 class Calibration:
@@ -114,13 +128,13 @@ class Calibration:
             cols = self._columns[ids] = self._goal_columns(ids)
         sign, offset, lo, hi, inside = cols
         k, c = units.RAD_PER_UNIT, units.POSITION_CENTER
-        # Within limits is not below the lower one nor above the upper one; a NaN is neither
-        # (goal_raw's round refuses it).
-        raws = [
-            round((s * r + o) / k) + c if lo_ <= r <= hi_ else None
-            for s, r, o, lo_, hi_ in zip(sign, rads, offset, lo, hi, strict=True)
-        ]
-        if None in raws:
+        # The compiled conversion where it is built (the same bits: tests/unit/test_hotpath.py);
+        # it hands back NotImplemented for what only the Python takes (a goal not a float).
+        raws: Any = NotImplemented if _compiled is None else _compiled.goals_raw(
+            sign, offset, lo, hi, rads, k, c)
+        if raws is NotImplemented:
+            raws = goals_raw_py(sign, offset, lo, hi, rads, k, c)
+        if raws is None:
             return None
         if not inside:
             top = units.POSITION_MAX

@@ -13,6 +13,7 @@ from operator import itemgetter
 from typing import TYPE_CHECKING, Any, cast
 
 from robot_daemon.bus.state import cm730_status
+from robot_daemon.hotpath import compiled as _compiled
 from schemas.messages import Imu, Joints, Status, encode
 from schemas.packed import Prepacked
 from schemas.status_maps import (
@@ -82,7 +83,23 @@ class JointsEncoder:
         return Joints(id=list(self.ids), name=list(self.names), **self.values(snap))
 
     def encode(self, snap: TickSnapshot) -> bytes:
-        return self.layout.pack(list(self.values(snap).values()))
+        pick = self._slice or self.pick
+        # values()'s fields in its order, as a list (no dict: this runs every tick)
+        values = [pick(snap.position), pick(snap.goal), pick(snap.velocity), pick(snap.load),
+                  pick(snap.temperature), pick(snap.voltage), pick(snap.torque),
+                  pick(snap.online), pick(snap.alarm), snap.stamp, snap.tick]
+        return _pack(self.layout, values)
+
+
+def _pack(layout: Prepacked, values: list[Any]) -> bytes:
+    """The layout's bytes, by the compiled packer where it is built and takes these values
+    (robot_daemon/hotpath.py), else by msgpack through the layout."""
+    if _compiled is not None and layout.single is not None:
+        head, keys, tail = layout.single
+        out = _compiled.pack_fields(head, keys, values, tail)
+        if out is not NotImplemented:
+            return cast(bytes, out)
+    return layout.pack(values)
 
 
 _IMU_LAYOUT = Prepacked(Imu, {})
@@ -102,8 +119,9 @@ def imu_message(snap: TickSnapshot) -> Imu:
 
 def imu_payload(snap: TickSnapshot) -> bytes:
     """:func:`imu_message`'s bytes, from the packed layout (the motion thread's only)."""
-    return _IMU_LAYOUT.pack(
-        [snap.gyro, snap.accel, snap.gyro_raw, snap.accel_raw, snap.fall, snap.stamp, snap.tick]
+    return _pack(
+        _IMU_LAYOUT,
+        [snap.gyro, snap.accel, snap.gyro_raw, snap.accel_raw, snap.fall, snap.stamp, snap.tick],
     )
 
 

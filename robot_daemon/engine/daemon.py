@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 import zenoh
 
 from config.loader import RobotConfig, refuse_unknown, shipped
+from robot_daemon import hotpath
 from robot_daemon.arbiter.core import Arbiter
 from robot_daemon.arbiter.lease import Holder, Lease
 from robot_daemon.arbiter.registry import MotionContext
@@ -309,6 +310,7 @@ class Daemon:
         # Atom), and start-up's garbage is not left for the loop to collect (docs/loop-cpu.md).
         gc.collect()
         gc.freeze()
+        log.info("%s", hotpath.status)  # compiled, or why not (robot_daemon/hotpath.py)
         while not self._stop.is_set():
             if not self.bus.is_open:
                 self._reconnect()

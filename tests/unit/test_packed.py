@@ -35,6 +35,18 @@ def snapshot(rng: random.Random, tick: int, alarm_max: int = 127) -> TickSnapsho
     )
 
 
+@pytest.fixture(autouse=True, params=["compiled", "msgpack"])
+def packer(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Each test with the compiled packer (where it is built) and with msgpack's."""
+    import robot_daemon.engine.broadcast as broadcast
+
+    if request.param == "msgpack":
+        monkeypatch.setattr(broadcast, "_compiled", None)
+    elif broadcast._compiled is None:
+        pytest.skip("the compiled hot path is not built")
+    return str(request.param)
+
+
 @pytest.fixture(scope="module")
 def joints() -> JointsEncoder:
     return JointsEncoder(robot_from_dict(load_all()["robot"]))

@@ -61,6 +61,7 @@ def test_opencv_comes_after_the_daemon_and_blocks_are_named_by_their_comment() -
     names = [check.label(b) for b in blocks]
     assert names == [
         "the daemon",
+        "the compiled hot path, optional",
         "OpenCV, for the camera and ball play",
         "the loop's settings for the Atom",
     ]

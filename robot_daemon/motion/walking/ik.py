@@ -10,11 +10,12 @@ matters for odometry in the simulator.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from operator import mul
 
 import numpy as np
 
+from robot_daemon import hotpath
 from schemas.kinematics import (
     ANKLE_LENGTH,
     CALF_LENGTH,
@@ -78,13 +79,15 @@ def foot_target(x: float, y: float, z: float, roll: float, pitch: float, yaw: fl
     return t
 
 
-def leg_ik_end_point(
+def leg_ik_end_point_py(
     x: float, y: float, z: float, roll: float, pitch: float, yaw: float
 ) -> LegAngles | None:
     """:func:`leg_ik` of :func:`foot_target` in plain float arithmetic, for the gait's 8 ms
     tick: numpy's per-call overhead on 3×3 matrices cost more than the maths (issue #30). The
     same steps as :func:`leg_ik`, each matrix product written out (equal to it to rounding;
-    ``tests/unit/test_ik_scalar.py`` compares them)."""
+    ``tests/unit/test_ik_scalar.py`` compares them). The definition of
+    :func:`leg_ik_end_point`, which is this compiled where the C extension is built
+    (``robot_daemon/_hotpath.c``: the same bits, ``tests/unit/test_hotpath.py``)."""
     cr, sr = math.cos(roll), math.sin(roll)
     cp, sp = math.cos(pitch), math.sin(pitch)
     cy, sy = math.cos(yaw), math.sin(yaw)
@@ -123,6 +126,17 @@ def leg_ik_end_point(
     hip_pitch = (math.atan2(q0, q2) - math.atan2(ux, uz) + pi) % _TAU - pi
     ankle_pitch = (pitch_sum - hip_pitch - knee + pi) % _TAU - pi
     return (hip_yaw, hip_roll, hip_pitch, knee, ankle_pitch, ankle_roll)
+
+
+leg_ik_end_point: Callable[[float, float, float, float, float, float], LegAngles | None]
+if hotpath.compiled is not None:
+    hotpath.compiled.configure_leg(
+        ANKLE_LENGTH, LEG_LENGTH, THIGH_LENGTH**2, CALF_LENGTH**2, 2 * THIGH_LENGTH * CALF_LENGTH,
+        CALF_LENGTH, THIGH_LENGTH, math.pi, _TAU, leg_ik_end_point_py,
+    )
+    leg_ik_end_point = hotpath.compiled.leg_ik_end_point
+else:
+    leg_ik_end_point = leg_ik_end_point_py
 
 
 def leg_servo_angles(

@@ -1,0 +1,455 @@
+/* The motion tick's per-value work compiled: the gait's leg IK, the goals' conversion to servo
+ * units and the joints and IMU messages' msgpack bytes. Optional (setup.py builds it with optional=True): each function here has a
+ * pure-Python twin that stays the definition (robot_daemon/motion/walking/ik.py,
+ * robot_daemon/bus/calibration.py, msgpack through schemas/packed.py), and
+ * tests/unit/test_hotpath.py checks the two give the same bits on seeded random inputs.
+ *
+ * The same bits need the same IEEE operations in the same order as the Python code, each
+ * rounded to a double as Python rounds it (every Python float operation stores its result as a
+ * double): one operation per assignment below, and on i386, whose Python computes on the x87
+ * unit, setup.py builds this with -fexcess-precision=standard so that every assignment rounds
+ * to double there too. libm's sin, cos, acos and atan2 are the ones Python's math module calls;
+ * math.atan2's own handling of zeros, infinities and NaNs is copied (py_atan2), as is float's
+ * % (py_mod) and round() (py_round). Anything outside what is copied here (an input that is not
+ * a float, a non-finite angle) goes to the Python function, which says what is wrong.
+ *
+ * CPython's API only: Debian's gcc and python3-dev build it, nothing else. */
+
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+
+/* -- the leg IK (ik.leg_ik_end_point) --------------------------------------------------------- */
+
+static double ANKLE, LEG, THIGH2, CALF2, TWO_THIGH_CALF, CALF, THIGH, PI, TAU;
+static PyObject *ik_fallback; /* the pure-Python leg_ik_end_point */
+
+/* Python's math.atan2 (Modules/mathmodule.c, m_atan2) */
+static double py_atan2(double y, double x)
+{
+    if (isnan(x) || isnan(y))
+        return NAN;
+    if (isinf(y)) {
+        if (isinf(x)) {
+            if (copysign(1., x) == 1.)
+                return copysign(0.25 * PI, y);
+            else
+                return copysign(0.75 * PI, y);
+        }
+        return copysign(0.5 * PI, y);
+    }
+    if (isinf(x) || y == 0.) {
+        if (copysign(1., x) == 1.)
+            return 0. * y;
+        else
+            return copysign(PI, y);
+    }
+    return atan2(y, x);
+}
+
+/* Python's float % (Objects/floatobject.c, float_rem), for a non-zero divisor */
+static double py_mod(double v, double w)
+{
+    double mod = fmod(v, w);
+    if (mod) {
+        if ((w < 0) != (mod < 0))
+            mod += w;
+    }
+    else {
+        mod = copysign(0.0, w);
+    }
+    return mod;
+}
+
+static PyObject *hot_configure_leg(PyObject *self, PyObject *args)
+{
+    PyObject *fallback;
+    if (!PyArg_ParseTuple(args, "dddddddddO", &ANKLE, &LEG, &THIGH2, &CALF2, &TWO_THIGH_CALF,
+                          &CALF, &THIGH, &PI, &TAU, &fallback))
+        return NULL;
+    Py_XDECREF(ik_fallback);
+    Py_INCREF(fallback);
+    ik_fallback = fallback;
+    Py_RETURN_NONE;
+}
+
+static PyObject *hot_leg_ik_end_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double in[6];
+    if (ik_fallback == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "_hotpath.leg_ik_end_point: configure_leg first");
+        return NULL;
+    }
+    if (nargs != 6)
+        return PyObject_Vectorcall(ik_fallback, args, nargs, NULL);
+    for (int i = 0; i < 6; i++) {
+        if (!PyFloat_CheckExact(args[i]))
+            return PyObject_Vectorcall(ik_fallback, args, nargs, NULL);
+        in[i] = PyFloat_AS_DOUBLE(args[i]);
+    }
+    double x = in[0], y = in[1], z = in[2], roll = in[3], pitch = in[4], yaw = in[5];
+    if (!isfinite(roll) || !isfinite(pitch) || !isfinite(yaw))  /* math.cos raises */
+        return PyObject_Vectorcall(ik_fallback, args, nargs, NULL);
+    double cr = cos(roll), sr = sin(roll);
+    double cp = cos(pitch), sp = sin(pitch);
+    double cy = cos(yaw), sy = sin(yaw);
+    double t, u;
+    double r00 = cy * cp;
+    t = cy * sp; t = t * sr; u = sy * cr;
+    double r01 = t - u;
+    t = cy * sp; t = t * cr; u = sy * sr;
+    double r02 = t + u;
+    double r10 = sy * cp;
+    t = sy * sp; t = t * sr; u = cy * cr;
+    double r11 = t + u;
+    t = sy * sp; t = t * cr; u = cy * sr;
+    double r12 = t - u;
+    double r21 = cp * sr, r22 = cp * cr;
+    t = r02 * ANKLE;
+    double ax = x + t;
+    t = r12 * ANKLE;
+    double ay = y + t;
+    t = z - LEG; u = r22 * ANKLE;
+    double az = t + u;
+    t = ax * ax; u = ay * ay; t = t + u; u = az * az;
+    double dist2 = t + u;
+    t = dist2 - THIGH2; t = t - CALF2;
+    double cos_knee = t / TWO_THIGH_CALF;
+    if (!(-1.0 <= cos_knee && cos_knee <= 1.0) || dist2 < 1e-12)
+        Py_RETURN_NONE;
+    double knee = acos(cos_knee);
+    t = r01 * ax; u = r11 * ay; t = t + u; u = r21 * az; t = t + u;
+    double v1 = -t;
+    t = r02 * ax; u = r12 * ay; t = t + u; u = r22 * az; t = t + u;
+    double v2 = -t;
+    double ankle_roll = v2 >= 0 ? py_atan2(v1, v2) : py_atan2(-v1, -v2);
+    double ca = cos(ankle_roll), sa = sin(ankle_roll);
+    t = r01 * ca; u = r02 * sa;
+    double s01 = t - u;
+    t = r11 * ca; u = r12 * sa;
+    double s11 = t - u;
+    t = r21 * ca; u = r22 * sa;
+    double s21 = t - u;
+    t = r01 * sa; u = r02 * ca;
+    double s02 = t + u;
+    t = r11 * sa; u = r12 * ca;
+    double s12 = t + u;
+    double hip_yaw = py_atan2(-s01, s11);
+    double cw = cos(hip_yaw), sw = sin(hip_yaw);
+    t = cw * s11; u = sw * s01; t = t - u;
+    double hip_roll = py_atan2(s21, t);
+    double n, d;
+    t = cw * s02; u = sw * s12; n = t + u;
+    t = cw * r00; u = sw * r10; d = t + u;
+    double pitch_sum = py_atan2(n, d);
+    t = cw * ay; u = sw * ax;
+    double p1 = t - u;
+    t = cw * ax; u = sw * ay;
+    double q0 = t + u;
+    t = cos(hip_roll); t = t * az; u = sin(hip_roll); u = u * p1;
+    double q2 = t - u;
+    t = sin(knee);
+    double ux = -CALF * t;
+    t = cos(knee); t = CALF * t;
+    double uz = -THIGH - t;
+    t = py_atan2(q0, q2); u = py_atan2(ux, uz); t = t - u; t = t + PI; t = py_mod(t, TAU);
+    double hip_pitch = t - PI;
+    t = pitch_sum - hip_pitch; t = t - knee; t = t + PI; t = py_mod(t, TAU);
+    double ankle_pitch = t - PI;
+    return Py_BuildValue("(dddddd)", hip_yaw, hip_roll, hip_pitch, knee, ankle_pitch,
+                         ankle_roll);
+}
+
+/* -- the goals in servo units (Calibration.goals_raw) ----------------------------------------- */
+
+/* Python's round() of a float, to a whole double (Objects/floatobject.c, float___round__) */
+static double py_round(double x)
+{
+    double rounded = round(x);
+    double diff = x - rounded;
+    if (fabs(diff) == 0.5) {
+        double half = x / 2.0;
+        rounded = 2.0 * round(half);
+    }
+    return rounded;
+}
+
+/* goals_raw(sign, offset, lo, hi, rads, k, c): [round((s * r + o) / k) + c for each goal] when
+ * every goal r is within lo..hi; None when one is not (or is NaN); NotImplemented when any value
+ * is not a float or the lists differ in length, for the caller's Python to handle. */
+static PyObject *hot_goals_raw(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 7) {
+        PyErr_SetString(PyExc_TypeError, "goals_raw takes 7 arguments");
+        return NULL;
+    }
+    for (int i = 0; i < 5; i++)
+        if (!PyList_CheckExact(args[i]))
+            Py_RETURN_NOTIMPLEMENTED;
+    if (!PyFloat_CheckExact(args[5]) || !PyLong_CheckExact(args[6]))
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_ssize_t n = PyList_GET_SIZE(args[4]);
+    for (int i = 0; i < 4; i++)
+        if (PyList_GET_SIZE(args[i]) != n)
+            Py_RETURN_NOTIMPLEMENTED;
+    double k = PyFloat_AS_DOUBLE(args[5]);
+    long c = PyLong_AsLong(args[6]);
+    if (c == -1 && PyErr_Occurred())
+        return NULL;
+    for (Py_ssize_t j = 0; j < n; j++)
+        for (int i = 0; i < 5; i++)
+            if (!PyFloat_CheckExact(PyList_GET_ITEM(args[i], j)))
+                Py_RETURN_NOTIMPLEMENTED;
+    PyObject *out = PyList_New(n);
+    if (out == NULL)
+        return NULL;
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double s = PyFloat_AS_DOUBLE(PyList_GET_ITEM(args[0], j));
+        double o = PyFloat_AS_DOUBLE(PyList_GET_ITEM(args[1], j));
+        double lo = PyFloat_AS_DOUBLE(PyList_GET_ITEM(args[2], j));
+        double hi = PyFloat_AS_DOUBLE(PyList_GET_ITEM(args[3], j));
+        double r = PyFloat_AS_DOUBLE(PyList_GET_ITEM(args[4], j));
+        if (!(lo <= r && r <= hi)) {
+            Py_DECREF(out);
+            Py_RETURN_NONE;
+        }
+        double t = s * r;
+        t = t + o;
+        t = t / k;
+        t = py_round(t);
+        if (!(fabs(t) < 1e15)) {  /* beyond a long on i386: Python's ints take it */
+            Py_DECREF(out);
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+        PyObject *v = PyLong_FromLongLong((long long)t + c);
+        if (v == NULL) {
+            Py_DECREF(out);
+            return NULL;
+        }
+        PyList_SET_ITEM(out, j, v);
+    }
+    return out;
+}
+
+/* -- msgpack of the joints and IMU messages (schemas/packed.py's Prepacked) ------------------ */
+
+/* The bytes msgpack-python's Packer(use_bin_type=True) gives for None, bool, int, float, str,
+ * bytes and lists or tuples of them; anything else (a subclass included) is left to msgpack. */
+
+typedef struct {
+    char *buf;
+    Py_ssize_t len, cap;
+} Out;
+
+static int out_reserve(Out *o, Py_ssize_t n)
+{
+    if (o->len + n <= o->cap)
+        return 0;
+    Py_ssize_t cap = o->cap * 2 > o->len + n ? o->cap * 2 : o->len + n + 256;
+    char *buf = PyMem_Realloc(o->buf, cap);
+    if (buf == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    o->buf = buf;
+    o->cap = cap;
+    return 0;
+}
+
+static int out_write(Out *o, const char *data, Py_ssize_t n)
+{
+    if (out_reserve(o, n) < 0)
+        return -1;
+    memcpy(o->buf + o->len, data, n);
+    o->len += n;
+    return 0;
+}
+
+static int out_be(Out *o, unsigned char head, unsigned long long v, int n)
+{
+    if (out_reserve(o, 1 + n) < 0)
+        return -1;
+    unsigned char *b = (unsigned char *)o->buf + o->len;
+    b[0] = head;
+    for (int i = n; i >= 1; i--, v >>= 8)
+        b[i] = (unsigned char)(v & 0xFF);
+    o->len += 1 + n;
+    return 0;
+}
+
+/* msgpack's pack_template.h: the smallest form, signed ones only below -32 */
+static int pack_int(Out *o, long long d)
+{
+    if (d < -(1LL << 5)) {
+        if (d < -(1LL << 15))
+            return d < -(1LL << 31) ? out_be(o, 0xd3, (unsigned long long)d, 8)
+                                    : out_be(o, 0xd2, (unsigned long long)d & 0xFFFFFFFFULL, 4);
+        return d < -(1LL << 7) ? out_be(o, 0xd1, (unsigned long long)d & 0xFFFF, 2)
+                               : out_be(o, 0xd0, (unsigned long long)d & 0xFF, 1);
+    }
+    if (d < (1LL << 7)) {
+        char c = (char)(d & 0xFF);
+        return out_write(o, &c, 1);
+    }
+    if (d < (1LL << 16))
+        return d < (1LL << 8) ? out_be(o, 0xcc, (unsigned long long)d, 1)
+                              : out_be(o, 0xcd, (unsigned long long)d, 2);
+    return d < (1LL << 32) ? out_be(o, 0xce, (unsigned long long)d, 4)
+                           : out_be(o, 0xcf, (unsigned long long)d, 8);
+}
+
+/* 0 packed, 1 not a type packed here (the caller hands back NotImplemented), -1 error */
+static int pack_obj(Out *o, PyObject *v, int depth)
+{
+    if (v == Py_None)
+        return out_write(o, "\xc0", 1);
+    if (v == Py_True)
+        return out_write(o, "\xc3", 1);
+    if (v == Py_False)
+        return out_write(o, "\xc2", 1);
+    if (PyFloat_CheckExact(v)) {
+        union { double d; unsigned long long u; } bits;
+        bits.d = PyFloat_AS_DOUBLE(v);
+        return out_be(o, 0xcb, bits.u, 8);
+    }
+    if (PyLong_CheckExact(v)) {
+        int overflow;
+        long long d = PyLong_AsLongLongAndOverflow(v, &overflow);
+        if (overflow != 0 || (d == -1 && PyErr_Occurred())) {
+            PyErr_Clear();
+            return 1;  /* beyond 64 bits signed: msgpack's unsigned or its error */
+        }
+        return pack_int(o, d);
+    }
+    if (PyUnicode_CheckExact(v)) {
+        Py_ssize_t n;
+        const char *s = PyUnicode_AsUTF8AndSize(v, &n);
+        if (s == NULL) {
+            PyErr_Clear();
+            return 1;  /* a lone surrogate: msgpack says what is wrong */
+        }
+        int r;
+        if (n < 32) {
+            char h = (char)(0xa0 | n);
+            r = out_write(o, &h, 1);
+        }
+        else if (n < 256)
+            r = out_be(o, 0xd9, (unsigned long long)n, 1);
+        else if (n < 65536)
+            r = out_be(o, 0xda, (unsigned long long)n, 2);
+        else if (n <= 0xFFFFFFFFLL)
+            r = out_be(o, 0xdb, (unsigned long long)n, 4);
+        else
+            return 1;
+        return r < 0 ? -1 : out_write(o, s, n);
+    }
+    if (PyBytes_CheckExact(v)) {
+        Py_ssize_t n = PyBytes_GET_SIZE(v);
+        int r;
+        if (n < 256)
+            r = out_be(o, 0xc4, (unsigned long long)n, 1);
+        else if (n < 65536)
+            r = out_be(o, 0xc5, (unsigned long long)n, 2);
+        else if (n <= 0xFFFFFFFFLL)
+            r = out_be(o, 0xc6, (unsigned long long)n, 4);
+        else
+            return 1;
+        return r < 0 ? -1 : out_write(o, PyBytes_AS_STRING(v), n);
+    }
+    if (PyList_CheckExact(v) || PyTuple_CheckExact(v)) {
+        if (depth > 8)
+            return 1;
+        Py_ssize_t n = PySequence_Fast_GET_SIZE(v);
+        PyObject **items = PySequence_Fast_ITEMS(v);
+        int r;
+        if (n < 16) {
+            char h = (char)(0x90 | n);
+            r = out_write(o, &h, 1);
+        }
+        else if (n < 65536)
+            r = out_be(o, 0xdc, (unsigned long long)n, 2);
+        else if (n <= 0xFFFFFFFFLL)
+            r = out_be(o, 0xdd, (unsigned long long)n, 4);
+        else
+            return 1;
+        if (r < 0)
+            return -1;
+        for (Py_ssize_t i = 0; i < n; i++) {
+            r = pack_obj(o, items[i], depth + 1);
+            if (r != 0)
+                return r;
+        }
+        return 0;
+    }
+    return 1;
+}
+
+/* pack_fields(head, keys, values, tail): head, then each key's packed bytes followed by its
+ * value packed, then tail: the bytes of a message whose fixed parts are packed already
+ * (Prepacked); NotImplemented when a value is of a type left to msgpack. */
+static PyObject *hot_pack_fields(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 4 || !PyBytes_CheckExact(args[0]) || !PyTuple_CheckExact(args[1])
+        || !(PyList_CheckExact(args[2]) || PyTuple_CheckExact(args[2]))
+        || !PyBytes_CheckExact(args[3])) {
+        PyErr_SetString(PyExc_TypeError,
+                        "pack_fields(head: bytes, keys: tuple, values: list, tail: bytes)");
+        return NULL;
+    }
+    PyObject *keys = args[1], *values = args[2];
+    Py_ssize_t n = PyTuple_GET_SIZE(keys);
+    if (PySequence_Fast_GET_SIZE(values) != n)
+        Py_RETURN_NOTIMPLEMENTED;
+    PyObject **items = PySequence_Fast_ITEMS(values);
+    Out o = {NULL, 0, 0};
+    int r = out_reserve(&o, 2048);
+    if (r == 0)
+        r = out_write(&o, PyBytes_AS_STRING(args[0]), PyBytes_GET_SIZE(args[0]));
+    for (Py_ssize_t i = 0; r == 0 && i < n; i++) {
+        PyObject *key = PyTuple_GET_ITEM(keys, i);
+        if (!PyBytes_CheckExact(key)) {
+            PyMem_Free(o.buf);
+            PyErr_SetString(PyExc_TypeError, "pack_fields: the keys are packed bytes");
+            return NULL;
+        }
+        r = out_write(&o, PyBytes_AS_STRING(key), PyBytes_GET_SIZE(key));
+        if (r == 0)
+            r = pack_obj(&o, items[i], 0);
+    }
+    if (r == 0)
+        r = out_write(&o, PyBytes_AS_STRING(args[3]), PyBytes_GET_SIZE(args[3]));
+    PyObject *result = NULL;
+    if (r == 0)
+        result = PyBytes_FromStringAndSize(o.buf, o.len);
+    else if (r == 1) {
+        result = Py_NotImplemented;
+        Py_INCREF(result);
+    }
+    PyMem_Free(o.buf);
+    return result;
+}
+
+static PyMethodDef methods[] = {
+    {"pack_fields", (PyCFunction)(void (*)(void))hot_pack_fields, METH_FASTCALL,
+     "msgpack of a message's changing fields between its packed fixed bytes"},
+    {"configure_leg", hot_configure_leg, METH_VARARGS,
+     "configure_leg(ankle, leg, thigh**2, calf**2, 2*thigh*calf, calf, thigh, pi, tau, "
+     "fallback): the leg's lengths as the Python IK computes with them"},
+    {"leg_ik_end_point", (PyCFunction)(void (*)(void))hot_leg_ik_end_point, METH_FASTCALL,
+     "ik.leg_ik_end_point, compiled"},
+    {"goals_raw", (PyCFunction)(void (*)(void))hot_goals_raw, METH_FASTCALL,
+     "the conversion of Calibration.goals_raw, compiled"},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "_hotpath",
+    "The motion tick's per-value arithmetic compiled (optional; the Python path is the "
+    "definition).",
+    -1, methods,
+};
+
+PyMODINIT_FUNC PyInit__hotpath(void)
+{
+    return PyModule_Create(&module);
+}

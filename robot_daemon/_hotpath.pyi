@@ -1,0 +1,18 @@
+# The optional C extension (robot_daemon/_hotpath.c); robot_daemon/hotpath.py loads it.
+from collections.abc import Callable
+from typing import Any
+
+def configure_leg(
+    ankle: float, leg: float, thigh2: float, calf2: float, two_thigh_calf: float, calf: float,
+    thigh: float, pi: float, tau: float, fallback: Callable[..., Any], /,
+) -> None: ...
+def leg_ik_end_point(
+    x: float, y: float, z: float, roll: float, pitch: float, yaw: float, /,
+) -> tuple[float, float, float, float, float, float] | None: ...
+def goals_raw(
+    sign: list[float], offset: list[float], lo: list[float], hi: list[float], rads: list[float],
+    k: float, c: int, /,
+) -> Any: ...  # list[int], None, or NotImplemented
+def pack_fields(
+    head: bytes, keys: tuple[bytes, ...], values: list[Any], tail: bytes, /,
+) -> Any: ...  # bytes, or NotImplemented

@@ -1,0 +1,206 @@
+"""The compiled hot path (robot_daemon/_hotpath.c) gives the bits of the Python it stands in
+for: the leg IK's six angles and the goals in servo units, on seeded random inputs (across the
+legs' workspace and beyond it, ties of round-half-even, limits, NaN and infinities), and a walk's
+every goal and sync-write packet. Skipped, named, where the extension is not built."""
+
+from __future__ import annotations
+
+import math
+import random
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from robot_daemon import hotpath
+from robot_daemon.bus.calibration import goals_raw_py
+from robot_daemon.motion.walking import ik
+from schemas import units
+
+ROOT = Path(__file__).resolve().parents[2]
+compiled = hotpath.compiled
+pytestmark = pytest.mark.skipif(compiled is None, reason=hotpath.status)
+
+
+def _bits(value: Any) -> Any:
+    """Floats as their exact bits (repr tells 0.0 from -0.0; hex tells every bit apart)."""
+    if isinstance(value, tuple | list):
+        return [_bits(v) for v in value]
+    return value.hex() if isinstance(value, float) else value
+
+
+def _ik_both(point: tuple[float, ...]) -> tuple[Any, Any]:
+    out = []
+    for fn in (ik.leg_ik_end_point_py, compiled.leg_ik_end_point):  # type: ignore[union-attr]
+        try:
+            out.append(_bits(fn(*point)))
+        except (ValueError, OverflowError) as exc:
+            out.append(f"{type(exc).__name__}: {exc}")
+    return out[0], out[1]
+
+
+def test_the_gait_runs_the_compiled_ik() -> None:
+    assert ik.leg_ik_end_point is compiled.leg_ik_end_point  # type: ignore[union-attr]
+
+
+def test_leg_ik_gives_the_bits_of_the_python() -> None:
+    rng = random.Random(37)
+    reached = 0
+    for i in range(200_000):
+        wide = i % 4 == 0  # a quarter far outside the workspace
+        span = 0.4 if wide else 0.12
+        point = (rng.uniform(-span, span), rng.uniform(-span, span), rng.uniform(-0.05, 0.25),
+                 rng.uniform(-3.2, 3.2) if wide else rng.uniform(-0.8, 0.8),
+                 rng.uniform(-3.2, 3.2) if wide else rng.uniform(-0.8, 0.8),
+                 rng.uniform(-3.2, 3.2) if wide else rng.uniform(-0.8, 0.8))
+        py, c = _ik_both(point)
+        assert py == c, point
+        reached += py is not None
+    assert reached > 100_000
+    odd = [0.0, -0.0, 1e-300, -1e-300, 1e300, math.inf, -math.inf, math.nan, 0.5 * math.pi]
+    for _ in range(5000):
+        point = tuple(rng.choice(odd) if rng.random() < 0.3 else rng.uniform(-0.1, 0.1)
+                      for _ in range(6))
+        py, c = _ik_both(point)
+        assert py == c, point
+    # What is not six floats goes to the Python, which says what is wrong.
+    assert compiled.leg_ik_end_point(0, 0, 0.05, 0, 0, 0) == ik.leg_ik_end_point_py(  # type: ignore[union-attr]
+        0, 0, 0.05, 0, 0, 0)
+
+
+def _goals_both(*args: Any) -> tuple[Any, Any]:
+    out = []
+    for fn in (goals_raw_py, compiled.goals_raw):  # type: ignore[union-attr]
+        try:
+            got = fn(*args)
+            if got is NotImplemented:
+                got = goals_raw_py(*args)
+            out.append(got)
+        except (ValueError, OverflowError) as exc:
+            out.append(f"{type(exc).__name__}: {exc}")
+    return out[0], out[1]
+
+
+@pytest.mark.parametrize("k", [units.RAD_PER_UNIT, 1.0, 0.25])
+def test_goals_raw_gives_the_ints_of_the_python(k: float) -> None:
+    """With the servo's unit and with units where many goals land on a tie (x.5: round half to
+    even), goals within and outside limits, NaN and infinities."""
+    rng = random.Random(38)
+    c = units.POSITION_CENTER
+    refused = 0
+    for _ in range(20_000):
+        n = rng.choice([18, 20, 2, 1])
+        sign = [rng.choice([1.0, -1.0]) for _ in range(n)]
+        offset = [rng.uniform(-0.3, 0.3) if rng.random() < 0.5 else 0.0 for _ in range(n)]
+        lo = [rng.uniform(-3.2, -1.5) - 1e-9 for _ in range(n)]
+        hi = [rng.uniform(1.5, 3.2) + 1e-9 for _ in range(n)]
+        if k == units.RAD_PER_UNIT:
+            rads = [rng.uniform(-1.5, 1.5) for _ in range(n)]
+        else:  # halves and quarters: exact ties after the division
+            rads = [rng.randint(-12, 12) * 0.125 for _ in range(n)]
+            offset = [rng.randint(-4, 4) * 0.125 for _ in range(n)]
+        if rng.random() < 0.1:
+            rads[rng.randrange(n)] = rng.choice([math.nan, math.inf, -math.inf, 5.0, -5.0])
+        py, cc = _goals_both(sign, offset, lo, hi, rads, k, c)
+        assert py == cc, (sign, offset, lo, hi, rads, k)
+        refused += py is None
+    assert 500 < refused < 5000
+
+
+def test_goals_raw_hands_back_what_it_does_not_take() -> None:
+    """A goal that is not a float, or columns of other lengths: the Python's to do."""
+    one = [1.0, 1.0]
+    assert compiled.goals_raw(one, [0.0, 0.0], [-1.0] * 2, [1.0] * 2, [0.5, 1], 0.1, 2048) \
+        is NotImplemented  # type: ignore[union-attr]
+    assert compiled.goals_raw(one, [0.0], [-1.0] * 2, [1.0] * 2, [0.5, 0.5], 0.1, 2048) \
+        is NotImplemented  # type: ignore[union-attr]
+
+
+WALK = """
+import hashlib, random, sys
+sys.path.insert(0, "tests/unit")
+import numpy as np
+from robot_daemon import hotpath
+from tests.unit.test_motion_walking import Rig
+from robot_daemon.bus.calibration import Calibration
+from config.loader import load_all, robot_from_dict
+
+rig = Rig()
+cal = Calibration(robot_from_dict(load_all()["robot"]))
+rng = random.Random(7)
+digest = hashlib.sha256()
+rig.walk.start(0.1, 0.0, 0.0)
+for cmd in [(0.1, 0.0, 0.0), (0.0, 0.05, 0.0), (0.0, 0.0, 0.5), (-0.05, -0.03, -0.4),
+            (0.08, 0.04, 0.3), (0.0, 0.0, 0.0)]:
+    rig.walk.set_speed(*cmd)
+    for _ in range(150):
+        rig.gyro = np.array([512 + rng.randint(-40, 40) for _ in range(3)])
+        rig.run(1)
+for goals in rig.goals:
+    ids = tuple(sorted(goals))
+    digest.update(repr([goals[j] for j in ids]).encode())
+    digest.update(repr(cal.goals_raw(ids, [goals[j] for j in ids])).encode())
+print(hotpath.status.split(" (")[0], len(rig.goals), digest.hexdigest())
+"""
+
+
+def test_a_walk_gives_the_same_goals_and_servo_units_either_way() -> None:
+    """A walk through six commands with gyro feedback, run with the compiled path and with
+    DARWIN_HOTPATH=python: every goal (rad) and every goal in servo units the same."""
+    runs = []
+    for env in ({}, {"DARWIN_HOTPATH": "python"}):
+        proc = subprocess.run([sys.executable, "-c", WALK], capture_output=True, text=True,
+                              cwd=ROOT, env={**__import__("os").environ, **env}, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        runs.append(proc.stdout.split())
+    assert runs[0][:2] == ["hot", "path:"] and runs[0][2] == "compiled"
+    assert runs[1][2] == "Python"
+    assert int(runs[0][3]) > 800
+    assert runs[0][3:] == runs[1][3:]
+
+
+def _value(rng: random.Random, depth: int = 0) -> Any:
+    kind = rng.randrange(9 if depth < 3 else 7)
+    if kind == 0:
+        return rng.choice([None, True, False])
+    if kind == 1:  # every int form's edges
+        edge = rng.choice([0, 1, 31, 32, 127, 128, 255, 256, 65535, 65536, 2**31, 2**32, 2**62])
+        return rng.choice([edge, edge - 1, -edge, -edge - 1])
+    if kind == 2:
+        return rng.randint(-(2**63), 2**63 - 1)
+    if kind == 3:
+        return rng.choice([rng.uniform(-1e3, 1e3), 0.0, -0.0, math.inf, -math.inf, math.nan,
+                           5e-324, 1.7e308])
+    if kind == 4:
+        return "".join(rng.choice("abcé€😀 ") for _ in range(rng.choice([0, 5, 31, 32, 300])))
+    if kind == 5:
+        return bytes(rng.randrange(256) for _ in range(rng.choice([0, 3, 255, 256, 70000])))
+    if kind == 6:
+        return rng.uniform(-3.2, 3.2)
+    if depth == 0 and rng.random() < 0.3:  # the array forms' edges, flat
+        n = rng.choice([0, 15, 16, 20, 65535, 65536])
+        items = [rng.uniform(-1, 1), rng.randint(-99, 99), True] * (n // 3 + 1)
+    else:
+        n = rng.choice([0, 2, 3, 16])
+        items = [_value(rng, depth + 1) for _ in range(n)]
+    return items[:n] if kind == 7 else tuple(items[:n])
+
+
+def test_pack_fields_gives_msgpacks_bytes() -> None:
+    """head, each key and its value packed, tail: msgpack's bytes for every type and size
+    form it packs (ints at each form's edges, floats, str, bytes, lists and tuples nested);
+    NotImplemented for what it leaves to msgpack."""
+    import msgpack
+
+    pack = msgpack.Packer(use_bin_type=True).pack
+    rng = random.Random(39)
+    for _ in range(1000):
+        n = rng.randrange(1, 12)
+        keys = tuple(pack(f"k{i}") for i in range(n))
+        values = [_value(rng) for _ in range(n)]
+        want = b"H" + b"".join(k + pack(v) for k, v in zip(keys, values, strict=True)) + b"T"
+        assert compiled.pack_fields(b"H", keys, values, b"T") == want  # type: ignore[union-attr]
+    for other in (2**63, 2**64 - 1, 2**70, 1.5j, {"a": 1}, [1, [2, {3}]], "\ud800"):
+        assert compiled.pack_fields(b"", (b"k",), [other], b"") is NotImplemented  # type: ignore[union-attr]
