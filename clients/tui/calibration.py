@@ -23,7 +23,7 @@ from textual.widgets import DataTable, Label
 from clients.calibration import OffsetEdits
 from clients.tui.i18n import N_, _
 from clients.tui.model import Model
-from clients.tui.tabs.base import TabView
+from clients.tui.tabs.base import TabView, put_cell
 from clients.tui.widgets.keybar import KeyBar
 from config.loader import RobotConfig
 from config.user_file import set_joint_offsets
@@ -102,9 +102,9 @@ class CalibrationView(TabView):
                 for n, p in zip(model.joints.name, model.joints.position, strict=False)
             }
         for name, deg in self.edits.offsets.items():
-            table.update_cell(name, "offset", f"{deg:+.3f}")
+            put_cell(table, name, "offset", f"{deg:+.3f}")
             now = present.get(name)
-            table.update_cell(name, "present", "—" if now is None else f"{now:+.1f}")
+            put_cell(table, name, "present", "—" if now is None else f"{now:+.1f}")
 
     # -- actions ---------------------------------------------------------------------------------
     def _set(self, changes: dict[str, float]) -> None:

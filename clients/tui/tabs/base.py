@@ -6,12 +6,28 @@ from typing import Any
 
 from textual.containers import Vertical
 from textual.message import Message
+from textual.visual import VisualType
 from textual.widget import Widget
-from textual.widgets import Checkbox
+from textual.widgets import Checkbox, DataTable, Static
 
 from clients.tui.i18n import _
 from clients.tui.model import Model
 from schemas.roles import LADDER, Role
+
+
+def show_text(widget: Static, content: VisualType) -> None:
+    """Put ``content`` in ``widget`` only when it differs from what it shows: ``Static.update``
+    lays the whole screen out again, and a tab redrawn 15 times a second with the same words
+    would pay for that every frame."""
+    if widget.content != content:
+        widget.update(content)
+
+
+def put_cell(table: DataTable[Any], row: str, column: str, value: object) -> None:
+    """Set a cell only when its value changes: any ``update_cell`` makes the table draw every
+    row again, and tables redrawn 15 times a second mostly show the same numbers."""
+    if table.get_cell(row, column) != value:
+        table.update_cell(row, column, value)
 
 
 def role_at_least(app: object, need: Role) -> bool:

@@ -9,7 +9,7 @@ from textual.widgets import Checkbox, Static
 
 from clients.tui.i18n import N_, _
 from clients.tui.model import Model
-from clients.tui.tabs.base import TabView
+from clients.tui.tabs.base import TabView, show_text
 from clients.tui.widgets.plot import Plot, Series
 
 AXES = ("x", "y", "z")
@@ -74,6 +74,6 @@ class ImuTab(TabView):
             "forward": _("fallen forward"),
             "backward": _("fallen backward"),
         }
-        self.query_one("#imu-fall", Static).update(
-            f"{_('fall')}: [{style}]{words.get(fall, fall)}[/]"
+        show_text(
+            self.query_one("#imu-fall", Static), f"{_('fall')}: [{style}]{words.get(fall, fall)}[/]"
         )

@@ -13,7 +13,7 @@ from textual.widgets import DataTable, Input, Label
 
 from clients.tui.i18n import N_, _
 from clients.tui.model import Model
-from clients.tui.tabs.base import TabView
+from clients.tui.tabs.base import TabView, put_cell
 from clients.tui.widgets.plot import Plot, Series
 from config.loader import RobotConfig
 from schemas.roles import Role
@@ -111,7 +111,7 @@ class MotorsTab(TabView):
                 if str(jid) not in table.rows:
                     continue
                 for key, value in cells(joints, i).items():
-                    table.update_cell(str(jid), key, value)
+                    put_cell(table, str(jid), key, value)
         hist = list(model.joint_hist)
         times = [t for t, _p in hist]
         for slot, jid in self.plotted.items():

@@ -31,7 +31,7 @@ from clients.pages import (
 )
 from clients.tui.i18n import N_, _
 from clients.tui.model import Model
-from clients.tui.tabs.base import TabView
+from clients.tui.tabs.base import TabView, show_text
 
 HAND_STEP_DEG = 3.0  # one push "by hand" in the simulator
 _WORDS = {"shoulder": "sh", "pitch": "p", "roll": "r", "elbow": "el", "hip": "hp", "yaw": "y"}
@@ -114,7 +114,7 @@ class PageEditView(TabView):
         if self.st.limp:
             parts.append(_("TEACH: limp {joints} (k captures, Esc: torque on)").format(
                 joints=", ".join(short(j) for j in self.st.limp)))
-        self.query_one("#actions-status", Label).update("  ".join(parts))
+        show_text(self.query_one("#actions-status", Label), "  ".join(parts))
 
     def show_page(self) -> None:
         editor = self.editor

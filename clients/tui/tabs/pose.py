@@ -13,7 +13,7 @@ from textual.widgets import Button, DataTable, Input, Label
 
 from clients.tui.i18n import N_, _
 from clients.tui.model import Model
-from clients.tui.tabs.base import TabView
+from clients.tui.tabs.base import TabView, put_cell, show_text
 from clients.tui.widgets.figure import StickFigure
 from config.loader import RobotConfig
 from schemas.roles import Role
@@ -90,15 +90,14 @@ class PoseTab(TabView):
         else:
             figure.show(live, _("robot (live)"))
         mode = _("manipulate") if edits.manipulate else _("monitor")
-        self.query_one("#pose-mode", Label).update(f"{_('mode')}: [b]{mode}[/b]")
+        show_text(self.query_one("#pose-mode", Label), f"{_('mode')}: [b]{mode}[/b]")
         table = self.query_one(DataTable)
         for jid in self.robot.ids:
             robot_deg = f"{math.degrees(live[jid]):6.1f}" if jid in live else ""
             edit = edits.pose.get(jid) if edits.manipulate else None
-            table.update_cell(str(jid), "robot", robot_deg)
-            table.update_cell(
-                str(jid), "edit", f"{math.degrees(edit):6.1f}" if edit is not None else ""
-            )
+            put_cell(table, str(jid), "robot", robot_deg)
+            shown = f"{math.degrees(edit):6.1f}" if edit is not None else ""
+            put_cell(table, str(jid), "edit", shown)
         for button in self.query(Button):
             button.disabled = not edits.manipulate
         self.query_one("#pose-value", Input).disabled = not edits.manipulate

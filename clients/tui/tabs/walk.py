@@ -15,7 +15,7 @@ from textual.widgets import Button, Input, Label, Static
 
 from clients.tui.i18n import N_, _
 from clients.tui.model import Model
-from clients.tui.tabs.base import TabView, role_at_least
+from clients.tui.tabs.base import TabView, role_at_least, show_text
 from schemas.gait import gait_label
 from schemas.roles import Role
 
@@ -145,7 +145,7 @@ class WalkTab(TabView):
         phase = ball_phase(motion)
         t.append(_("play ball") + ": ", style="dim")
         t.append((phase or _("off")) + "\n", style="bold yellow" if phase else "")
-        self.query_one("#walk-state", Static).update(t)
+        show_text(self.query_one("#walk-state", Static), t)
 
     # -- actions ---------------------------------------------------------------------------------
     def action_move(self, dx: int, dy: int, dturn: int) -> None:

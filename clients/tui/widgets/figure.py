@@ -64,7 +64,10 @@ class StickFigure(Widget):
         self._positions: dict[int, float] = {}
 
     def show(self, positions: Mapping[int, float], title: str) -> None:
-        self._positions = dict(positions)
+        positions = dict(positions)
+        if positions == self._positions and title == self.border_title:
+            return  # the same figure: drawing it again 15 times a second would cost for nothing
+        self._positions = positions
         self.border_title = title
         self.refresh()
 
