@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import gc
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -63,6 +64,16 @@ TABS: tuple[tuple[str, str], ...] = (
     ("log", N_("Log")),
     ("actions", N_("Actions")),
 )
+
+
+def settle_heap() -> None:
+    """Once the screen is built, leave everything alive now out of later full collections
+    (``gc.freeze``), as the daemon does after its start. A full collection holds the
+    interpreter for as long as it takes to walk every object: with Textual's on a loaded
+    machine that was 1-3 s, and the lease renewals, sent from a thread of this process,
+    stopped meanwhile ("holder silent"). No collection first: that would be the same pause,
+    and what is garbage now is collected after :meth:`DarwinApp.on_unmount` unfreezes."""
+    gc.freeze()
 
 
 # The tab classes by their TAB_ID: those that draw the robot's joints also take its config.
@@ -175,6 +186,7 @@ class DarwinApp(App[None]):
     def on_mount(self) -> None:
         self.push_screen(MainScreen())
         self.set_interval(1.0 / RENDER_HZ, self.redraw)
+        self.call_after_refresh(settle_heap)
         if self._ask:
             self.action_connect()
         elif self._connect_on_mount:
@@ -183,6 +195,7 @@ class DarwinApp(App[None]):
     def on_unmount(self) -> None:
         self.stop_recording()
         self.link.close()
+        gc.unfreeze()  # a process that goes on (a test run) collects all of its heap again
 
     def connect(self, settings: Settings) -> None:
         try:

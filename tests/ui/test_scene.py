@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 from pathlib import Path
@@ -274,3 +275,16 @@ async def test_pose_limits_come_from_the_daemon_not_the_local_config(scene_app) 
         jid = app.robot_config.joint("head_pan").id
         pose.set_edit(jid, 45.0)
         assert abs(app.model.edits.pose[jid] - math.radians(20.0)) < 1e-9
+
+
+async def test_full_collections_walk_only_what_the_running_app_allocated(scene_app) -> None:
+    # Once built, the app takes what is alive out of full collections (a full collection holds
+    # the interpreter, and with it the lease renewals, for as long as it walks the heap), and
+    # gives it back when it ends, so a process that goes on does not keep the app's garbage.
+    assert gc.get_freeze_count() == 0
+    app = scene_app()
+    async with app.run_test(size=(120, 30)) as pilot:
+        await until(pilot, lambda: gc.get_freeze_count() > 0, "the heap frozen after start")
+        alive_at_start = gc.get_freeze_count()
+        assert alive_at_start > len(gc.get_objects())  # the young heap is the smaller part
+    assert gc.get_freeze_count() == 0
