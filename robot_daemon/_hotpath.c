@@ -429,7 +429,60 @@ static PyObject *hot_pack_fields(PyObject *self, PyObject *const *args, Py_ssize
     return result;
 }
 
+/* positions_list(raw, sign, offset, k, c): [s * ((r - c) * k - o) for each raw r] (joint
+ * angles of raw servo positions, Calibration.positions_list); NotImplemented when a value is
+ * not an int (raw) or a float (sign, offset) or the lists differ in length. */
+static PyObject *hot_positions_list(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "positions_list takes 5 arguments");
+        return NULL;
+    }
+    for (int i = 0; i < 3; i++)
+        if (!PyList_CheckExact(args[i]))
+            Py_RETURN_NOTIMPLEMENTED;
+    if (!PyFloat_CheckExact(args[3]) || !PyLong_CheckExact(args[4]))
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_ssize_t n = PyList_GET_SIZE(args[0]);
+    if (PyList_GET_SIZE(args[1]) != n || PyList_GET_SIZE(args[2]) != n)
+        Py_RETURN_NOTIMPLEMENTED;
+    double k = PyFloat_AS_DOUBLE(args[3]);
+    long c = PyLong_AsLong(args[4]);
+    if (c == -1 && PyErr_Occurred())
+        return NULL;
+    PyObject *out = PyList_New(n);
+    if (out == NULL)
+        return NULL;
+    for (Py_ssize_t j = 0; j < n; j++) {
+        PyObject *r = PyList_GET_ITEM(args[0], j);
+        PyObject *s = PyList_GET_ITEM(args[1], j), *o = PyList_GET_ITEM(args[2], j);
+        if (!PyLong_CheckExact(r) || !PyFloat_CheckExact(s) || !PyFloat_CheckExact(o)) {
+            Py_DECREF(out);
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+        long raw = PyLong_AsLong(r);
+        if ((raw == -1 && PyErr_Occurred()) || raw > (1L << 30) || raw < -(1L << 30)) {
+            PyErr_Clear();  /* beyond a servo's word: the Python's */
+            Py_DECREF(out);
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+        double t = (double)(raw - c);  /* an int times a float: the int made a double */
+        t = t * k;
+        t = t - PyFloat_AS_DOUBLE(o);
+        t = PyFloat_AS_DOUBLE(s) * t;
+        PyObject *v = PyFloat_FromDouble(t);
+        if (v == NULL) {
+            Py_DECREF(out);
+            return NULL;
+        }
+        PyList_SET_ITEM(out, j, v);
+    }
+    return out;
+}
+
 static PyMethodDef methods[] = {
+    {"positions_list", (PyCFunction)(void (*)(void))hot_positions_list, METH_FASTCALL,
+     "the conversion of Calibration.positions_list, compiled"},
     {"pack_fields", (PyCFunction)(void (*)(void))hot_pack_fields, METH_FASTCALL,
      "msgpack of a message's changing fields between its packed fixed bytes"},
     {"configure_leg", hot_configure_leg, METH_VARARGS,

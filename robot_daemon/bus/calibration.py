@@ -100,6 +100,10 @@ class Calibration:
         """:meth:`positions` on plain lists (every slot), in the same order of operations, so
         the same bits: on 21 values, cheaper than one numpy operation."""
         k, c = units.RAD_PER_UNIT, units.POSITION_CENTER
+        if _compiled is not None:  # the same bits (tests/unit/test_hotpath.py)
+            out = _compiled.positions_list(raw, self._sign, self._offset, k, c)
+            if out is not NotImplemented:
+                return cast("list[float]", out)
         pairs = zip(raw, self._sign, self._offset, strict=True)
         return [s * ((r - c) * k - o) for r, s, o in pairs]
 

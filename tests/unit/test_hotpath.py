@@ -204,3 +204,24 @@ def test_pack_fields_gives_msgpacks_bytes() -> None:
         assert compiled.pack_fields(b"H", keys, values, b"T") == want  # type: ignore[union-attr]
     for other in (2**63, 2**64 - 1, 2**70, 1.5j, {"a": 1}, [1, [2, {3}]], "\ud800"):
         assert compiled.pack_fields(b"", (b"k",), [other], b"") is NotImplemented  # type: ignore[union-attr]
+
+
+def test_positions_list_gives_the_floats_of_the_python(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The snapshot's goals in rad (Calibration.positions_list) over every raw position of a
+    servo's range and beyond, with both directions and random offsets."""
+    import robot_daemon.bus.calibration as calibration
+    from config.loader import load_all, robot_from_dict
+
+    cal = calibration.Calibration(robot_from_dict(load_all()["robot"]))
+    rng = random.Random(40)
+    for jid in range(1, 21):
+        cal.set_offset(jid, rng.uniform(-30, 30))
+    raws = [[rng.randrange(-5000, 9000) for _ in range(21)] for _ in range(300)]
+    raws.append(list(range(21)))
+    raws += [list(range(start, start + 21)) for start in range(0, 4096, 21)]
+    got = [cal.positions_list(r) for r in raws]
+    monkeypatch.setattr(calibration, "_compiled", None)
+    want = [cal.positions_list(r) for r in raws]
+    assert _bits(got) == _bits(want)
+    assert compiled.positions_list([1.0], [1.0], [0.0], 0.1, 2048) is NotImplemented  # type: ignore[union-attr]
+    assert compiled.positions_list([2**40], [1.0], [0.0], 0.1, 2048) is NotImplemented  # type: ignore[union-attr]
