@@ -73,23 +73,12 @@ static PyObject *hot_configure_leg(PyObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
-static PyObject *hot_leg_ik_end_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* The IK of six floats into out: 0 reached, 1 out of reach (None), 2 the Python's to do */
+static int ik_core(const double *in, double *out)
 {
-    double in[6];
-    if (ik_fallback == NULL) {
-        PyErr_SetString(PyExc_RuntimeError, "_hotpath.leg_ik_end_point: configure_leg first");
-        return NULL;
-    }
-    if (nargs != 6)
-        return PyObject_Vectorcall(ik_fallback, args, nargs, NULL);
-    for (int i = 0; i < 6; i++) {
-        if (!PyFloat_CheckExact(args[i]))
-            return PyObject_Vectorcall(ik_fallback, args, nargs, NULL);
-        in[i] = PyFloat_AS_DOUBLE(args[i]);
-    }
     double x = in[0], y = in[1], z = in[2], roll = in[3], pitch = in[4], yaw = in[5];
     if (!isfinite(roll) || !isfinite(pitch) || !isfinite(yaw))  /* math.cos raises */
-        return PyObject_Vectorcall(ik_fallback, args, nargs, NULL);
+        return 2;
     double cr = cos(roll), sr = sin(roll);
     double cp = cos(pitch), sp = sin(pitch);
     double cy = cos(yaw), sy = sin(yaw);
@@ -116,7 +105,7 @@ static PyObject *hot_leg_ik_end_point(PyObject *self, PyObject *const *args, Py_
     t = dist2 - THIGH2; t = t - CALF2;
     double cos_knee = t / TWO_THIGH_CALF;
     if (!(-1.0 <= cos_knee && cos_knee <= 1.0) || dist2 < 1e-12)
-        Py_RETURN_NONE;
+        return 1;
     double knee = acos(cos_knee);
     t = r01 * ax; u = r11 * ay; t = t + u; u = r21 * az; t = t + u;
     double v1 = -t;
@@ -156,8 +145,90 @@ static PyObject *hot_leg_ik_end_point(PyObject *self, PyObject *const *args, Py_
     double hip_pitch = t - PI;
     t = pitch_sum - hip_pitch; t = t - knee; t = t + PI; t = py_mod(t, TAU);
     double ankle_pitch = t - PI;
-    return Py_BuildValue("(dddddd)", hip_yaw, hip_roll, hip_pitch, knee, ankle_pitch,
-                         ankle_roll);
+    out[0] = hip_yaw; out[1] = hip_roll; out[2] = hip_pitch;
+    out[3] = knee; out[4] = ankle_pitch; out[5] = ankle_roll;
+    return 0;
+}
+
+static PyObject *hot_leg_ik_end_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double in[6], out[6];
+    if (ik_fallback == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "_hotpath.leg_ik_end_point: configure_leg first");
+        return NULL;
+    }
+    if (nargs != 6)
+        return PyObject_Vectorcall(ik_fallback, args, nargs, NULL);
+    for (int i = 0; i < 6; i++) {
+        if (!PyFloat_CheckExact(args[i]))
+            return PyObject_Vectorcall(ik_fallback, args, nargs, NULL);
+        in[i] = PyFloat_AS_DOUBLE(args[i]);
+    }
+    int r = ik_core(in, out);
+    if (r == 2)
+        return PyObject_Vectorcall(ik_fallback, args, nargs, NULL);
+    if (r == 1)
+        Py_RETURN_NONE;
+    return Py_BuildValue("(dddddd)", out[0], out[1], out[2], out[3], out[4], out[5]);
+}
+
+/* leg_servo_angles(end_point, ids, directions, pitch_at, pitch_shift): ik.leg_servo_angles
+ * after its side is looked up: {ids[i]: directions[i] * angle[i]}, the hip pitch's
+ * (ids[pitch_at]) less pitch_shift; None out of reach; NotImplemented for the Python's to do
+ * (an end point not of six floats, a non-finite angle, a direction not an int). */
+static PyObject *hot_leg_servo_angles(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double in[6], out[6];
+    if (nargs != 5 || !PyTuple_CheckExact(args[1]) || !PyTuple_CheckExact(args[2])
+        || PyTuple_GET_SIZE(args[1]) != 6 || PyTuple_GET_SIZE(args[2]) != 6
+        || !PyLong_CheckExact(args[3]) || !PyFloat_CheckExact(args[4])
+        || !(PyTuple_CheckExact(args[0]) || PyList_CheckExact(args[0]))
+        || PySequence_Fast_GET_SIZE(args[0]) != 6)
+        Py_RETURN_NOTIMPLEMENTED;
+    PyObject **point = PySequence_Fast_ITEMS(args[0]);
+    for (int i = 0; i < 6; i++) {
+        if (!PyFloat_CheckExact(point[i]))
+            Py_RETURN_NOTIMPLEMENTED;
+        in[i] = PyFloat_AS_DOUBLE(point[i]);
+    }
+    long pitch_at = PyLong_AsLong(args[3]);
+    if (pitch_at < 0 || pitch_at > 5) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    double dirs[6];
+    for (int i = 0; i < 6; i++) {
+        PyObject *d = PyTuple_GET_ITEM(args[2], i);
+        if (!PyLong_CheckExact(d) || !PyLong_CheckExact(PyTuple_GET_ITEM(args[1], i)))
+            Py_RETURN_NOTIMPLEMENTED;
+        long v = PyLong_AsLong(d);
+        if (v < -1 || v > 1) {  /* a direction is -1, 0 or 1: exact as a double */
+            PyErr_Clear();
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+        dirs[i] = (double)v;
+    }
+    int r = ik_core(in, out);
+    if (r == 2)
+        Py_RETURN_NOTIMPLEMENTED;
+    if (r == 1)
+        Py_RETURN_NONE;
+    PyObject *servo = PyDict_New();
+    if (servo == NULL)
+        return NULL;
+    for (int i = 0; i < 6; i++) {
+        double v = dirs[i] * out[i];
+        if (i == pitch_at)
+            v = v - PyFloat_AS_DOUBLE(args[4]);
+        PyObject *f = PyFloat_FromDouble(v);
+        if (f == NULL || PyDict_SetItem(servo, PyTuple_GET_ITEM(args[1], i), f) < 0) {
+            Py_XDECREF(f);
+            Py_DECREF(servo);
+            return NULL;
+        }
+        Py_DECREF(f);
+    }
+    return servo;
 }
 
 /* -- the goals in servo units (Calibration.goals_raw) ----------------------------------------- */
@@ -490,6 +561,8 @@ static PyMethodDef methods[] = {
      "fallback): the leg's lengths as the Python IK computes with them"},
     {"leg_ik_end_point", (PyCFunction)(void (*)(void))hot_leg_ik_end_point, METH_FASTCALL,
      "ik.leg_ik_end_point, compiled"},
+    {"leg_servo_angles", (PyCFunction)(void (*)(void))hot_leg_servo_angles, METH_FASTCALL,
+     "ik.leg_servo_angles after its side is looked up, compiled"},
     {"goals_raw", (PyCFunction)(void (*)(void))hot_goals_raw, METH_FASTCALL,
      "the conversion of Calibration.goals_raw, compiled"},
     {NULL, NULL, 0, NULL},

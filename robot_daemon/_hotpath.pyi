@@ -19,3 +19,7 @@ def pack_fields(
 def positions_list(
     raw: list[int], sign: list[float], offset: list[float], k: float, c: int, /,
 ) -> Any: ...  # list[float], or NotImplemented
+def leg_servo_angles(
+    end_point: Any, ids: tuple[int, ...], directions: tuple[int, ...], pitch_at: int,
+    pitch_shift: float, /,
+) -> Any: ...  # dict[int, float], None, or NotImplemented

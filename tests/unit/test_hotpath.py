@@ -225,3 +225,33 @@ def test_positions_list_gives_the_floats_of_the_python(monkeypatch: pytest.Monke
     assert _bits(got) == _bits(want)
     assert compiled.positions_list([1.0], [1.0], [0.0], 0.1, 2048) is NotImplemented  # type: ignore[union-attr]
     assert compiled.positions_list([2**40], [1.0], [0.0], 0.1, 2048) is NotImplemented  # type: ignore[union-attr]
+
+
+def test_leg_servo_angles_gives_the_python_s_dict(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The gait's servo angles of a leg (ids, directions, the hip pitch offset) compiled as a
+    whole: the same dict to the bit (repr: keys in order, every float), None alike."""
+    rng = random.Random(41)
+    cases = []
+    for i in range(50_000):
+        span = 0.3 if i % 5 == 0 else 0.1
+        point = (rng.uniform(-span, span), rng.uniform(-span, span), rng.uniform(-0.03, 0.2),
+                 rng.uniform(-0.8, 0.8), rng.uniform(-0.8, 0.8), rng.uniform(-0.8, 0.8))
+        cases.append((rng.choice(["right", "left"]), point, rng.uniform(-0.5, 0.5)))
+    cases += [("left", (0.0, 0.0, 0.05, math.inf, 0.0, 0.0), 0.1),
+              ("right", [0.01, 0.0, 0.05, 0.0, 0.0, 0.0], 0),
+              ("right", (0, 0, 0.05, 0, 0, 0), 0.2)]
+
+    def run() -> list[str]:
+        out = []
+        for side, point, offset in cases:
+            try:
+                out.append(repr(ik.leg_servo_angles(side, point, offset)))  # type: ignore[arg-type]
+            except ValueError as exc:
+                out.append(f"ValueError: {exc}")
+        return out
+
+    got = run()
+    monkeypatch.setattr(ik, "_servo_angles", None)
+    want = run()
+    assert sum(g != "None" for g in got) > 30_000
+    assert got == want

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from operator import mul
+from typing import cast
 
 import numpy as np
 
@@ -137,6 +138,9 @@ if hotpath.compiled is not None:
     leg_ik_end_point = hotpath.compiled.leg_ik_end_point
 else:
     leg_ik_end_point = leg_ik_end_point_py
+# The whole of leg_servo_angles below once its side is looked up, compiled (the same bits:
+# tests/unit/test_hotpath.py); None where the extension is not built.
+_servo_angles = hotpath.compiled.leg_servo_angles if hotpath.compiled is not None else None
 
 
 def leg_servo_angles(
@@ -144,10 +148,16 @@ def leg_servo_angles(
 ) -> dict[int, float] | None:
     """Servo angles {id: rad} for a framework end point (x, y, z, roll, pitch, yaw) of one leg,
     with the framework's hip pitch offset (leans the body forward); None if unreachable."""
+    leg = _LEG_SERVOS.get(side)
+    if _servo_angles is not None and leg is not None:
+        # the hip pitch is the third of a leg's servos (LEG_IDS: yaw, roll, pitch, …)
+        shift = (1.0 if side == "right" else -1.0) * hip_pitch_offset
+        compiled = _servo_angles(end_point, leg[0], leg[1], 2, shift)
+        if compiled is not NotImplemented:
+            return cast("dict[int, float] | None", compiled)
     angles = leg_ik_end_point(*end_point)
     if angles is None:
         return None
-    leg = _LEG_SERVOS.get(side)
     if leg is None:
         servo = leg_angles_to_servo(angles, side)  # which says what is wrong with ``side``
     else:  # leg_angles_to_servo on the IK's floats in one C call: the same products
