@@ -26,3 +26,5 @@ def _load() -> tuple[ModuleType | None, str]:
 
 
 compiled, status = _load()
+# Not built (not chosen away): the daemon says so as a warning, shown without -v.
+missing = compiled is None and "not built" in status

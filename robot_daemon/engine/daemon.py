@@ -310,7 +310,8 @@ class Daemon:
         # Atom), and start-up's garbage is not left for the loop to collect (docs/loop-cpu.md).
         gc.collect()
         gc.freeze()
-        log.info("%s", hotpath.status)  # compiled, or why not (robot_daemon/hotpath.py)
+        # compiled, or why not (robot_daemon/hotpath.py): a missing compiler is this one line
+        (log.warning if hotpath.missing else log.info)("%s", hotpath.status)
         while not self._stop.is_set():
             if not self.bus.is_open:
                 self._reconnect()

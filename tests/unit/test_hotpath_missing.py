@@ -1,0 +1,40 @@
+"""Without the compiled hot path (no C compiler at install) the daemon runs the same tick in
+Python and says so in one line naming the fix (robot_daemon/hotpath.py)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+HIDDEN = """
+import sys
+sys.modules["robot_daemon._hotpath"] = None  # as if pip had built no extension
+from robot_daemon import hotpath
+from robot_daemon.motion.walking import ik
+from robot_daemon.engine import broadcast
+assert hotpath.compiled is None and hotpath.missing
+assert ik.leg_ik_end_point is ik.leg_ik_end_point_py and broadcast._compiled is None
+print(hotpath.status)
+"""
+
+
+def test_a_missing_extension_is_one_line_naming_the_fix() -> None:
+    proc = subprocess.run([sys.executable, "-c", HIDDEN], capture_output=True, text=True,
+                          cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines == ["hot path: Python (the C extension robot_daemon._hotpath is not built: "
+                     "apt-get install gcc python3-dev, then pip install the project again)"]
+
+
+def test_the_python_path_chosen_is_not_a_warning() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-c", "from robot_daemon import hotpath as h; "
+         "print(h.compiled is None, h.missing, h.status)"],
+        capture_output=True, text=True, cwd=ROOT, timeout=120,
+        env={**__import__("os").environ, "DARWIN_HOTPATH": "python"},
+    )
+    assert proc.stdout.strip() == "True False hot path: Python (DARWIN_HOTPATH=python)"
