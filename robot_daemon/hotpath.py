@@ -13,6 +13,12 @@ from __future__ import annotations
 import os
 from types import ModuleType
 
+# What the extension gives (robot_daemon/_hotpath.pyi declares the same; a unit test checks).
+EXPORTS = (
+    "configure_leg", "leg_ik_end_point", "goals_raw", "pack_fields", "positions_list",
+    "leg_servo_angles",
+)  # fmt: skip
+
 
 def _load() -> tuple[ModuleType | None, str]:
     if os.environ.get("DARWIN_HOTPATH", "") == "python":
@@ -22,9 +28,15 @@ def _load() -> tuple[ModuleType | None, str]:
     except ImportError:
         return None, ("hot path: Python (the C extension robot_daemon._hotpath is not built: "
                       "apt-get install gcc python3-dev, then pip install the project again)")
+    stale = [name for name in EXPORTS if not hasattr(_hotpath, name)]
+    if stale:
+        # An editable install keeps the .so it built while the C source moves on (a pull):
+        # running half of it would fail in the middle of an import, so none of it runs.
+        return None, ("hot path: Python (the C extension robot_daemon._hotpath is older than "
+                      f"its source, it lacks {', '.join(stale)}: pip install the project again)")
     return _hotpath, "hot path: compiled (robot_daemon._hotpath)"
 
 
 compiled, status = _load()
 # Not built (not chosen away): the daemon says so as a warning, shown without -v.
-missing = compiled is None and "not built" in status
+missing = compiled is None and ("not built" in status or "older than" in status)

@@ -176,7 +176,7 @@ def _value(rng: random.Random, depth: int = 0) -> Any:
     if kind == 4:
         return "".join(rng.choice("abcé€😀 ") for _ in range(rng.choice([0, 5, 31, 32, 300])))
     if kind == 5:
-        return bytes(rng.randrange(256) for _ in range(rng.choice([0, 3, 255, 256, 70000])))
+        return rng.randbytes(rng.choice([0, 3, 255, 256, 70000]))
     if kind == 6:
         return rng.uniform(-3.2, 3.2)
     if depth == 0 and rng.random() < 0.3:  # the array forms' edges, flat

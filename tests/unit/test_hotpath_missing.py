@@ -38,3 +38,41 @@ def test_the_python_path_chosen_is_not_a_warning() -> None:
         env={**__import__("os").environ, "DARWIN_HOTPATH": "python"},
     )
     assert proc.stdout.strip() == "True False hot path: Python (DARWIN_HOTPATH=python)"
+
+
+STALE = """
+import sys, types
+old = types.ModuleType("robot_daemon._hotpath")  # built before leg_servo_angles existed
+import robot_daemon
+for name in ("configure_leg", "leg_ik_end_point", "goals_raw", "pack_fields", "positions_list"):
+    setattr(old, name, lambda *a: None)
+sys.modules["robot_daemon._hotpath"] = old
+robot_daemon._hotpath = old
+from robot_daemon import hotpath
+from robot_daemon.motion.walking import ik
+from robot_daemon.engine import broadcast
+assert hotpath.compiled is None and hotpath.missing
+assert ik.leg_ik_end_point is ik.leg_ik_end_point_py and broadcast._compiled is None
+print(hotpath.status)
+"""
+
+
+def test_an_extension_older_than_its_source_runs_none_of_it_and_says_so() -> None:
+    # An editable install keeps the .so it built while a pull brings new C: the daemon once
+    # failed at import (AttributeError) on such a tree.
+    proc = subprocess.run([sys.executable, "-c", STALE], capture_output=True, text=True,
+                          cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines() == [
+        "hot path: Python (the C extension robot_daemon._hotpath is older than its source, it "
+        "lacks leg_servo_angles: pip install the project again)"
+    ]
+
+
+def test_the_exports_are_what_the_stub_declares() -> None:
+    from robot_daemon.hotpath import EXPORTS
+
+    stub = (ROOT / "robot_daemon" / "_hotpath.pyi").read_text()
+    declared = [line.split("(")[0].removeprefix("def ") for line in stub.splitlines()
+                if line.startswith("def ")]
+    assert sorted(declared) == sorted(EXPORTS)
