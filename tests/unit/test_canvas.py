@@ -5,10 +5,12 @@ from __future__ import annotations
 import itertools
 import random
 
+from rich.cells import cell_len
 from rich.console import Console
 from rich.style import Style
 
 from clients.tui.widgets.canvas import Canvas
+from clients.tui.widgets.plot import _ellipsis
 
 
 def _expected(canvas: Canvas, row: int, column: int) -> tuple[str, str | None]:
@@ -72,3 +74,17 @@ def test_a_polyline_draws_the_dots_of_every_segment_between_its_points() -> None
         by_polyline.polyline(points, "cyan")
         assert by_polyline._bits == by_segments._bits, case
         assert by_polyline._colour == by_segments._colour, case
+
+
+def test_a_plot_legend_too_long_for_its_width_ends_in_an_ellipsis() -> None:
+    runs: list[tuple[str, str | None]] = [
+        ("■ x  ", "red"),
+        ("■ y  ", "green"),
+        ("window 5 s", "dim"),
+    ]
+    assert _ellipsis(runs, 40) == runs  # it fits: unchanged
+    for width in range(1, 20):
+        cut = _ellipsis(runs, width)
+        assert sum(cell_len(text) for text, _name in cut) == width
+        assert cut[-1][0] == "…"
+        assert "".join(t for t, _n in cut)[:-1] == "■ x  ■ y  window 5 s"[: width - 1]

@@ -9,9 +9,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 
-HIDDEN = """
-import sys
-sys.modules["robot_daemon._hotpath"] = None  # as if pip had built no extension
+# What every test here checks once the extension is taken away: the Python path everywhere,
+# and the status line the daemon prints.
+FALLS_BACK = """
 from robot_daemon import hotpath
 from robot_daemon.motion.walking import ik
 from robot_daemon.engine import broadcast
@@ -19,6 +19,11 @@ assert hotpath.compiled is None and hotpath.missing
 assert ik.leg_ik_end_point is ik.leg_ik_end_point_py and broadcast._compiled is None
 print(hotpath.status)
 """
+
+HIDDEN = """
+import sys
+sys.modules["robot_daemon._hotpath"] = None  # as if pip had built no extension
+""" + FALLS_BACK
 
 
 def test_a_missing_extension_is_one_line_naming_the_fix() -> None:
@@ -42,19 +47,12 @@ def test_the_python_path_chosen_is_not_a_warning() -> None:
 
 STALE = """
 import sys, types
-old = types.ModuleType("robot_daemon._hotpath")  # built before leg_servo_angles existed
 import robot_daemon
+old = types.ModuleType("robot_daemon._hotpath")  # built before leg_servo_angles existed
 for name in ("configure_leg", "leg_ik_end_point", "goals_raw", "pack_fields", "positions_list"):
     setattr(old, name, lambda *a: None)
-sys.modules["robot_daemon._hotpath"] = old
-robot_daemon._hotpath = old
-from robot_daemon import hotpath
-from robot_daemon.motion.walking import ik
-from robot_daemon.engine import broadcast
-assert hotpath.compiled is None and hotpath.missing
-assert ik.leg_ik_end_point is ik.leg_ik_end_point_py and broadcast._compiled is None
-print(hotpath.status)
-"""
+sys.modules["robot_daemon._hotpath"] = robot_daemon._hotpath = old
+""" + FALLS_BACK
 
 
 def test_an_extension_older_than_its_source_runs_none_of_it_and_says_so() -> None:
