@@ -551,7 +551,280 @@ static PyObject *hot_positions_list(PyObject *self, PyObject *const *args, Py_ss
     return out;
 }
 
+/* -- the bulk read's answer and the state it fills (bus/bulk_receive.py, bus/sensor_read.py) -- */
+
+/* take_whole(buf, order, lengths, data, errors): bulk_receive._take_whole_py compiled. ``buf``
+ * is every reply of a bulk read in order, whole (FF FF ID LEN ERR data CHK each, ``lengths``
+ * data bytes of ``order``'s devices). True and each reply's data into ``data`` (error bits into
+ * ``errors`` where not 0) when every header and checksum is a good reply's; False, nothing taken,
+ * when one is not (the reply-by-reply loop then finds which); NotImplemented when the
+ * arguments are not what the Python takes (the Python's then). */
+static PyObject *hot_take_whole(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "take_whole takes 5 arguments");
+        return NULL;
+    }
+    PyObject *buf = args[0], *order = args[1], *lengths = args[2];
+    PyObject *data = args[3], *errors = args[4];
+    if (!PyBytes_CheckExact(buf) || !PyTuple_CheckExact(order) || !PyTuple_CheckExact(lengths)
+        || !PyDict_CheckExact(data) || !PyDict_CheckExact(errors))
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_ssize_t n = PyTuple_GET_SIZE(order);
+    if (PyTuple_GET_SIZE(lengths) != n || n > 256)
+        Py_RETURN_NOTIMPLEMENTED;
+    const unsigned char *b = (const unsigned char *)PyBytes_AS_STRING(buf);
+    Py_ssize_t have = PyBytes_GET_SIZE(buf), pos = 0;
+    long ids[256], lens[256];
+    for (Py_ssize_t k = 0; k < n; k++) {
+        PyObject *i = PyTuple_GET_ITEM(order, k), *l = PyTuple_GET_ITEM(lengths, k);
+        if (!PyLong_CheckExact(i) || !PyLong_CheckExact(l))
+            Py_RETURN_NOTIMPLEMENTED;
+        ids[k] = PyLong_AsLong(i);
+        lens[k] = PyLong_AsLong(l);
+        if (ids[k] < 0 || ids[k] > 255 || lens[k] < 0 || lens[k] > 253) {
+            PyErr_Clear();
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+        pos += lens[k] + 6;
+    }
+    if (pos != have)  /* the struct's size: the Python's to refuse */
+        Py_RETURN_NOTIMPLEMENTED;
+    /* every header first (as the Python compares them all before any checksum), then every
+     * checksum: ID + LEN + ERR + data + CHK of a good reply sum to 0xFF (mod 256) */
+    pos = 0;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        if (b[pos] != 0xFF || b[pos + 1] != 0xFF || b[pos + 2] != ids[k]
+            || b[pos + 3] != lens[k] + 2)
+            Py_RETURN_FALSE;
+        pos += lens[k] + 6;
+    }
+    pos = 0;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        unsigned int sum = 0;
+        Py_ssize_t end = pos + lens[k] + 6;
+        for (Py_ssize_t q = pos + 2; q < end; q++)
+            sum += b[q];
+        if ((sum & 0xFF) != 0xFF)
+            Py_RETURN_FALSE;
+        pos = end;
+    }
+    pos = 0;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        PyObject *d = PyBytes_FromStringAndSize((const char *)b + pos + 5, lens[k]);
+        if (d == NULL || PyDict_SetItem(data, PyTuple_GET_ITEM(order, k), d) < 0) {
+            Py_XDECREF(d);
+            return NULL;
+        }
+        Py_DECREF(d);
+        pos += lens[k] + 6;
+    }
+    pos = 0;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        if (b[pos + 4]) {
+            PyObject *e = PyLong_FromLong(b[pos + 4]);
+            if (e == NULL || PyDict_SetItem(errors, PyTuple_GET_ITEM(order, k), e) < 0) {
+                Py_XDECREF(e);
+                return NULL;
+            }
+            Py_DECREF(e);
+        }
+        pos += lens[k] + 6;
+    }
+    Py_RETURN_TRUE;
+}
+
+/* A one-dimensional (or, for ``rows`` > 0, rows × n) C-contiguous numpy array's memory, as an
+ * int of 4 or 8 bytes or a double: 0 and ``view`` filled, or -1 with no error set (not such an
+ * array: the caller hands the work to the Python). */
+static int array_view(PyObject *obj, Py_buffer *view, char kind, int writable)
+{
+    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(obj, view, flags) < 0) {
+        PyErr_Clear();
+        return -1;
+    }
+    const char *f = view->format ? view->format : "B";
+    if (*f == '<' || *f == '=' || *f == '@')
+        f++;
+    int ok;
+    if (kind == 'd')
+        ok = f[0] == 'd' && f[1] == 0 && view->itemsize == 8;
+    else
+        ok = (f[0] == 'l' || f[0] == 'q' || f[0] == 'i') && f[1] == 0
+             && (view->itemsize == 4 || view->itemsize == 8);
+    if (!ok) {
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+static inline long long get_int(const Py_buffer *v, Py_ssize_t i)
+{
+    return v->itemsize == 8 ? ((const long long *)v->buf)[i] : ((const int *)v->buf)[i];
+}
+
+static inline void set_int(Py_buffer *v, Py_ssize_t i, long long x)
+{
+    if (v->itemsize == 8)
+        ((long long *)v->buf)[i] = x;
+    else
+        ((int *)v->buf)[i] = (int)x;
+}
+
+/* apply_fast(data, fast, position, speed, load, misses, at_position, at_speed, at_load, width):
+ * SensorReader._apply_fast's whole-answer case compiled: each servo of ``fast``'s reply
+ * (``width`` bytes of little-endian words in ``data``) into the state's integer arrays by its
+ * id (the position, speed and load words at those word indexes; misses 0). True; or
+ * NotImplemented, nothing written, when anything is not what that takes (the Python's then). */
+static PyObject *hot_apply_fast(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 10) {
+        PyErr_SetString(PyExc_TypeError, "apply_fast takes 10 arguments");
+        return NULL;
+    }
+    PyObject *data = args[0], *fast = args[1];
+    if (!PyDict_CheckExact(data) || !PyList_CheckExact(fast))
+        Py_RETURN_NOTIMPLEMENTED;
+    long w[4];
+    for (int i = 0; i < 4; i++) {
+        if (!PyLong_CheckExact(args[6 + i]))
+            Py_RETURN_NOTIMPLEMENTED;
+        w[i] = PyLong_AsLong(args[6 + i]);
+        if (w[i] < 0 || w[i] > 1024) {
+            PyErr_Clear();
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+    }
+    long width = w[3];
+    if (width % 2 || 2 * w[0] + 2 > width || 2 * w[1] + 2 > width || 2 * w[2] + 2 > width)
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_buffer v[4];
+    int got = 0;
+    for (; got < 4; got++)
+        if (array_view(args[2 + got], &v[got], 'i', 1) < 0 || v[got].ndim != 1)
+            break;
+    PyObject *result = Py_NotImplemented;
+    Py_ssize_t n = PyList_GET_SIZE(fast);
+    if (got == 4) {
+        Py_ssize_t slots = v[0].shape[0];
+        for (int i = 1; i < 4; i++)
+            if (v[i].shape[0] < slots)
+                slots = v[i].shape[0];
+        int ok = 1;
+        for (Py_ssize_t k = 0; k < n && ok; k++) {  /* everything checked before a write */
+            PyObject *jid = PyList_GET_ITEM(fast, k);
+            PyObject *d = PyLong_CheckExact(jid) ? PyDict_GetItemWithError(data, jid) : NULL;
+            long j = d ? PyLong_AsLong(jid) : -1;
+            ok = d != NULL && PyBytes_CheckExact(d) && PyBytes_GET_SIZE(d) == width && j >= 0
+                 && j < slots;
+        }
+        if (PyErr_Occurred())
+            PyErr_Clear();
+        if (ok) {
+            for (Py_ssize_t k = 0; k < n; k++) {
+                PyObject *jid = PyList_GET_ITEM(fast, k);
+                const unsigned char *b = (const unsigned char *)PyBytes_AS_STRING(
+                    PyDict_GetItem(data, jid));
+                long j = PyLong_AsLong(jid);
+                for (int i = 0; i < 3; i++)
+                    set_int(&v[i], j, b[2 * w[i]] | (b[2 * w[i] + 1] << 8));
+                set_int(&v[3], j, 0);
+            }
+            result = Py_True;
+        }
+    }
+    for (int i = 0; i < got; i++)
+        PyBuffer_Release(&v[i]);
+    Py_INCREF(result);
+    return result;
+}
+
+/* joint_arrays(position, speed, load, sign, offset, speed_table, load_table, k, c, out):
+ * Calibration.joint_arrays compiled: into the rows of ``out`` (3 × n doubles), for every slot
+ * j, sign·((position − c)·k − offset), sign·speed_table[speed & 0x7FF] and
+ * sign·load_table[load & 0x7FF], each operation rounded to a double as numpy's are
+ * (joint_angle). True; or
+ * NotImplemented, nothing written, when an array is not what that takes. */
+/* A joint angle as numpy computes it: on i386 numpy's loops compute in SSE2, each operation
+ * rounded once to a double (Python's own floats compute on the x87 unit and round twice), so
+ * this one is built for SSE2 there (the Atom has it; tests/unit/test_hotpath.py compares). */
+#if defined(__i386__)
+__attribute__((target("sse2,fpmath=sse"), used, noinline))
+#endif
+static void joint_angle(long long raw, long c, const double *k, const double *offset,
+                        const double *sign, double *out)
+{
+    double t = (double)(raw - c);
+    t = t * *k;
+    t = t - *offset;
+    *out = *sign * t;
+}
+
+static PyObject *hot_joint_arrays(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 10) {
+        PyErr_SetString(PyExc_TypeError, "joint_arrays takes 10 arguments");
+        return NULL;
+    }
+    if (!PyFloat_CheckExact(args[7]) || !PyLong_CheckExact(args[8]))
+        Py_RETURN_NOTIMPLEMENTED;
+    double k = PyFloat_AS_DOUBLE(args[7]);
+    long c = PyLong_AsLong(args[8]);
+    if (c == -1 && PyErr_Occurred()) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    static const char kinds[8] = {'i', 'i', 'i', 'd', 'd', 'd', 'd', 'd'};
+    Py_buffer v[8];
+    int got = 0;
+    for (; got < 8; got++) {
+        int at = got < 7 ? got : 9;
+        if (array_view(args[at], &v[got], kinds[got], got == 7) < 0)
+            break;
+    }
+    PyObject *result = Py_NotImplemented;
+    if (got == 8) {
+        Py_ssize_t n = v[0].ndim == 1 ? v[0].shape[0] : -1;
+        int ok = n >= 0 && v[7].ndim == 2 && v[7].shape[0] == 3 && v[7].shape[1] == n
+                 && v[5].ndim == 1 && v[5].shape[0] == 2048 && v[6].ndim == 1
+                 && v[6].shape[0] == 2048;
+        for (int i = 1; i < 5 && ok; i++)
+            ok = v[i].ndim == 1 && v[i].shape[0] == n;
+        for (Py_ssize_t j = 0; j < n && ok; j++) {  /* the int minus c, exactly as numpy's */
+            long long r = get_int(&v[0], j);
+            ok = r < (1LL << 40) && r > -(1LL << 40);
+        }
+        if (ok) {
+            const double *sign = v[3].buf, *offset = v[4].buf;
+            const double *speed_table = v[5].buf, *load_table = v[6].buf;
+            double *out = v[7].buf;
+            for (Py_ssize_t j = 0; j < n; j++) {
+                joint_angle(get_int(&v[0], j), c, &k, &offset[j], &sign[j], &out[j]);
+                double t = speed_table[get_int(&v[1], j) & 0x7FF];
+                t = sign[j] * t;
+                out[n + j] = t;
+                t = load_table[get_int(&v[2], j) & 0x7FF];
+                t = sign[j] * t;
+                out[2 * n + j] = t;
+            }
+            result = Py_True;
+        }
+    }
+    for (int i = 0; i < got; i++)
+        PyBuffer_Release(&v[i]);
+    Py_INCREF(result);
+    return result;
+}
+
 static PyMethodDef methods[] = {
+    {"take_whole", (PyCFunction)(void (*)(void))hot_take_whole, METH_FASTCALL,
+     "bulk_receive._take_whole_py compiled"},
+    {"apply_fast", (PyCFunction)(void (*)(void))hot_apply_fast, METH_FASTCALL,
+     "SensorReader._apply_fast's whole answer into the state's arrays, compiled"},
+    {"joint_arrays", (PyCFunction)(void (*)(void))hot_joint_arrays, METH_FASTCALL,
+     "Calibration.joint_arrays compiled"},
     {"positions_list", (PyCFunction)(void (*)(void))hot_positions_list, METH_FASTCALL,
      "the conversion of Calibration.positions_list, compiled"},
     {"pack_fields", (PyCFunction)(void (*)(void))hot_pack_fields, METH_FASTCALL,

@@ -23,3 +23,15 @@ def leg_servo_angles(
     end_point: Any, ids: tuple[int, ...], directions: tuple[int, ...], pitch_at: int,
     pitch_shift: float, /,
 ) -> Any: ...  # dict[int, float], None, or NotImplemented
+def take_whole(
+    buf: bytes, order: tuple[int, ...], lengths: tuple[int, ...], data: dict[int, bytes],
+    errors: dict[int, int], /,
+) -> Any: ...  # bool, or NotImplemented
+def apply_fast(
+    data: dict[int, bytes], fast: list[int], position: Any, speed: Any, load: Any, misses: Any,
+    at_position: int, at_speed: int, at_load: int, width: int, /,
+) -> Any: ...  # True, or NotImplemented
+def joint_arrays(
+    position: Any, speed: Any, load: Any, sign: Any, offset: Any, speed_table: Any,
+    load_table: Any, k: float, c: int, out: Any, /,
+) -> Any: ...  # True, or NotImplemented

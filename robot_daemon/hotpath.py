@@ -1,5 +1,6 @@
 """Whether the tick's compiled hot path is in use: the optional C extension
-``robot_daemon._hotpath`` (the gait's leg IK and the goals' conversion to servo units), built by
+``robot_daemon._hotpath`` (the gait's leg IK, the goals' conversion to servo units, the bulk
+read's answer into the servos' state, the frame's joint arrays, the messages' msgpack), built by
 ``pip install`` where a C compiler and Python's headers are (Debian: ``gcc python3-dev``).
 
 Without it the same functions run in Python, which stay their definition (the extension gives
@@ -16,7 +17,7 @@ from types import ModuleType
 # What the extension gives (robot_daemon/_hotpath.pyi declares the same; a unit test checks).
 EXPORTS = (
     "configure_leg", "leg_ik_end_point", "goals_raw", "pack_fields", "positions_list",
-    "leg_servo_angles",
+    "leg_servo_angles", "take_whole", "apply_fast", "joint_arrays",
 )  # fmt: skip
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from robot_daemon.bus.packet import PACKET_OVERHEAD, Packet, PacketParser, instruction_packet
 from robot_daemon.bus.tables import BROADCAST_ID, Instruction
 from robot_daemon.bus.transport import Transport
+from robot_daemon.hotpath import compiled as _compiled
 
 if TYPE_CHECKING:
     from robot_daemon.bus.dxl import ReplyBudget
@@ -64,6 +65,8 @@ class BulkPlan:
     headers: tuple[bytes, ...]  # what each header must be
     sum_at: np.ndarray  # reduceat bounds: ID…CHK of each reply, then the next one's FF FF
     sums_ok: bytes  # 0xFF for each reply: ID + LEN + ERR + data + CHK of a good one
+    ids: tuple[int, ...]  # ``order`` and each one's data length, as the compiled take wants
+    lengths: tuple[int, ...]
 
     @classmethod
     def make(
@@ -89,6 +92,7 @@ class BulkPlan:
         return cls(
             param, want, order, rank, waits, sum(waits), wire, packet, expect, tail, replies,
             tuple(h for _, _, h in expect), np.array(bounds[:-1], np.intp), b"\xff" * len(order),
+            tuple(order), tuple(want[i] for i in order),
         )
 
 
@@ -215,6 +219,18 @@ def receive(
 
 
 def _take_whole(
+    plan: BulkPlan, buf: bytes, data: dict[int, bytes], errors: dict[int, int]
+) -> bool:
+    """:func:`_take_whole_py`, by the compiled take where it is built (robot_daemon/hotpath.py:
+    the same data, errors and verdict, tests/unit/test_hotpath.py)."""
+    if _compiled is not None:
+        took = _compiled.take_whole(buf, plan.ids, plan.lengths, data, errors)
+        if took is not NotImplemented:
+            return bool(took)
+    return _take_whole_py(plan, buf, data, errors)
+
+
+def _take_whole_py(
     plan: BulkPlan, buf: bytes, data: dict[int, bytes], errors: dict[int, int]
 ) -> bool:
     """Every reply of ``plan`` in order and whole in ``buf`` (exactly their bytes) into

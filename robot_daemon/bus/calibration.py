@@ -96,6 +96,33 @@ class Calibration:
         """Joint angles of every slot at once (slot 0 is unused and stays meaningless)."""
         return servo_to_joint(raw, self.sign, self.offset)
 
+    def joint_arrays(
+        self, position: np.ndarray, speed: np.ndarray, load: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Joint angles, speeds (rad/s) and loads (signed fraction) of every slot from the
+        servos' raw words, as the frame wants them: by the compiled conversion where it is
+        built (one call filling one 3-row array: the same bits, tests/unit/test_hotpath.py),
+        else by :meth:`joint_arrays_py`, their definition."""
+        if _compiled is not None:
+            out = np.empty((3, len(position)))
+            if _compiled.joint_arrays(
+                position, speed, load, self.sign, self.offset, units.SPEED_RAD_S_TABLE,
+                units.LOAD_FRACTION_TABLE, units.RAD_PER_UNIT, units.POSITION_CENTER, out,
+            ) is True:
+                return out[0], out[1], out[2]
+        return self.joint_arrays_py(position, speed, load)
+
+    def joint_arrays_py(
+        self, position: np.ndarray, speed: np.ndarray, load: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`joint_arrays` in numpy: :meth:`positions`, and each speed and load word's
+        table entry times the joint's direction."""
+        return (
+            self.positions(position),
+            self.sign * units.SPEED_RAD_S_TABLE[speed & 0x7FF],
+            self.sign * units.LOAD_FRACTION_TABLE[load & 0x7FF],
+        )
+
     def positions_list(self, raw: list[int]) -> list[float]:
         """:meth:`positions` on plain lists (every slot), in the same order of operations, so
         the same bits: on 21 values, cheaper than one numpy operation."""

@@ -504,15 +504,16 @@ class RobotBus:
         cal = self.calibration
         gyro_raw, accel_raw = self.imu_raw()
         gyro, accel = imu_si(gyro_raw, accel_raw, self.gyro_dps)
+        position, velocity, load = cal.joint_arrays(st.position, st.speed, st.load)
         return JointFrame(
             tick=tick,
             time=now,
             dt=dt,
-            position=cal.positions(st.position),
+            position=position,
             goal_raw=st.goal.copy(),
             to_joint=cal.to_joint,
-            velocity=cal.sign * units.SPEED_RAD_S_TABLE[st.speed & 0x7FF],
-            load=cal.sign * units.LOAD_FRACTION_TABLE[st.load & 0x7FF],
+            velocity=velocity,
+            load=load,
             online=st.online.copy(),
             torque_enabled=st.torque.copy(),
             gyro=gyro,

@@ -27,6 +27,7 @@ from robot_daemon.bus.tables import (
     SERVO_BULK_START,
     ErrorBit,
 )
+from robot_daemon.hotpath import compiled as _compiled
 from schemas import units
 
 if TYPE_CHECKING:
@@ -228,6 +229,15 @@ class SensorReader:
 
     def _apply_fast(self, layout: _Layout, res: BulkResult, whole: bool) -> None:
         st = self.state
+        if whole and _compiled is not None and _compiled.apply_fast(
+            res.data, layout.fast, st.position, st.speed, st.load, st.misses,
+            _FAST_POSITION, _FAST_SPEED, _FAST_LOAD, SERVO_BULK_LENGTH,
+        ) is True:
+            # The same words into the same slots as below (tests/unit/test_hotpath.py).
+            if res.errors or self._alarmed:
+                for jid in layout.fast:
+                    self._alarm(jid, res.errors.get(jid, 0))
+            return
         if whole:
             fast, at = layout.fast, layout.at
             replies = layout.pick(res.data)

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import math
 import random
+import struct
 import subprocess
 import sys
+from operator import itemgetter
 from pathlib import Path
 from typing import Any
 
@@ -255,3 +257,153 @@ def test_leg_servo_angles_gives_the_python_s_dict(monkeypatch: pytest.MonkeyPatc
     want = run()
     assert sum(g != "None" for g in got) > 30_000
     assert got == want
+
+
+def _bulk_answer(rng: random.Random, fault: int) -> tuple[Any, bytes]:
+    """A bulk read's plan and its whole answer, good or with one fault: a bad checksum, a
+    header naming someone else or of another length, a byte short or over."""
+    from robot_daemon.bus.bulk_receive import BulkPlan
+    from robot_daemon.bus.dxl import ReplyBudget
+    from robot_daemon.bus.packet import status_packet
+
+    ids = rng.sample(range(0, 254), rng.randrange(1, 24))
+    blocks = [(i, 24, rng.randrange(0, 40)) for i in ids]
+    plan = BulkPlan.make(blocks, ReplyBudget(), 0.01)
+    replies = [bytearray(status_packet(i, rng.choice([0, 0, 0, 4, 32, 128]), rng.randbytes(n)))
+               for i, _, n in blocks]
+    bad = rng.randrange(len(replies))
+    if fault == 1:
+        replies[bad][-1] ^= 1 << rng.randrange(8)
+    elif fault == 2:
+        replies[bad][2] ^= 1 << rng.randrange(8)
+    elif fault == 3:
+        replies[bad][3] ^= 1 << rng.randrange(8)
+    elif fault == 4:
+        replies[bad][rng.randrange(2)] = rng.randrange(255)
+    elif fault == 5:
+        replies[bad][4 + rng.randrange(len(replies[bad]) - 4)] ^= 0xFF
+    whole = b"".join(replies)
+    if fault == 6:
+        whole = whole[:-1]
+    elif fault == 7:
+        whole += b"\xff"
+    return plan, whole
+
+
+def test_take_whole_takes_and_refuses_what_the_python_does() -> None:
+    """The bulk read's whole answer taken (every reply's data and error bits) or refused
+    (nothing taken: a bad checksum or header, anywhere) exactly as the Python does; a length
+    the Python's ``struct`` refuses with an error is handed back to it (NotImplemented)."""
+    from robot_daemon.bus.bulk_receive import _take_whole_py
+
+    rng = random.Random(42)
+    taken = refused = 0
+    for i in range(20_000):
+        plan, whole = _bulk_answer(rng, i % 8)
+        got_data: dict[int, bytes] = {99: b"kept"}
+        got_errors: dict[int, int] = {}
+        took = compiled.take_whole(whole, plan.ids, plan.lengths, got_data, got_errors)  # type: ignore[union-attr]
+        if i % 8 in (6, 7):
+            assert took is NotImplemented
+            with pytest.raises(struct.error):
+                _take_whole_py(plan, whole, {}, {})
+            continue
+        want_data: dict[int, bytes] = {99: b"kept"}
+        want_errors: dict[int, int] = {}
+        assert took is _take_whole_py(plan, whole, want_data, want_errors)
+        assert list(got_data.items()) == list(want_data.items())
+        assert list(got_errors.items()) == list(want_errors.items())
+        taken += took
+        refused += not took
+    assert taken > 2_000 and refused > 10_000
+    for odd in ((bytearray(whole), plan.ids, plan.lengths, {}, {}),
+                (whole, list(plan.ids), plan.lengths, {}, {}),
+                (whole, plan.ids, plan.lengths[:-1], {}, {}),
+                (whole, (1.0,) * len(plan.ids), plan.lengths, {}, {}),
+                (whole, (300,) * len(plan.ids), plan.lengths, {}, {})):
+        assert compiled.take_whole(*odd) is NotImplemented  # type: ignore[union-attr]
+
+
+def _servo_state(rng: random.Random) -> Any:
+    from robot_daemon.bus.state import ServoState
+
+    st = ServoState()
+    for name in ("position", "speed", "load", "misses"):
+        getattr(st, name)[:] = [rng.randrange(0, 5000) for _ in range(21)]
+    return st
+
+
+def test_apply_fast_writes_what_the_python_writes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The fast servos' replies into the state's arrays (position, speed, load; misses 0), by
+    the compiled path and by numpy, from the same random replies: the same arrays after; a
+    reply missing, short or not bytes leaves everything to the Python, nothing written."""
+    import numpy as np
+
+    import robot_daemon.bus.sensor_read as sensor_read
+    from robot_daemon.bus.bulk_receive import BulkResult
+
+    rng = random.Random(43)
+    for _ in range(500):
+        fast = sorted(rng.sample(range(1, 21), rng.randrange(1, 21)))
+        if rng.random() < 0.5:
+            fast = list(range(fast[0], fast[0] + len(fast)))
+        at = (slice(fast[0], fast[0] + len(fast)) if fast == list(range(fast[0], fast[-1] + 1))
+              else np.array(fast, np.intp))
+        pick = itemgetter(*fast) if len(fast) > 1 else (lambda d, f=fast: [d[j] for j in f])
+        layout = sensor_read._Layout([], fast, at, pick)
+        res = BulkResult(data={j: rng.randbytes(6) for j in fast})
+        seed = rng.random()
+        states = []
+        for use in (compiled, None):
+            monkeypatch.setattr(sensor_read, "_compiled", use)
+            st = _servo_state(random.Random(seed))
+            reader = object.__new__(sensor_read.SensorReader)
+            reader.state, reader._alarmed = st, set()
+            reader._apply_fast(layout, res, True)
+            states.append([getattr(st, n).tolist() for n in ("position", "speed", "load",
+                                                            "misses")])
+        assert states[0] == states[1]
+    st = _servo_state(rng)
+    before = [a.copy() for a in (st.position, st.speed, st.load, st.misses)]
+    args = (st.position, st.speed, st.load, st.misses, 0, 1, 2, 6)
+    for data, fast in (({1: b"\x00" * 6}, [1, 2]), ({1: b"\x00" * 5}, [1]),
+                       ({1: bytearray(6)}, [1]), ({21: b"\x00" * 6}, [21]),
+                       ({1: b"\x00" * 6}, (1,)), ({-1: b"\x00" * 6}, [-1])):
+        assert compiled.apply_fast(data, fast, *args) is NotImplemented  # type: ignore[union-attr]
+    assert compiled.apply_fast({1: b"\0" * 6}, [1], st.position, st.speed, st.load,  # type: ignore[union-attr]
+                               st.misses.astype(float), 0, 1, 2, 6) is NotImplemented
+    assert all((a == b).all() for a, b in zip(before, (st.position, st.speed, st.load,
+                                                        st.misses), strict=True))
+
+
+def test_joint_arrays_give_the_bits_of_numpy() -> None:
+    """The frame's joint angles, speeds and loads from raw words (Calibration.joint_arrays)
+    compiled and in numpy (joint_arrays_py): the same bits over every word of a servo's range
+    and beyond, both directions and random offsets."""
+    import numpy as np
+
+    import robot_daemon.bus.calibration as calibration
+    from config.loader import load_all, robot_from_dict
+
+    cal = calibration.Calibration(robot_from_dict(load_all()["robot"]))
+    rng = random.Random(44)
+    for jid in range(1, 21):
+        cal.set_offset(jid, rng.uniform(-30, 30))
+    words = [[rng.randrange(-5000, 70000) for _ in range(21)] for _ in range(400)]
+    words += [list(range(start, start + 21)) for start in range(0, 4096 + 21, 21)]
+    for raw in words:
+        arrays = [np.array(raw), np.array(raw[::-1]), np.array(raw[3:] + raw[:3])]
+        got = cal.joint_arrays(*arrays)
+        want = cal.joint_arrays_py(*arrays)
+        assert _bits([a.tolist() for a in got]) == _bits([a.tolist() for a in want])
+    ints = np.zeros(21, int)
+    tables = (units.SPEED_RAD_S_TABLE, units.LOAD_FRACTION_TABLE)
+    ok = (ints, ints, ints, cal.sign, cal.offset, *tables, units.RAD_PER_UNIT, 2048,
+          np.empty((3, 21)))
+    assert compiled.joint_arrays(*ok) is True  # type: ignore[union-attr]
+    for at, odd in ((0, ints.astype(float)), (3, cal.sign.astype(np.float32)),
+                    (9, np.empty((3, 20))), (9, np.empty((3, 21)).T), (5, tables[0][:100]),
+                    (0, np.zeros(20, int)), (7, 1), (0, [0] * 21)):
+        args = list(ok)
+        args[at] = odd
+        assert compiled.joint_arrays(*args) is NotImplemented  # type: ignore[union-attr]

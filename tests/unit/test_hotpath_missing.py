@@ -15,8 +15,10 @@ FALLS_BACK = """
 from robot_daemon import hotpath
 from robot_daemon.motion.walking import ik
 from robot_daemon.engine import broadcast
+from robot_daemon.bus import bulk_receive, calibration, sensor_read
 assert hotpath.compiled is None and hotpath.missing
 assert ik.leg_ik_end_point is ik.leg_ik_end_point_py and broadcast._compiled is None
+assert bulk_receive._compiled is sensor_read._compiled is calibration._compiled is None
 print(hotpath.status)
 """
 
@@ -63,7 +65,8 @@ def test_an_extension_older_than_its_source_runs_none_of_it_and_says_so() -> Non
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.splitlines() == [
         "hot path: Python (the C extension robot_daemon._hotpath is older than its source, it "
-        "lacks leg_servo_angles: pip install the project again)"
+        "lacks leg_servo_angles, take_whole, apply_fast, joint_arrays: pip install the project "
+        "again)"
     ]
 
 
