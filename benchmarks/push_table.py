@@ -145,8 +145,11 @@ def main() -> None:
             for name, spec in POLICIES.items():
                 fell = [one_try(system, robot, sim, spec, s * impulse / PUSH_S) for s in signs[i]]
                 falls[name].append(sum(fell))
-                print(f"{impulse:.1f} N·s {name}: {sum(fell)}/{args.tries} fell "
-                      f"({', '.join('forward' if s > 0 else 'backward' for s in signs[i])})",
+                pairs = list(zip(fell, signs[i], strict=True))
+                ways = {"forward": [f for f, s in pairs if s > 0],
+                        "backward": [f for f, s in pairs if s < 0]}  # fmt: skip
+                print(f"{impulse:.1f} N·s {name}: {sum(fell)}/{args.tries} fell ("
+                      + ", ".join(f"{w} {sum(f)}/{len(f)}" for w, f in ways.items()) + ")",
                       flush=True)  # fmt: skip
     names = list(POLICIES)
     print(f"\nfalls out of {args.tries} per shove (whole stack, `darwin policy run`):")

@@ -623,6 +623,13 @@ class SearchSettings:
     # one direction for the other from probe to probe (forward 1.4 N·s stood, then backward
     # 1.8 and forward not 1.0), where the push table, and the probe, ask for both.
     balance: bool = False
+    # The gravity's x at which the tilt is split into its two sides (its zero), not 0: the
+    # stand pose leans forward, and holding it the gravity filter reads 0.22 at rest, so a
+    # tilt split at upright answers a backward shove (the lean falling from 0.22 to 0) with
+    # the rows of a forward one. Holding the stand stands 1.4 N·s backward where a reflex
+    # that rests upright (the shipped file, 0.12) does not: its answer to a backward shove
+    # was worse than none, and the search could not learn "none" on a split at 0.
+    tilt_zero: float = 0.0
 
 
 _WORKER: dict[str, Any] = {}
@@ -647,7 +654,7 @@ def _worker_env(fast: bool) -> Any:
     return _WORKER[key]
 
 
-Task = tuple[tuple[np.ndarray, np.ndarray], int, float, float, float, float, bool]
+Task = tuple[tuple[np.ndarray, np.ndarray, np.ndarray], int, float, float, float, float, bool]
 
 
 def _episode(task: Task) -> tuple[float, int]:
@@ -665,7 +672,7 @@ def _episode(task: Task) -> tuple[float, int]:
     for k in range(total):
         if k == at:
             env.unwrapped.push((force, 0.0, 0.0), PUSH_S)
-        a = np.clip((np.maximum(obs.astype(float) @ w[0], 0.0) @ w[1]) @ out_map, -1.0, 1.0)
+        a = np.clip((np.maximum(obs.astype(float) @ w[0] + w[2], 0.0) @ w[1]) @ out_map, -1, 1)
         obs, _, term, _, _ = env.step(a)
         q = obs[pos].astype(float)
         pose_err += math.sqrt(float(q @ q) / len(q))
@@ -753,21 +760,24 @@ class Search:
             raise ValueError(f"{path}'s reflex reads other features or pairs than this search")
         self.m = np.array(list(reflex.values()), dtype=float)
 
-    def layers(self, m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """The reflex as two layers around a ReLU: [69, 2n] (each feature and its negative),
-        [2n, pairs] (a feature's rows (m, −m) are linear in it; a split one's are its two
-        sides' own)."""
+    def layers(self, m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The reflex as two layers around a ReLU: [69, 2n] (each feature and its negative)
+        and its bias [2n] (the tilt less ``tilt_zero``), [2n, pairs] (a feature's rows (m, −m)
+        are linear in it; a split one's are its two sides' own)."""
         m = self.m if m is None else m
         n = len(self.names)
         w1 = np.concatenate([self.features, -self.features], axis=1)
+        b1 = np.zeros(2 * n)
+        tilt = self.names.index("gravity_x")
+        b1[tilt], b1[n + tilt] = np.array([-1.0, 1.0]) * self.s.tilt_zero / ARS_SCALES["gravity"]
         w2 = np.concatenate([m[:n], -m[:n]])
         for k, i in enumerate(self.split):
             w2[n + i] = -m[n + k]
-        return w1, w2
+        return w1, w2, b1
 
     def deterministic(self, obs: np.ndarray) -> np.ndarray:
-        w1, w2 = self.layers()
-        h = np.maximum(np.asarray(obs, float) @ w1, 0.0)
+        w1, w2, b1 = self.layers()
+        h = np.maximum(np.asarray(obs, float) @ w1 + b1, 0.0)
         return np.clip((h @ w2) @ self.out_map, -1.0, 1.0)
 
     def impulses(self, n: int) -> np.ndarray:
@@ -923,8 +933,8 @@ def export_linear(agent: Search, out: Path, made: dict[str, Any]) -> None:
                                    agent.m.tolist(), strict=True))}  # fmt: skip
     meta = deploy_metadata(RATE, scale, [robot.by_id[j].p for j in JOINT_IDS],
                            **{"darwin.training": json.dumps(training)})  # fmt: skip
-    w1, w2 = agent.layers()
-    layers = [(w1, np.zeros(w1.shape[1])), (w2, np.zeros(w2.shape[1]))]
+    w1, w2, b1 = agent.layers()
+    layers = [(w1, b1), (w2, np.zeros(w2.shape[1]))]
     model = mlp_model(layers, "Relu", None, None, meta, out_map=agent.out_map)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_suffix(".onnx.tmp")
@@ -967,6 +977,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--balance", action="store_true",
                     help="ars: score a candidate by its weaker direction's shoves")
     ap.add_argument("--start", type=Path, help="ars: go on from this reflex (an .onnx it wrote)")
+    ap.add_argument("--tilt-zero", type=float, default=0.0, metavar="G",
+                    help="ars: the gravity's x where the tilt's two sides meet (the stand "
+                    "pose's lean reads 0.22)")
     args = ap.parse_args(argv)
     given = sys.argv[1:] if argv is None else argv
     if args.method == "ars":
@@ -974,7 +987,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ss = SearchSettings(workers=args.workers, randomize=args.randomize, search=args.search,
                             hold=tuple(args.hold),
                             impulse_weight=args.impulse_weight,
-                            balance=args.balance)  # fmt: skip
+                            balance=args.balance, tilt_zero=args.tilt_zero)  # fmt: skip
         if args.push != Settings.push:
             ss.push = ss.push_back = tuple(args.push)
         if args.push_back:

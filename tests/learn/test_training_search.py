@@ -107,3 +107,33 @@ def test_held_sensor_readings_repeat_for_at_most_the_hold_and_the_last_action_ne
     assert fresh >= 55  # the daemon's own last action is never stale
     never, _ = runs((1, 1))
     assert set(never) == {1}
+
+
+def test_the_tilt_is_split_at_its_zero_and_the_written_file_splits_it_there(
+    tmp_path: Path,
+) -> None:
+    """``tilt_zero``: the tilt's two sides meet at the stand pose's lean, not at upright, so
+    a backward shove (the lean falling from its rest toward upright) takes the backward rows."""
+    from schemas.policy import OBSERVATION_SLICES as at
+
+    s = train.SearchSettings(search="tilt", tilt_zero=0.2)
+    agent = train.Search(s, seed=0)
+    n, ankle = len(agent.names), list(s.pairs).index("ankle_pitch")
+    agent.m[agent.names.index("gravity_x"), ankle] = 0.1  # forward of the zero: this row
+    agent.m[n + agent.split.index(agent.names.index("gravity_x")), ankle] = 0.0  # behind: none
+    r_ankle = int(np.flatnonzero(agent.out_map[ankle])[0])
+
+    def ankle_at(policy, gravity_x: float) -> float:  # type: ignore[no-untyped-def]
+        obs = np.zeros(OBSERVATION_SIZE, np.float32)
+        obs[at["gravity"]] = (gravity_x, 0.0, -1.0)
+        return float(policy(obs)[r_ankle])
+
+    # Upright and at 0.15 are behind a zero of 0.2: no answer (split at 0 they were forward).
+    assert [ankle_at(agent.deterministic, g) for g in (0.0, 0.15, 0.2)] == pytest.approx(
+        [0.0, 0.0, 0.0], abs=1e-6)
+    assert abs(ankle_at(agent.deterministic, 0.3)) == pytest.approx(0.1, abs=1e-6)
+    out = tmp_path / "reflex.onnx"
+    train.export_linear(agent, out, {"generations": 0})
+    policy, _ = load_policy(str(out), "numpy")
+    for g in (-0.1, 0.0, 0.15, 0.2, 0.25, 0.4):
+        assert ankle_at(policy, g) == pytest.approx(ankle_at(agent.deterministic, g), abs=1e-5)
