@@ -296,6 +296,9 @@ def _resolve(daemon: Any, name: str) -> tuple[Any, str]:
              "dxl": dxl, "gait": gait, "walking": daemon.manager.module("walking"),
              "pub": daemon.pub, "stats": daemon.stats}
     head, *path, attr = name.split(".")
+    if head == "module":  # module.<name>.<method>: a motion module by its name
+        head, path = path[0], path[1:]
+        where[head] = daemon.manager.module(head)
     obj = where[head]
     for part in path:
         obj = getattr(obj, part)

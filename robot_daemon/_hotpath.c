@@ -818,7 +818,511 @@ static PyObject *hot_joint_arrays(PyObject *self, PyObject *const *args, Py_ssiz
     return result;
 }
 
+/* -- the walk's pose (WalkingModule._pose_py, with balance.gyro_feedback) -------------------- */
+
+static int walk_ready;
+static PyObject *walk_leg_ids[2];   /* right, left: each leg's six servo ids (ints) */
+static double walk_leg_dirs[2][6];  /* and their directions */
+static PyObject *walk_arm_ids[6];   /* 1 … 6 */
+static double ARM_DEG1, ARM_DEG2, ARM_RAD[4], FEEDBACK_SIGN[8], DEG_TO_RAD, UNIT;
+static long FEEDBACK_IDS[8] = {9, 10, 13, 14, 15, 16, 17, 18};
+enum { NAME_TIME, NAME_LATCHED, NAME_PERIOD, NAME_SSL, NAME_SEL, NAME_SSR, NAME_SER, NAME_XMP,
+       NAME_YMP, NAME_AMP, NAME_ZMP, NAME_GYRO_F, NAME_RATIO, NAME_SWING_RL, NAME_FOOT_HEIGHT,
+       NAME_SWING_TD, NAME_PELVIS, NAME_ROLL_OFF, NAME_PITCH_OFF, NAME_YAW_OFF, NAME_X_OFF,
+       NAME_Y_OFF, NAME_Z_OFF, NAME_HIP_PITCH, NAME_ARM_GAIN, NAME_BALANCE, NAME_FILTER,
+       NAME_LIMIT, NAME_HIP_GAIN, NAME_KNEE_GAIN, NAME_APITCH_GAIN, NAME_AROLL_GAIN,
+       NAME_IMU_VALID, NAME_GYRO_RAW, NAME_CENTRE, NAME_DT, NAMES };
+static const char *name_text[NAMES] = {
+    "time_ms", "latched", "period", "ssp_start_l", "ssp_end_l", "ssp_start_r", "ssp_end_r",
+    "x_move_period", "y_move_period", "a_move_period", "z_move_period", "_gyro_f",
+    "step_forward_back_ratio", "swing_right_left", "foot_height", "swing_top_down",
+    "pelvis_offset", "roll_offset", "pitch_offset", "yaw_offset", "x_offset", "y_offset",
+    "z_offset", "hip_pitch_offset", "arm_swing_gain", "balance_enable", "balance_filter",
+    "balance_limit", "balance_hip_roll_gain", "balance_knee_gain", "balance_ankle_pitch_gain",
+    "balance_ankle_roll_gain", "imu_valid", "gyro_raw", "gyro_centre", "dt"};
+static PyObject *names[NAMES];
+
+/* A Python number as the double its arithmetic with floats uses: a float, or an int a double
+ * holds exactly (then int / int divides as the doubles do). -1: anything else. */
+static int as_double(PyObject *o, double *out)
+{
+    if (PyFloat_CheckExact(o)) {
+        *out = PyFloat_AS_DOUBLE(o);
+        return 0;
+    }
+    if (PyLong_CheckExact(o)) {
+        long long v = PyLong_AsLongLong(o);
+        if ((v == -1 && PyErr_Occurred()) || v > (1LL << 53) || v < -(1LL << 53)) {
+            PyErr_Clear();
+            return -1;
+        }
+        *out = (double)v;
+        return 0;
+    }
+    return -1;
+}
+
+static int attr_double(PyObject *obj, int name, double *out)
+{
+    PyObject *v = PyObject_GetAttr(obj, names[name]);
+    if (v == NULL) {
+        PyErr_Clear();
+        return -1;
+    }
+    int r = as_double(v, out);
+    Py_DECREF(v);
+    return r;
+}
+
+/* configure_walk(right_ids, right_dirs, left_ids, left_dirs, arm_deg_1, arm_deg_2, arm_rad_3_6,
+ * feedback_signs, deg_to_rad, unit): the gait's constants as gait.py and balance.py have them
+ * (math.radians(1.0) is the factor math.radians multiplies by). */
+static PyObject *hot_configure_walk(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    walk_ready = 0;
+    if (nargs != 10) {
+        PyErr_SetString(PyExc_TypeError, "configure_walk takes 10 arguments");
+        return NULL;
+    }
+    long seen[256] = {0};
+    for (int leg = 0; leg < 2; leg++) {
+        PyObject *ids = args[2 * leg], *dirs = args[2 * leg + 1];
+        if (!PyTuple_CheckExact(ids) || !PyTuple_CheckExact(dirs) || PyTuple_GET_SIZE(ids) != 6
+            || PyTuple_GET_SIZE(dirs) != 6)
+            Py_RETURN_FALSE;
+        for (int i = 0; i < 6; i++) {
+            PyObject *id = PyTuple_GET_ITEM(ids, i);
+            long j = PyLong_CheckExact(id) ? PyLong_AsLong(id) : -1;
+            long d = PyLong_CheckExact(PyTuple_GET_ITEM(dirs, i))
+                     ? PyLong_AsLong(PyTuple_GET_ITEM(dirs, i)) : 9;
+            PyErr_Clear();
+            if (j < 7 || j > 255 || seen[j]++ || d < -1 || d > 1)  /* not an arm's id */
+                Py_RETURN_FALSE;
+            walk_leg_dirs[leg][i] = (double)d;
+        }
+        Py_XDECREF(walk_leg_ids[leg]);
+        Py_INCREF(ids);
+        walk_leg_ids[leg] = ids;
+    }
+    for (int k = 0; k < 8; k++)  /* the feedback's joints are legs' */
+        if (!seen[FEEDBACK_IDS[k]])
+            Py_RETURN_FALSE;
+    if (!seen[9] || !seen[10])
+        Py_RETURN_FALSE;
+    PyObject *arms = args[6], *signs = args[7];
+    if (!PyTuple_CheckExact(arms) || PyTuple_GET_SIZE(arms) != 4 || !PyTuple_CheckExact(signs)
+        || PyTuple_GET_SIZE(signs) != 8 || !PyFloat_CheckExact(args[4])
+        || !PyFloat_CheckExact(args[5]) || !PyFloat_CheckExact(args[8])
+        || !PyFloat_CheckExact(args[9]))
+        Py_RETURN_FALSE;
+    for (int i = 0; i < 4; i++)
+        if (as_double(PyTuple_GET_ITEM(arms, i), &ARM_RAD[i]) < 0)
+            Py_RETURN_FALSE;
+    for (int i = 0; i < 8; i++)
+        if (as_double(PyTuple_GET_ITEM(signs, i), &FEEDBACK_SIGN[i]) < 0
+            || (FEEDBACK_SIGN[i] != 1.0 && FEEDBACK_SIGN[i] != -1.0))
+            Py_RETURN_FALSE;
+    ARM_DEG1 = PyFloat_AS_DOUBLE(args[4]);
+    ARM_DEG2 = PyFloat_AS_DOUBLE(args[5]);
+    DEG_TO_RAD = PyFloat_AS_DOUBLE(args[8]);
+    UNIT = PyFloat_AS_DOUBLE(args[9]);
+    for (int i = 0; i < 6; i++) {
+        if (walk_arm_ids[i] == NULL && (walk_arm_ids[i] = PyLong_FromLong(i + 1)) == NULL)
+            return NULL;
+    }
+    for (int i = 0; i < NAMES; i++)
+        if (names[i] == NULL && (names[i] = PyUnicode_InternFromString(name_text[i])) == NULL)
+            return NULL;
+    walk_ready = 1;
+    Py_RETURN_TRUE;
+}
+
+/* math.sin, which raises where libm's gives NaN (an infinity): *raises set then, for the
+ * Python to raise it */
+static double py_sin(double x, int *raises)
+{
+    if (isinf(x))
+        *raises = 1;
+    return sin(x);
+}
+
+/* _wsin: mag * sin(2π / period · t − shift) + mag_shift, an operation at a time (*raises set
+ * where the Python raises: a zero period, an infinite angle) */
+static double wsin(double t, double period, double shift, double mag, double mag_shift,
+                   int *raises)
+{
+    if (period == 0.0)
+        *raises = 1;
+    double a = 2.0 * PI;
+    a = a / period;
+    a = a * t;
+    a = a - shift;
+    double s = py_sin(a, raises);
+    s = mag * s;
+    return s + mag_shift;
+}
+
+/* A number of a 3-long numpy array (int or double) as a double: -1 if it is not such. */
+static int array3(PyObject *arr, double *out)
+{
+    Py_buffer v;
+    int kind_int = array_view(arr, &v, 'i', 0) == 0;
+    if (!kind_int && array_view(arr, &v, 'd', 0) < 0)
+        return -1;
+    int ok = v.ndim == 1 && v.shape[0] >= 2;
+    if (ok) {
+        out[0] = kind_int ? (double)get_int(&v, 0) : ((double *)v.buf)[0];
+        out[1] = kind_int ? (double)get_int(&v, 1) : ((double *)v.buf)[1];
+        if (kind_int && (fabs(out[0]) > 9007199254740992.0 || fabs(out[1]) > 9007199254740992.0))
+            ok = 0;
+    }
+    PyBuffer_Release(&v);
+    return ok ? 0 : -1;
+}
+
+/* walk_pose(walker, params, frame, balance, limits): WalkingModule._pose_py compiled (the
+ * foot and pelvis moves, both legs' IK and servo angles, the arms, balance.gyro_feedback and
+ * the limit check, in the Python's order of operations and of the goals' keys). Returns
+ * (goals or None, the feedback's new filtered gyro [rl, fb] or None where it did not run), or
+ * NotImplemented for the Python's to do (anything not a number where it reads one, a
+ * non-finite IK input, arrays not of ints or doubles). It changes nothing itself. */
+static PyObject *hot_walk_pose(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 5 || !walk_ready || ik_fallback == NULL)
+        Py_RETURN_NOTIMPLEMENTED;
+    PyObject *w = args[0], *p = args[1], *frame = args[2], *limits = args[4];
+    int balance = PyObject_IsTrue(args[3]);
+    if (balance < 0 || !(limits == Py_None || PyDict_CheckExact(limits))) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    double t, period, sl, el, sr, er, xmp, ymp, amp, zmp;
+    double ratio, swing_rl, foot_height, swing_td, pelvis_deg, roll_deg, pitch_deg, yaw_deg;
+    double x_off, y_off, z_off, hip_deg, arm_gain;
+    if (attr_double(w, NAME_TIME, &t) || attr_double(w, NAME_PERIOD, &period)
+        || attr_double(w, NAME_SSL, &sl) || attr_double(w, NAME_SEL, &el)
+        || attr_double(w, NAME_SSR, &sr) || attr_double(w, NAME_SER, &er)
+        || attr_double(w, NAME_XMP, &xmp) || attr_double(w, NAME_YMP, &ymp)
+        || attr_double(w, NAME_AMP, &amp) || attr_double(w, NAME_ZMP, &zmp)
+        || attr_double(p, NAME_RATIO, &ratio) || attr_double(p, NAME_SWING_RL, &swing_rl)
+        || attr_double(p, NAME_FOOT_HEIGHT, &foot_height)
+        || attr_double(p, NAME_SWING_TD, &swing_td) || attr_double(p, NAME_PELVIS, &pelvis_deg)
+        || attr_double(p, NAME_ROLL_OFF, &roll_deg) || attr_double(p, NAME_PITCH_OFF, &pitch_deg)
+        || attr_double(p, NAME_YAW_OFF, &yaw_deg) || attr_double(p, NAME_X_OFF, &x_off)
+        || attr_double(p, NAME_Y_OFF, &y_off) || attr_double(p, NAME_Z_OFF, &z_off)
+        || attr_double(p, NAME_HIP_PITCH, &hip_deg) || attr_double(p, NAME_ARM_GAIN, &arm_gain))
+        Py_RETURN_NOTIMPLEMENTED;
+    /* xm, ym_cmd, am_cmd = self.latched: floats only (an int's negation keeps no sign) */
+    double xm, ym_cmd, am_cmd;
+    {
+        PyObject *latched = PyObject_GetAttr(w, names[NAME_LATCHED]);
+        if (latched == NULL) {
+            PyErr_Clear();
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+        int ok = PyList_CheckExact(latched) && PyList_GET_SIZE(latched) == 3;
+        for (int i = 0; i < 3 && ok; i++)
+            ok = PyFloat_CheckExact(PyList_GET_ITEM(latched, i));
+        if (ok) {
+            xm = PyFloat_AS_DOUBLE(PyList_GET_ITEM(latched, 0));
+            ym_cmd = PyFloat_AS_DOUBLE(PyList_GET_ITEM(latched, 1));
+            am_cmd = PyFloat_AS_DOUBLE(PyList_GET_ITEM(latched, 2));
+        }
+        Py_DECREF(latched);
+        if (!ok)
+            Py_RETURN_NOTIMPLEMENTED;
+    }
+    double half_pi = PI / 2.0, two_pi = 2.0 * PI, a, b;
+    /* where the Python raises (a division by zero, math.sin of an infinity), it runs */
+    int raises = xmp == 0.0 || ymp == 0.0 || amp == 0.0 || zmp == 0.0;
+    double x_swap_amp = xm * ratio;
+    double ym = ym_cmd / 2.0;
+    double y_swap_amp = fabs(ym) * 0.04;
+    y_swap_amp = swing_rl + y_swap_amp;
+    double zm = foot_height / 2.0;
+    double am = am_cmd * DEG_TO_RAD;
+    am = am / 2.0;
+    double x_swap = wsin(t, period / 2.0, PI, x_swap_amp, 0.0, &raises);
+    double y_swap = wsin(t, period, 0.0, y_swap_amp, 0.0, &raises);
+    double pi3 = PI * 3.0;
+    pi3 = pi3 / 2.0;
+    double z_swap = wsin(t, period / 2.0, pi3, swing_td, swing_td, &raises);
+    double txy, start, extra, zl_t, zr_t;
+    if (t <= sl) {
+        txy = sl; start = sl; extra = 0.0; zl_t = sl; zr_t = sr;
+    } else if (t <= el) {
+        txy = t; start = sl; extra = 0.0; zl_t = t; zr_t = sr;
+    } else if (t <= sr) {
+        txy = el; start = sl; extra = 0.0; zl_t = el; zr_t = sr;
+    } else if (t <= er) {
+        txy = t; start = sr; extra = PI; zl_t = el; zr_t = t;
+    } else {
+        txy = er; start = sr; extra = PI; zl_t = el; zr_t = er;
+    }
+    double moves[3], periods[3] = {xmp, ymp, amp};
+    for (int i = 0; i < 3; i++) {  /* sin(w·txy − (π/2 + w·start + extra)) */
+        double wv = two_pi / periods[i];
+        a = wv * txy;
+        b = wv * start;
+        b = half_pi + b;
+        b = b + extra;
+        a = a - b;
+        moves[i] = py_sin(a, &raises);
+    }
+    double x_l = xm * moves[0];
+    x_l = x_l + 0.0;
+    double x_r = -xm;
+    x_r = x_r * moves[0];
+    x_r = x_r + 0.0;
+    double y_l = ym * moves[1];
+    y_l = y_l + fabs(ym);
+    double y_r = -ym;
+    y_r = y_r * moves[1];
+    y_r = y_r + -fabs(ym);
+    double c_l = am * moves[2];
+    c_l = c_l + fabs(am);
+    double c_r = -am;
+    c_r = c_r * moves[2];
+    c_r = c_r + -fabs(am);
+    double wz = two_pi / zmp, z_l, z_r;
+    a = wz * zl_t;
+    b = wz * sl;
+    b = half_pi + b;
+    b = b + 0.0;
+    a = a - b;
+    z_l = py_sin(a, &raises);
+    z_l = zm * z_l;
+    z_l = z_l + zm;
+    a = wz * zr_t;
+    b = wz * sr;
+    b = half_pi + b;
+    b = b + 0.0;
+    a = a - b;
+    z_r = py_sin(a, &raises);
+    z_r = zm * z_r;
+    z_r = z_r + zm;
+
+    double pelvis = pelvis_deg * DEG_TO_RAD;
+    double pelvis_swing = pelvis * 0.35;
+    double pel_l = 0.0, pel_r = 0.0;
+    if (sl < t && t <= el) {
+        double ph = two_pi / zmp;
+        ph = ph * sl;
+        ph = half_pi + ph;
+        double m = pelvis_swing / 2.0;
+        pel_l = wsin(t, zmp, ph, m, m, &raises);
+        m = -pelvis;
+        m = m / 2.0;
+        pel_r = wsin(t, zmp, ph, m, m, &raises);
+    } else if (sr < t && t <= er) {
+        double ph = two_pi / zmp;
+        ph = ph * sr;
+        ph = half_pi + ph;
+        double m = pelvis / 2.0;
+        pel_l = wsin(t, zmp, ph, m, m, &raises);
+        m = -pelvis_swing;
+        m = m / 2.0;
+        pel_r = wsin(t, zmp, ph, m, m, &raises);
+    }
+    double r_off = roll_deg * DEG_TO_RAD, p_off = pitch_deg * DEG_TO_RAD;
+    double a_off = yaw_deg * DEG_TO_RAD;
+    double mm = 0.001, y_half = y_off / 2.0, a_half = a_off / 2.0;
+    double point[2][6];
+    a = x_swap + x_r;  a = a + x_off;  point[0][0] = a * mm;
+    a = y_swap + y_r;  a = a - y_half; point[0][1] = a * mm;
+    a = z_swap + z_r;  a = a + z_off;  point[0][2] = a * mm;
+    a = -r_off;        point[0][3] = a / 2.0;
+    point[0][4] = p_off;
+    point[0][5] = c_r - a_half;
+    a = x_swap + x_l;  a = a + x_off;  point[1][0] = a * mm;
+    a = y_swap + y_l;  a = a + y_half; point[1][1] = a * mm;
+    a = z_swap + z_l;  a = a + z_off;  point[1][2] = a * mm;
+    point[1][3] = r_off / 2.0;
+    point[1][4] = p_off;
+    point[1][5] = c_l + a_half;
+    double hip_pitch = hip_deg * DEG_TO_RAD;
+    if (raises)
+        Py_RETURN_NOTIMPLEMENTED;
+    /* the goals in the Python's key order: right leg, left leg, then the arms 1 … 6 */
+    PyObject *keys[18];
+    double vals[18];
+    int n = 0, at9 = -1, at10 = -1;
+    for (int leg = 0; leg < 2; leg++) {
+        double out[6];
+        int r = ik_core(point[leg], out);
+        if (r == 2)
+            Py_RETURN_NOTIMPLEMENTED;
+        if (r == 1)
+            return Py_BuildValue("(OO)", Py_None, Py_None);
+        double shift = (leg == 0 ? 1.0 : -1.0) * hip_pitch;
+        for (int i = 0; i < 6; i++) {
+            double v = walk_leg_dirs[leg][i] * out[i];
+            if (i == 2)
+                v = v - shift;
+            keys[n] = PyTuple_GET_ITEM(walk_leg_ids[leg], i);
+            long j = PyLong_AsLong(keys[n]);
+            at9 = j == 9 ? n : at9;
+            at10 = j == 10 ? n : at10;
+            vals[n++] = v;
+        }
+    }
+    vals[at9] = vals[at9] + -pel_r;
+    vals[at10] = vals[at10] + -pel_l;
+    double arm = 0.0;
+    if (xm != 0.0) {
+        double pi15 = PI * 1.5;
+        double mag = xm * arm_gain;
+        arm = wsin(t, period, pi15, mag, 0.0, &raises);
+        if (raises)
+            Py_RETURN_NOTIMPLEMENTED;
+    }
+    a = ARM_DEG1 - arm;
+    keys[n] = walk_arm_ids[0];
+    vals[n++] = a * DEG_TO_RAD;
+    a = ARM_DEG2 - arm;
+    keys[n] = walk_arm_ids[1];
+    vals[n++] = a * DEG_TO_RAD;
+    for (int i = 0; i < 4; i++) {
+        keys[n] = walk_arm_ids[2 + i];
+        vals[n++] = ARM_RAD[i];
+    }
+    PyObject *filtered = Py_None;
+    Py_INCREF(filtered);
+    int enable = 0;
+    if (balance) {
+        PyObject *e = PyObject_GetAttr(p, names[NAME_BALANCE]);
+        enable = e == NULL ? -1 : PyObject_IsTrue(e);
+        Py_XDECREF(e);
+        if (enable < 0) {
+            PyErr_Clear();
+            Py_DECREF(filtered);
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+    }
+    if (balance && enable) {  /* balance.gyro_feedback */
+        double r_rl = 0.0, r_fb = 0.0, dt, filter, limit_deg, gains[4], f[2];
+        int fail = attr_double(frame, NAME_DT, &dt) || attr_double(p, NAME_FILTER, &filter)
+                   || attr_double(p, NAME_LIMIT, &limit_deg)
+                   || attr_double(p, NAME_HIP_GAIN, &gains[0])
+                   || attr_double(p, NAME_KNEE_GAIN, &gains[1])
+                   || attr_double(p, NAME_APITCH_GAIN, &gains[2])
+                   || attr_double(p, NAME_AROLL_GAIN, &gains[3]);
+        PyObject *valid = fail ? NULL : PyObject_GetAttr(frame, names[NAME_IMU_VALID]);
+        int is_valid = valid == NULL ? -1 : PyObject_IsTrue(valid);
+        Py_XDECREF(valid);
+        fail = fail || is_valid < 0;
+        if (!fail && is_valid) {
+            double gyro[2], centre[2];
+            PyObject *g = PyObject_GetAttr(frame, names[NAME_GYRO_RAW]);
+            PyObject *c = PyObject_GetAttr(frame, names[NAME_CENTRE]);
+            fail = g == NULL || c == NULL || array3(g, gyro) < 0 || array3(c, centre) < 0;
+            Py_XDECREF(g);
+            Py_XDECREF(c);
+            if (!fail) {
+                r_rl = gyro[0] - centre[0];
+                r_fb = gyro[1] - centre[1];
+            }
+        }
+        PyObject *prev = fail ? NULL : PyObject_GetAttr(w, names[NAME_GYRO_F]);
+        fail = fail || prev == NULL || !PyList_CheckExact(prev) || PyList_GET_SIZE(prev) != 2
+               || as_double(PyList_GET_ITEM(prev, 0), &f[0]) < 0
+               || as_double(PyList_GET_ITEM(prev, 1), &f[1]) < 0;
+        Py_XDECREF(prev);
+        if (fail) {
+            PyErr_Clear();
+            Py_DECREF(filtered);
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+        double k = 1.0;
+        if (!(filter <= 0.0)) {
+            double q = filter + dt;
+            if (q == 0.0) {
+                Py_DECREF(filtered);
+                Py_RETURN_NOTIMPLEMENTED;
+            }
+            q = dt / q;
+            k = q < 1.0 ? q : 1.0;  /* min(1.0, q) */
+        }
+        double rl = r_rl - f[0];
+        rl = rl * k;
+        rl = f[0] + rl;
+        double fb = r_fb - f[1];
+        fb = fb * k;
+        fb = f[1] + fb;
+        double limit = limit_deg * DEG_TO_RAD;
+        double by[8] = {rl, rl, fb, fb, fb, fb, rl, rl};
+        double gain[8] = {gains[0], gains[0], gains[1], gains[1], gains[2], gains[2], gains[3],
+                          gains[3]};
+        for (int i = 0; i < 8; i++) {
+            double v = FEEDBACK_SIGN[i] * by[i];
+            v = v * gain[i];
+            v = v * 4.0;
+            v = v * UNIT;
+            v = v < limit ? v : limit;
+            v = v > -limit ? v : -limit;
+            for (int q = 0; q < 12; q++)
+                if (PyLong_AsLong(keys[q]) == FEEDBACK_IDS[i])
+                    vals[q] = vals[q] + v;
+        }
+        Py_DECREF(filtered);
+        filtered = Py_BuildValue("[dd]", rl, fb);
+        if (filtered == NULL)
+            return NULL;
+    }
+    int within = 1;
+    if (limits != Py_None) {
+        for (int q = 0; q < n && within; q++) {
+            PyObject *lim = PyDict_GetItemWithError(limits, keys[q]);
+            if (lim == NULL) {
+                if (PyErr_Occurred()) {
+                    PyErr_Clear();
+                    Py_DECREF(filtered);
+                    Py_RETURN_NOTIMPLEMENTED;
+                }
+                continue;
+            }
+            if (!PyTuple_CheckExact(lim) || PyTuple_GET_SIZE(lim) != 2
+                || !PyFloat_CheckExact(PyTuple_GET_ITEM(lim, 0))
+                || !PyFloat_CheckExact(PyTuple_GET_ITEM(lim, 1))) {
+                Py_DECREF(filtered);
+                Py_RETURN_NOTIMPLEMENTED;
+            }
+            double lo = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(lim, 0));
+            double hi = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(lim, 1));
+            within = lo <= vals[q] && vals[q] <= hi;
+        }
+    }
+    if (!within) {
+        PyObject *r = PyTuple_Pack(2, Py_None, filtered);
+        Py_DECREF(filtered);
+        return r;
+    }
+    PyObject *goals = PyDict_New();
+    if (goals == NULL) {
+        Py_DECREF(filtered);
+        return NULL;
+    }
+    for (int q = 0; q < n; q++) {
+        PyObject *v = PyFloat_FromDouble(vals[q]);
+        if (v == NULL || PyDict_SetItem(goals, keys[q], v) < 0) {
+            Py_XDECREF(v);
+            Py_DECREF(goals);
+            Py_DECREF(filtered);
+            return NULL;
+        }
+        Py_DECREF(v);
+    }
+    PyObject *r = PyTuple_Pack(2, goals, filtered);
+    Py_DECREF(goals);
+    Py_DECREF(filtered);
+    return r;
+}
+
 static PyMethodDef methods[] = {
+    {"configure_walk", (PyCFunction)(void (*)(void))hot_configure_walk, METH_FASTCALL,
+     "the gait's constants for walk_pose"},
+    {"walk_pose", (PyCFunction)(void (*)(void))hot_walk_pose, METH_FASTCALL,
+     "WalkingModule._pose_py compiled"},
     {"take_whole", (PyCFunction)(void (*)(void))hot_take_whole, METH_FASTCALL,
      "bulk_receive._take_whole_py compiled"},
     {"apply_fast", (PyCFunction)(void (*)(void))hot_apply_fast, METH_FASTCALL,

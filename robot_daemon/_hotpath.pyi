@@ -35,3 +35,13 @@ def joint_arrays(
     position: Any, speed: Any, load: Any, sign: Any, offset: Any, speed_table: Any,
     load_table: Any, k: float, c: int, out: Any, /,
 ) -> Any: ...  # True, or NotImplemented
+def configure_walk(
+    right_ids: tuple[int, ...], right_dirs: tuple[int, ...], left_ids: tuple[int, ...],
+    left_dirs: tuple[int, ...], arm_deg_1: float, arm_deg_2: float,
+    arm_rad_3_6: tuple[float, ...], feedback_signs: tuple[int, ...], deg_to_rad: float,
+    unit: float, /,
+) -> bool: ...
+def walk_pose(
+    walker: Any, params: Any, frame: Any, balance: bool,
+    limits: dict[int, tuple[float, float]] | None, /,
+) -> Any: ...  # (goals or None, [rl, fb] or None), or NotImplemented

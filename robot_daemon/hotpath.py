@@ -17,7 +17,8 @@ from types import ModuleType
 # What the extension gives (robot_daemon/_hotpath.pyi declares the same; a unit test checks).
 EXPORTS = (
     "configure_leg", "leg_ik_end_point", "goals_raw", "pack_fields", "positions_list",
-    "leg_servo_angles", "take_whole", "apply_fast", "joint_arrays",
+    "leg_servo_angles", "take_whole", "apply_fast", "joint_arrays", "configure_walk",
+    "walk_pose",
 )  # fmt: skip
 
 

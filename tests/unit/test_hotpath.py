@@ -407,3 +407,59 @@ def test_joint_arrays_give_the_bits_of_numpy() -> None:
         args = list(ok)
         args[at] = odd
         assert compiled.joint_arrays(*args) is NotImplemented  # type: ignore[union-attr]
+
+
+def test_walk_pose_gives_the_python_s_goals(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The walk's pose compiled whole (gait._walk_pose: the feet's and pelvis's moves, both
+    legs' IK, the arms, the gyro feedback, the limit check) against _pose_py on random gaits,
+    clocks, amplitudes, gyro readings and parameters (ints among them): the same goals to the
+    bit and in the same key order, the same None, the same filtered gyro kept."""
+    import dataclasses
+
+    import numpy as np
+
+    from config.loader import load_all, robot_from_dict
+    from robot_daemon.frames import JointFrame
+    from robot_daemon.motion.walking import gait
+    from robot_daemon.motion.walking.params import WalkParams
+
+    assert gait._walk_pose is not None
+    robot = robot_from_dict(load_all()["robot"])
+    manager = type("Manager", (), {"robot": robot})()
+    rng = random.Random(45)
+    ranges = {f.name: f.metadata.get("range") for f in dataclasses.fields(WalkParams)}
+    outcomes = {"goals": 0, "none": 0}
+    for i in range(20_000):
+        p = WalkParams()
+        for name, span in ranges.items():
+            if span is not None and rng.random() < 0.5:
+                lo, hi = span
+                value: Any = rng.uniform(lo, hi) * (1.3 if i % 7 == 0 else 1.0)
+                setattr(p, name, round(value) if rng.random() < 0.2 else value)
+        p.balance_enable = rng.random() < 0.8
+        walk = gait.WalkingModule(p)
+        walk.manager = manager if rng.random() < 0.9 else None  # type: ignore[assignment]
+        walk.time_ms = rng.choice([0.0, walk.ssp_start_l, walk.ssp_end_r, walk.period,
+                                   rng.uniform(-10, walk.period + 10)])
+        walk.latched = [rng.uniform(-60, 60) * rng.choice([0, 1, 1]) for _ in range(3)]
+        walk._gyro_f = [rng.uniform(-50, 50), rng.choice([0, rng.uniform(-50, 50)])]
+        frame = JointFrame(tick=i, time=0.0, dt=rng.choice([0.008, 0.016, rng.uniform(0, 0.05)]))
+        frame.gyro_raw = np.array([rng.randrange(0, 1024) for _ in range(3)])
+        frame.gyro_centre = rng.choice([np.full(3, 512.0), np.array([500.5, 515.25, 512.0])])
+        frame.imu_valid = rng.random() < 0.9
+        balance = rng.random() < 0.8
+        results = []
+        for use in (gait._walk_pose, None):
+            monkeypatch.setattr(gait, "_walk_pose", use)
+            saved = list(walk._gyro_f)
+            try:
+                goals = walk._pose(frame, balance)
+                results.append((None if goals is None else
+                                [(j, v.hex()) for j, v in goals.items()],
+                                [float(v).hex() for v in walk._gyro_f]))
+            except (ZeroDivisionError, ValueError) as exc:  # the Python's, either way
+                results.append(repr(exc))
+            walk._gyro_f = saved
+        assert results[0] == results[1], (i, vars(p))
+        outcomes["none" if results[0][0] is None else "goals"] += 1
+    assert outcomes["goals"] > 10_000 and outcomes["none"] > 500

@@ -11,6 +11,9 @@ from schemas.units import RAD_PER_UNIT
 
 # Framework servo directions used by the gyro feedback (Walking.cpp ``dir``).
 _DIR = {9: -1, 10: -1, 13: 1, 14: -1, 15: -1, 16: 1, 17: 1, 18: 1}
+# Each term's sign below, joints 9, 10, 13 … 18 in order (the compiled pose's, gait.py).
+FEEDBACK_SIGNS = (_DIR[9], _DIR[10], -_DIR[13], -_DIR[14], -_DIR[15], -_DIR[16], -_DIR[17],
+                  -_DIR[18])
 
 
 def gyro_feedback(

@@ -21,11 +21,13 @@ from typing import Any, cast
 import numpy as np
 
 from robot_daemon.frames import JointFrame
+from robot_daemon.hotpath import compiled as _compiled
 from robot_daemon.motion.interface import MotionModule
-from robot_daemon.motion.walking.balance import gyro_feedback
-from robot_daemon.motion.walking.ik import leg_servo_angles
+from robot_daemon.motion.walking.balance import FEEDBACK_SIGNS, gyro_feedback
+from robot_daemon.motion.walking.ik import LEG_SERVOS, leg_servo_angles
 from robot_daemon.motion.walking.params import WalkParams
 from robot_daemon.motion.walking.ready import PagePlayer, WalkReady
+from schemas.units import RAD_PER_UNIT
 
 LEG_IDS = tuple(range(7, 19))
 # The walk owns all six arm servos, as ROBOTIS's demo enables the walk on the whole body but the
@@ -37,6 +39,16 @@ WALK_IDS = (*ARM_IDS, *LEG_IDS)
 ARM_INIT_DEG = {1: -48.345, 2: 41.313, 3: -17.873, 4: 17.580, 5: 29.300, 6: -29.593}
 ARM_P_GAIN = 8  # the framework's arms while walking
 ARM_INIT_RAD = {j: math.radians(d) for j, d in ARM_INIT_DEG.items()}
+
+# _pose_py whole, compiled (robot_daemon/hotpath.py; the same goals to the bit and in the same
+# key order, tests/unit/test_hotpath.py), given the constants above; None without it.
+_walk_pose = None
+if _compiled is not None and _compiled.configure_walk(
+    *LEG_SERVOS["right"], *LEG_SERVOS["left"], ARM_INIT_DEG[1], ARM_INIT_DEG[2],
+    tuple(ARM_INIT_RAD[j] for j in (3, 4, 5, 6)), FEEDBACK_SIGNS, math.radians(1.0),
+    RAD_PER_UNIT,
+):
+    _walk_pose = _compiled.walk_pose
 
 
 def _wsin(t: float, period: float, shift: float, mag: float, mag_shift: float) -> float:
@@ -324,6 +336,18 @@ class WalkingModule(MotionModule):
         return goals
 
     def _pose(self, frame: JointFrame, balance: bool = True) -> dict[int, float] | None:
+        """The goals of this tick's point of the gait (None: out of reach or of the joints'
+        limits), by the compiled pose where it is built, else by :meth:`_pose_py`."""
+        if _walk_pose is not None:
+            got = _walk_pose(self, self.params, frame, balance, self._limit_map())
+            if got is not NotImplemented:
+                goals, filtered = got
+                if filtered is not None:
+                    self._gyro_f = filtered
+                return cast("dict[int, float] | None", goals)
+        return self._pose_py(frame, balance)
+
+    def _pose_py(self, frame: JointFrame, balance: bool = True) -> dict[int, float] | None:
         p, t = self.params, self.time_ms
         xm, ym_cmd, am_cmd = self.latched
         x_swap_amp = xm * p.step_forward_back_ratio
@@ -417,15 +441,23 @@ class WalkingModule(MotionModule):
             return None
         return goals
 
-    def _within_limits(self, goals: dict[int, float]) -> bool:
+    def _limit_map(self) -> dict[int, tuple[float, float]] | None:
+        """The robot's limits by joint, as JointConfig.within has them, made once (None
+        without a manager: nothing to check against)."""
         if self.manager is None:
-            return True
+            return None
         limits = self._limits
-        if limits is None:  # the robot's limits, as JointConfig.within has them, made once
+        if limits is None:
             by_id = self.manager.robot.by_id
             limits = self._limits = {
                 j: (c.min_rad - 1e-9, c.max_rad + 1e-9) for j, c in by_id.items()
             }
+        return limits
+
+    def _within_limits(self, goals: dict[int, float]) -> bool:
+        limits = self._limit_map()
+        if limits is None:
+            return True
         for j, g in goals.items():
             lim = limits.get(j)
             if lim is not None and not lim[0] <= g <= lim[1]:

@@ -68,7 +68,8 @@ def _wrap(a: float) -> float:
 
 _TAU = 2 * math.pi
 # Each leg's servo ids and directions (schemas.kinematics), for leg_servo_angles.
-_LEG_SERVOS = {side: (LEG_IDS[side], LEG_DIRECTION[side]) for side in LEG_IDS}
+# Each leg's servo ids and directions, by side (the compiled pose's too, gait.py).
+LEG_SERVOS = _LEG_SERVOS = {side: (LEG_IDS[side], LEG_DIRECTION[side]) for side in LEG_IDS}
 
 
 def foot_target(x: float, y: float, z: float, roll: float, pitch: float, yaw: float) -> np.ndarray:
