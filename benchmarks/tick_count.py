@@ -7,6 +7,7 @@ callgrind, and the time they model on the robot's Atom Z530.
     python benchmarks/tick_count.py guard                    # CI: within 3 % of the record?
     python benchmarks/tick_count.py record                   # record this interpreter's figure
     python benchmarks/tick_count.py calibrate                # measured ÷ modelled, on this CPU
+    python benchmarks/tick_count.py daemon [--seconds 60]    # the whole daemon, every thread
 
 Each mode runs itself again under ``valgrind --tool=callgrind`` with the Z530's caches (32 KB
 8-way L1i, 24 KB 6-way L1d, 512 KB 8-way L2, 64-byte lines: Intel's Z5xx datasheet) and counts
@@ -28,6 +29,12 @@ load: a figure from a loaded two-core VM is the figure of a quiet robot.
 The model (``z530_us``): time = Ir × CPI + L1 misses × 15 cycles + L2 misses × 200 cycles, at
 1.6 GHz. Sources and uncertainty in docs/loop-cpu.md; ``calibrate`` measures the ratio of thread
 CPU to modelled time on the machine it runs on (on the robot: the model's correction factor).
+
+- ``daemon``: the whole daemon (``darwin daemon`` on an emulator, every thread: the loop,
+  publishing, the arbiter, Zenoh's own), walking at 125 Hz with one client subscribed to the
+  joints, counted over a window of its walk (instructions only, no cache model), per tick the
+  loop ran. Under valgrind the loop runs slower than 125 Hz (it prints the rate it ran at), so
+  what other threads do by the second is spread over fewer ticks: the figure is an upper bound.
 
 ``--python`` runs the child under another interpreter. In the i386 root the whole script runs
 inside the root with its Python (valgrind installed there with apt), as docs/loop-cpu.md shows.
@@ -524,10 +531,78 @@ def calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
+def count_daemon(args: argparse.Namespace) -> int:
+    """``daemon``: instructions per tick of the whole daemon process, walking (see above)."""
+    from benchmarks.loop_cpu import SIM_MARGIN_MS, emulator
+    from clients.robot import Robot
+    from schemas.session import free_tcp_port
+
+    for tool in ("valgrind", "callgrind_control"):
+        if shutil.which(tool) is None:
+            raise SystemExit(f"tick_count: {tool} is not installed: apt-get install valgrind")
+    with tempfile.TemporaryDirectory(prefix="tick-count-") as tmp, emulator(0.0) as port:
+        out = Path(tmp) / "daemon.out"
+        cfg = Path(tmp) / "daemon.toml"
+        cfg.write_text("[daemon]\nrealtime_priority = 0\n")  # valgrind runs one thread at a time
+        endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+        cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", "--separate-threads=yes",
+               f"--callgrind-out-file={out}", f"--log-file={out}.log", args.python, "-m",
+               "robot_daemon.launch.cli", "daemon", "--port", port, "--camera", "none",
+               "--listen", endpoint, "--robot", "count", "--config", str(cfg),
+               "--reply-margin-ms", SIM_MARGIN_MS]
+        env = dict(os.environ, PYTHONHASHSEED="0", PYTHONDONTWRITEBYTECODE="1")
+        proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, text=True)
+        ticks: list[int] = []
+        try:
+            assert proc.stdout is not None
+            for line in proc.stdout:
+                if line.startswith("zenoh:"):
+                    break
+            else:
+                raise SystemExit(f"tick_count: the daemon exited ({proc.wait()}): see {out}.log")
+            with Robot(endpoint, "count", name="tick_count") as robot:
+                robot.wait_for("status", lambda s: s.loop["ticks"] > 50, timeout=600)
+                robot.acquire()
+                robot.walk(x=0.05)
+                with robot.subscribe("joints", lambda m: ticks.append(m.tick)):
+                    time.sleep(5.0)  # the walk under way
+                    control = ["callgrind_control", str(proc.pid)]
+                    subprocess.run([*control[:1], "-i", "on", *control[1:]], check=True,
+                                   capture_output=True, timeout=120)
+                    first = ticks[-1]
+                    time.sleep(args.seconds)
+                    subprocess.run([*control[:1], "-d", *control[1:]], check=True,
+                                   capture_output=True, timeout=120)
+                    last = ticks[-1]
+                robot.walk_stop()
+                robot.release()
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(timeout=120)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        threads = []
+        for path in sorted(Path(tmp).glob("daemon.out.1*")):
+            totals = re.search(r"^(?:totals|summary): (\d+)", path.read_text(errors="replace"),
+                               re.M)
+            if totals:
+                threads.append(int(totals.group(1)))
+    n = max(1, last - first)
+    total = sum(threads)
+    top = max(threads, default=0)
+    print(f"{interpreter()}; callgrind, every thread; the daemon walking, {n} ticks over "
+          f"{args.seconds:g} s ({n / args.seconds:.0f} ticks/s under valgrind)")
+    print(f"whole daemon: {total / n / 1e3:.1f} k instructions a tick ({len(threads)} threads; "
+          f"the busiest {top / n / 1e3:.1f} k, the others {(total - top) / n / 1e3:.1f} k)")
+    return 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("mode", choices=["tick", "breakdown", "vision", "guard", "record",
-                                         "calibrate", *CHILDREN])
+                                         "calibrate", "daemon", *CHILDREN])
     parser.add_argument("--frames", type=int, default=5, help="camera frames counted per part")
     parser.add_argument("--ticks", type=int, default=40, help="ticks counted per figure")
     parser.add_argument("--warm", type=int, default=60, help="ticks run before counting")
@@ -535,6 +610,8 @@ def main() -> int:
                         "as BREAKDOWN spells them, e.g. bus.frame,engine.take)")
     parser.add_argument("--python", default=sys.executable, help="the interpreter to count")
     parser.add_argument("--json", help="also write the figures here")
+    parser.add_argument("--seconds", type=float, default=60.0,
+                        help="daemon: the counted window of its walk")
     args = parser.parse_args()
     if args.mode == "child-tick":
         child_tick(args)
@@ -552,6 +629,8 @@ def main() -> int:
         return guard(args)
     if args.mode == "calibrate":
         return calibrate(args)
+    if args.mode == "daemon":
+        return count_daemon(args)
     with tempfile.TemporaryDirectory(prefix="tick-count-") as tmp:
         out_dir = Path(tmp)
         t0 = time.monotonic()

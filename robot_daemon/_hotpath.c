@@ -637,6 +637,38 @@ static PyObject *hot_take_whole(PyObject *self, PyObject *const *args, Py_ssize_
 /* A one-dimensional (or, for ``rows`` > 0, rows × n) C-contiguous numpy array's memory, as an
  * int of 4 or 8 bytes or a double: 0 and ``view`` filled, or -1 with no error set (not such an
  * array: the caller hands the work to the Python). */
+static char buffer_kind(const Py_buffer *view)
+{
+    const char *f = view->format ? view->format : "B";
+    if (*f == '<' || *f == '=' || *f == '@')
+        f++;
+    if (f[0] == 0 || f[1] != 0)
+        return 0;
+    if (f[0] == 'd' && view->itemsize == 8)
+        return 'd';
+    if (f[0] == '?' && view->itemsize == 1)
+        return '?';
+    if ((f[0] == 'l' || f[0] == 'q' || f[0] == 'i') && (view->itemsize == 4 || view->itemsize == 8))
+        return 'i';
+    return 0;
+}
+
+/* The same, of whichever of the three kinds the array is (``*kind`` says which); one request
+ * of the buffer (numpy builds its description each time: ~1 k instructions). */
+static int array_any(PyObject *obj, Py_buffer *view, char *kind)
+{
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+        PyErr_Clear();
+        return -1;
+    }
+    *kind = buffer_kind(view);
+    if (!*kind) {
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
 static int array_view(PyObject *obj, Py_buffer *view, char kind, int writable)
 {
     int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
@@ -644,16 +676,7 @@ static int array_view(PyObject *obj, Py_buffer *view, char kind, int writable)
         PyErr_Clear();
         return -1;
     }
-    const char *f = view->format ? view->format : "B";
-    if (*f == '<' || *f == '=' || *f == '@')
-        f++;
-    int ok;
-    if (kind == 'd')
-        ok = f[0] == 'd' && f[1] == 0 && view->itemsize == 8;
-    else
-        ok = (f[0] == 'l' || f[0] == 'q' || f[0] == 'i') && f[1] == 0
-             && (view->itemsize == 4 || view->itemsize == 8);
-    if (!ok) {
+    if (buffer_kind(view) != kind) {
         PyBuffer_Release(view);
         return -1;
     }
@@ -966,10 +989,11 @@ static double wsin(double t, double period, double shift, double mag, double mag
 static int array3(PyObject *arr, double *out)
 {
     Py_buffer v;
-    int kind_int = array_view(arr, &v, 'i', 0) == 0;
-    if (!kind_int && array_view(arr, &v, 'd', 0) < 0)
+    char kind;
+    if (array_any(arr, &v, &kind) < 0)
         return -1;
-    int ok = v.ndim == 1 && v.shape[0] >= 2;
+    int kind_int = kind == 'i';
+    int ok = kind != '?' && v.ndim == 1 && v.shape[0] >= 2;
     if (ok) {
         out[0] = kind_int ? (double)get_int(&v, 0) : ((double *)v.buf)[0];
         out[1] = kind_int ? (double)get_int(&v, 1) : ((double *)v.buf)[1];
@@ -1318,11 +1342,85 @@ static PyObject *hot_walk_pose(PyObject *self, PyObject *const *args, Py_ssize_t
     return r;
 }
 
+/* -- the tick's snapshot (engine/snapshot.take) ----------------------------------------------- */
+
+/* A one-dimensional numpy array of doubles, ints or bools as its tolist() (NULL, no error set:
+ * not such an array). */
+static PyObject *array_list(PyObject *arr)
+{
+    Py_buffer v;
+    char kind;
+    if (array_any(arr, &v, &kind) < 0)
+        return NULL;
+    PyObject *out = v.ndim == 1 ? PyList_New(v.shape[0]) : NULL;
+    for (Py_ssize_t j = 0; out != NULL && j < v.shape[0]; j++) {
+        PyObject *x;
+        if (kind == 'd')
+            x = PyFloat_FromDouble(((double *)v.buf)[j]);
+        else if (kind == 'i')
+            x = PyLong_FromLongLong(get_int(&v, j));
+        else {
+            x = ((unsigned char *)v.buf)[j] ? Py_True : Py_False;
+            Py_INCREF(x);
+        }
+        if (x == NULL)
+            Py_CLEAR(out);
+        else
+            PyList_SET_ITEM(out, j, x);
+    }
+    PyBuffer_Release(&v);
+    if (out == NULL)
+        PyErr_Clear();
+    return out;
+}
+
+/* snapshot_lists(arrays, goal, sign, offset, k, c): each array of the tuple ``arrays`` as its
+ * tolist(), then the goals' angles as Calibration.positions_list(goal.tolist()) gives them
+ * (sign and offset its lists): a tuple of the lists. NotImplemented when an array is not of
+ * doubles, ints or bools, or the goals are not what positions_list takes (the Python's then). */
+static PyObject *hot_snapshot_lists(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 6 || !PyTuple_CheckExact(args[0]))
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_ssize_t n = PyTuple_GET_SIZE(args[0]);
+    PyObject *out = PyTuple_New(n + 1);
+    if (out == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *list = array_list(PyTuple_GET_ITEM(args[0], i));
+        if (list == NULL) {
+            Py_DECREF(out);
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+        PyTuple_SET_ITEM(out, i, list);
+    }
+    PyObject *raw = array_list(args[1]);
+    PyObject *angles = NULL;
+    if (raw != NULL) {
+        PyObject *pargs[5] = {raw, args[2], args[3], args[4], args[5]};
+        angles = hot_positions_list(self, pargs, 5);
+        Py_DECREF(raw);
+    }
+    if (angles == NULL || angles == Py_NotImplemented) {
+        Py_DECREF(out);
+        if (angles == NULL) {
+            if (raw != NULL)
+                return NULL;  /* positions_list's own error */
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+        return angles;
+    }
+    PyTuple_SET_ITEM(out, n, angles);
+    return out;
+}
+
 static PyMethodDef methods[] = {
     {"configure_walk", (PyCFunction)(void (*)(void))hot_configure_walk, METH_FASTCALL,
      "the gait's constants for walk_pose"},
     {"walk_pose", (PyCFunction)(void (*)(void))hot_walk_pose, METH_FASTCALL,
      "WalkingModule._pose_py compiled"},
+    {"snapshot_lists", (PyCFunction)(void (*)(void))hot_snapshot_lists, METH_FASTCALL,
+     "engine/snapshot.take's lists, compiled"},
     {"take_whole", (PyCFunction)(void (*)(void))hot_take_whole, METH_FASTCALL,
      "bulk_receive._take_whole_py compiled"},
     {"apply_fast", (PyCFunction)(void (*)(void))hot_apply_fast, METH_FASTCALL,

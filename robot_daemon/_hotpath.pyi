@@ -45,3 +45,7 @@ def walk_pose(
     walker: Any, params: Any, frame: Any, balance: bool,
     limits: dict[int, tuple[float, float]] | None, /,
 ) -> Any: ...  # (goals or None, [rl, fb] or None), or NotImplemented
+def snapshot_lists(
+    arrays: tuple[Any, ...], goal: Any, sign: list[float], offset: list[float], k: float, c: int,
+    /,
+) -> Any: ...  # tuple of lists, or NotImplemented

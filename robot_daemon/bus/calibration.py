@@ -80,6 +80,12 @@ class Calibration:
         # goals_raw's columns by the joints written (a handful of sets in use).
         self._columns: dict[tuple[int, ...], _Columns] = {}
 
+    @property
+    def angle_columns(self) -> tuple[list[float], list[float]]:
+        """Sign and offset of every slot as :meth:`positions_list` computes with them (for the
+        compiled snapshot, engine/snapshot.py)."""
+        return self._sign, self._offset
+
     def set_offset(self, jid: int, offset_deg: float) -> None:
         """A new offset for joint ``jid``, used from the next conversion on (the next goal
         written shifts by the change)."""

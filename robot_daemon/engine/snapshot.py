@@ -10,7 +10,10 @@ want lists, and on 21 values one ``tolist`` costs less than any numpy operation.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+from robot_daemon.hotpath import compiled as _compiled
+from schemas import units
 
 if TYPE_CHECKING:
     from robot_daemon.bus.robot_bus import RobotBus
@@ -42,8 +45,34 @@ class TickSnapshot(NamedTuple):
     fall: str  # the fall monitor's verdict on this frame ("none" without one)
 
 
+_make: Any = tuple.__new__  # a TickSnapshot from its fields in order, as its __new__ does
+
+
 def take(bus: RobotBus, frame: JointFrame, stamp: float, tick: int, fall: str) -> TickSnapshot:
-    """The tick's snapshot (copies: the next tick writes the bus state's arrays)."""
+    """The tick's snapshot (copies: the next tick writes the bus state's arrays): every list in
+    one compiled call where it is built (the same lists, tests/unit/test_hotpath.py), else
+    :func:`take_py`."""
+    if _compiled is not None:
+        st = bus.state
+        sign, offset = bus.calibration.angle_columns
+        lists = _compiled.snapshot_lists(
+            (frame.position, frame.velocity, frame.load, st.temperature, st.voltage, st.torque,
+             st.online, st.alarm, frame.gyro, frame.accel, frame.gyro_raw, frame.accel_raw),
+            st.goal, sign, offset, units.RAD_PER_UNIT, units.POSITION_CENTER,
+        )
+        if lists is not NotImplemented:
+            pos, vel, load, temp, volt, torque, online, alarm, gyro, accel, graw, araw, goal = lists
+            online_cm = bus.cm730_online
+            snap: TickSnapshot = _make(TickSnapshot, (
+                tick, stamp, frame.time, pos, vel, load, goal, temp, volt, torque, online, alarm,
+                gyro, accel, graw, araw, bus.cm730 if online_cm else b"", online_cm, fall,
+            ))
+            return snap
+    return take_py(bus, frame, stamp, tick, fall)
+
+
+def take_py(bus: RobotBus, frame: JointFrame, stamp: float, tick: int, fall: str) -> TickSnapshot:
+    """:func:`take`'s definition: each array's ``tolist``."""
     st = bus.state
     return TickSnapshot(
         tick=tick,

@@ -463,3 +463,46 @@ def test_walk_pose_gives_the_python_s_goals(monkeypatch: pytest.MonkeyPatch) -> 
         assert results[0] == results[1], (i, vars(p))
         outcomes["none" if results[0][0] is None else "goals"] += 1
     assert outcomes["goals"] > 10_000 and outcomes["none"] > 500
+
+
+def test_snapshot_lists_are_the_python_s(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The tick's snapshot (engine/snapshot.take) from one compiled call against take_py (each
+    array's tolist, the goals through positions_list): the same fields, types and bits, from
+    random servo states, frames and offsets; what it does not take is the Python's."""
+    import numpy as np
+
+    from config.loader import load_all, robot_from_dict
+    from robot_daemon.bus.robot_bus import RobotBus
+    from robot_daemon.engine import snapshot
+
+    settings = load_all()
+    bus = RobotBus("none", robot_from_dict(settings["robot"]), settings, lambda *a, **k: None)
+    rng = random.Random(46)
+    st = bus.state
+
+    def typed(snap: Any) -> list[Any]:
+        return [(type(v).__name__, _bits(v) if isinstance(v, list | float) else v)
+                for v in snap]
+
+    for i in range(300):
+        for jid in range(1, 21):
+            bus.calibration.set_offset(jid, rng.uniform(-30, 30))
+        for name in ("position", "speed", "load", "goal", "alarm", "misses"):
+            getattr(st, name)[:] = [rng.randrange(-100, 5000) for _ in range(21)]
+        for name in ("temperature", "voltage"):
+            getattr(st, name)[:] = [rng.uniform(0, 90) for _ in range(21)]
+        for name in ("torque", "online"):
+            getattr(st, name)[:] = [rng.random() < 0.8 for _ in range(21)]
+        bus.cm730 = rng.randbytes(30)
+        bus.cm730_online = rng.random() < 0.8
+        frame = bus.frame(i, rng.uniform(0, 100), 0.008)
+        got = snapshot.take(bus, frame, 1.5 * i, i, rng.choice(["none", "front"]))
+        want = snapshot.take_py(bus, frame, 1.5 * i, i, got.fall)
+        assert typed(got) == typed(want) and type(got) is type(want)
+        assert got._asdict().keys() == want._asdict().keys()
+    frame.gyro = frame.gyro.astype(np.float32)  # not what it takes: the Python's, the same
+    monkeypatch.setattr(snapshot, "take_py", lambda *a: "python")
+    assert snapshot.take(bus, frame, 0.0, 0, "none") == "python"
+    sign, offset = bus.calibration.angle_columns
+    assert compiled.snapshot_lists((st.position,), st.goal.astype(float), sign, offset,  # type: ignore[union-attr]
+                                   units.RAD_PER_UNIT, 2048) is NotImplemented
