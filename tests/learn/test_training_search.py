@@ -137,3 +137,24 @@ def test_the_tilt_is_split_at_its_zero_and_the_written_file_splits_it_there(
     policy, _ = load_policy(str(out), "numpy")
     for g in (-0.1, 0.0, 0.15, 0.2, 0.25, 0.4):
         assert ankle_at(policy, g) == pytest.approx(ankle_at(agent.deterministic, g), abs=1e-5)
+
+
+def test_the_probe_reads_as_the_loaded_stack_when_asked_and_a_start_keeps_its_tilt_zero(
+    tmp_path: Path,
+) -> None:
+    """``probe_hold``: the probe's full model holds its readings (and has latency and IMU
+    noise) as the loaded stack does; nominal otherwise. A file searched at one tilt zero is not
+    gone on from at another (its tilt rows would answer other tilts)."""
+    s = train.SearchSettings(search="tilt", probe_hold=(3, 3), tilt_zero=0.1)
+    agent = train.Search(s, seed=0)
+    for probe_hold, latency in (((3, 3), (0.0, 0.01)), ((1, 1), (0.0, 0.0))):
+        train._WORKER.clear()
+        train._init_worker(agent.out_map, "latency", (1, 1), probe_hold)
+        rnd = train._worker_env(False).unwrapped.backend.random
+        assert (rnd.hold, rnd.latency) == (probe_hold, latency)
+    train._WORKER.clear()
+    out = tmp_path / "reflex.onnx"
+    train.export_linear(agent, out, {"generations": 0})
+    train.Search(s, seed=1).start_from(out)  # the same zero
+    with pytest.raises(ValueError, match=r"splits the tilt at 0\.1, this search at 0: give"):
+        train.Search(train.SearchSettings(search="tilt"), seed=1).start_from(out)
