@@ -858,7 +858,7 @@ class Search:
                  for i in impulses for sign in (1.0, -1.0) for seed in seeds]  # fmt: skip
         results = pool.map(_episode, tasks) if pool is not None else list(map(_episode, tasks))
         stood = np.array([r[1] >= SHOVE_STEPS for r in results]).reshape(-1, 2, len(seeds))
-        up = stood.all(axis=2)
+        up: np.ndarray = np.asarray(stood.all(axis=2))
         return [int(x) for x in up[:, 0]], [int(x) for x in up[:, 1]]
 
 
