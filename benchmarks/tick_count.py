@@ -543,7 +543,9 @@ def count_daemon(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory(prefix="tick-count-") as tmp, emulator(0.0) as port:
         out = Path(tmp) / "daemon.out"
         cfg = Path(tmp) / "daemon.toml"
-        cfg.write_text("[daemon]\nrealtime_priority = 0\n")  # valgrind runs one thread at a time
+        # valgrind runs one thread at a time (no real-time loop), and slowly: the lease's
+        # heartbeat is judged on the daemon's clock, which a slow arbiter thread lets lapse.
+        cfg.write_text("[daemon]\nrealtime_priority = 0\n[daemon.lease]\nheartbeat_timeout = 0\n")
         endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
         cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", "--separate-threads=yes",
                f"--callgrind-out-file={out}", f"--log-file={out}.log", args.python, "-m",
