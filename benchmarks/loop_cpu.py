@@ -94,8 +94,7 @@ def _stop(proc: subprocess.Popen[str]) -> None:
 def emulator(ftdi_latency_ms: float) -> Iterator[str]:
     # Its serving thread real-time too (below the daemon's 40): replies on time on a busy machine.
     args = [sys.executable, "-m", "robot_daemon.launch.cli", "sim", "--realtime-priority=30"]
-    if ftdi_latency_ms:
-        args.append(f"--ftdi-latency-ms={ftdi_latency_ms}")
+    args.append(f"--ftdi-latency-ms={ftdi_latency_ms:g}")  # 0 too: the default is 1
     proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, text=True)
     try:
         yield _line(proc, "port:")

@@ -12,7 +12,8 @@ asked for (``callgrind_requests.py`` toggles counting around them), so the figur
 
 - ``servos``: ``Bus.step(0.004)``, every servo's motion, heat, alarms and registers (the emulator
   runs it before answering a packet and at each physics round: ~300 times a second);
-- ``world``: ``SimWorld.step(0.01)``, the body's legs, balance and the ball (100 a second).
+- ``world``: ``SimWorld.step(0.01)``, the body's legs, balance and the ball (100 a second);
+- ``answer``: the replies of the 21 devices to the daemon's bulk read of a tick (125 a second).
 """
 
 from __future__ import annotations
@@ -45,9 +46,23 @@ def child(what: str, root: Path) -> None:
     world.attach(emulator)
     emulator.advance(1.0)  # powered, standing, settled
     positions = emulator.api.present_positions()
+    from robot_daemon.bus.packet import instruction_packet
+    from robot_daemon.bus.tables import BROADCAST_ID, Instruction, sensor_blocks
+
+    param = [0x00]
+    for dxl_id, start, length in sensor_blocks():
+        param += [length, dxl_id, start]
+    request = instruction_packet(BROADCAST_ID, Instruction.BULK_READ, param)
+
+    def answer() -> None:
+        with emulator.lock:
+            emulator._process(emulator.parser.feed(request), 0.0)
+            emulator._out.clear()
+
     step = {
         "servos": lambda: emulator.bus.step(0.004),
         "world": lambda: world.step(0.01, positions),
+        "answer": answer,
     }[what]
     cg.start_instrumentation()
     for _ in range(20):
@@ -89,7 +104,7 @@ def main() -> None:
         return
     if shutil.which("valgrind") is None:
         raise SystemExit("sim_count: valgrind is not installed: apt-get install valgrind")
-    for what in ("servos", "world"):
+    for what in ("servos", "world", "answer"):
         now = count(what, ROOT)
         line = f"{what}: {now:,.0f} k instructions a step"
         if args.baseline is not None:

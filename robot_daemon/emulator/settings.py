@@ -55,7 +55,9 @@ class EmulatorSettings:
     packet_timeout_s: float = 0.01
     # > 0: deliver replies as an FTDI USB chip does (62-byte USB packets, the rest when this
     # latency timer fires; robot_daemon/emulator/ftdi.py); 0: each reply when its last byte is in.
-    ftdi_latency_ms: float = ranged(0.0, 0.0, 255.0)
+    # 1 ms, as the robot's adapter is set (the daemon refuses a slower one): the host sees the
+    # robot's handful of deliveries a tick, not 21.
+    ftdi_latency_ms: float = ranged(1.0, 0.0, 255.0)
     drop: float = 0.0
     corrupt: float = 0.0
     delay: float = 0.0

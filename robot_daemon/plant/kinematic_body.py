@@ -40,6 +40,8 @@ _SWITCH_DZ = 0.001
 _DOUBLE_SUPPORT_DZ = 0.004
 # Body frame height (m) a robot is placed at before its legs are known.
 _NOMINAL_HEIGHT = 0.29
+# A felt body rate below this (rad/s) is none: the CM-730's gyro resolves ~0.01 rad/s.
+_FELT_ZERO = 1e-9
 
 
 def flatten(pose: np.ndarray) -> np.ndarray:
@@ -146,6 +148,10 @@ class Body:
             )
             lag = self.imu_settings.gyro_lag_s
             self._gyro_felt += (self.gyro - self._gyro_felt) * dt / (lag + dt)
+            # The lag decays geometrically and would take ~1 800 steps to reach 0.0 exactly;
+            # a rate a billion times below the gyro's resolution is none, and a body whose
+            # felt rate is none can be at rest (``SimWorld.step``).
+            self._gyro_felt[np.abs(self._gyro_felt) < _FELT_ZERO] = 0.0
         self._last_R = r.copy()
 
     def _update_standing(self, soles: dict[Side, np.ndarray], dt: float) -> None:
@@ -158,6 +164,34 @@ class Body:
         self.T_wb = self.support_world @ np.linalg.inv(soles[self.support])
         double = abs(z["left"] - z["right"]) < _DOUBLE_SUPPORT_DZ
         self._check_fall(soles, double, dt)
+
+    # -- rest ------------------------------------------------------------------------------------
+    def still(self) -> bool:
+        """Nothing in the body moves: no body rate (felt or not), no sole velocity. A step of a
+        still body that changed nothing changes nothing again, however long the step: each
+        term that scales with it is zero (time with the centre of mass outside grows, so such
+        a step changed something)."""
+        return not (
+            self.gyro.any()
+            or self._gyro_felt.any()
+            or any(v.any() for v in self.sole_velocity.values())
+        )
+
+    def fingerprint(self) -> tuple[object, ...]:
+        """Everything a step reads or writes, as a value to compare."""
+        arrays = [
+            self.T_wb, self.support_world, self.gyro, self._gyro_felt,
+            *self.soles_b.values(), *self.soles_w.values(), *self.sole_velocity.values(),
+            *getattr(self, "_last_soles_w", {}).values(),
+        ]  # fmt: skip
+        last_r = getattr(self, "_last_R", None)
+        if last_r is not None:
+            arrays.append(last_r)
+        return (
+            b"".join(a.tobytes() for a in arrays),
+            self.support, self.fallen, self.com_outside, self._crouched, self._initialised,
+            self._pending_place,
+        )  # fmt: skip
 
     # -- falls ------------------------------------------------------------------------------------
     def tilt(self) -> float:

@@ -62,7 +62,7 @@ _OVERRIDES: tuple[tuple[str, str, str, Any, str], ...] = (
         "MS",
         float,
         "deliver replies as an FTDI chip: 62-byte USB packets, the rest after this latency "
-        "timer (0: each reply as it completes)",
+        "timer (default 1, as the robot's adapter is set; 0: each reply as it completes)",
     ),
     ("--silent-ids", "silent_ids", "IDS", _ids, "IDs that never answer, e.g. 7,8"),
     ("--overheat", "overheat_ids", "IDS", _ids, "servo IDs stuck above their limit"),

@@ -60,6 +60,11 @@ class SimWorld(WorldViews):
         self.ball = Ball(s.ball, s.feet)
         self.falls = 0  # how many times the robot fell
         self._positions: dict[int, float] = {}
+        # A robot standing still (most of a simulated robot's life) is stepped 100 times a
+        # second to the same state: the servo positions and the state a step left unchanged,
+        # and the IMU it reported, so the next such step only counts the time.
+        self._rest: tuple[tuple[tuple[int, float], ...], tuple[object, ...]] | None = None
+        self._rest_imu: tuple[np.ndarray, np.ndarray] = (np.zeros(3), np.zeros(3))
         self.body.place(*s.robot_start)
         if s.ball_start is not None:
             self.ball.place(*s.ball_start)
@@ -69,6 +74,12 @@ class SimWorld(WorldViews):
         """Advance by ``dt`` s with the servos at ``positions``; returns (gyro, accel) for the
         IMU in robot axes (rad/s, m/s²)."""
         with self.lock:
+            key = tuple(positions.items())
+            before = self._fingerprint()
+            if self._rest is not None and self._rest == (key, before):
+                self.time += dt
+                gyro, accel = self._rest_imu
+                return gyro.copy(), accel.copy()
             self._positions = dict(positions)
             was = self.body.fallen
             self.body.update(self._positions, dt)
@@ -80,7 +91,19 @@ class SimWorld(WorldViews):
                 soles = []
             self.ball.step(dt, soles)
             self.time += dt
-            return self.body.imu()
+            imu = self.body.imu()
+            ball = self.ball.state
+            resting = self.body.still() and (ball is None or ball.speed == 0)
+            self._rest = (key, before) if resting and self._fingerprint() == before else None
+            self._rest_imu = (imu[0].copy(), imu[1].copy())
+            return imu
+
+    def _fingerprint(self) -> tuple[object, ...]:
+        ball = self.ball.state
+        return (
+            self.body.fingerprint(),
+            None if ball is None else (ball.x, ball.y, ball.vx, ball.vy),
+        )
 
     def attach(self, emulator: Emulator) -> None:
         """Step with every physics step of ``emulator`` and feed its IMU."""
