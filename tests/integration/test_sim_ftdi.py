@@ -98,10 +98,10 @@ def test_on_the_pty_bytes_come_in_usb_packets_and_the_tail_after_the_timer(
         port.close()
 
 
-def test_the_documented_command_serves_the_bus_ftdi_style() -> None:
-    """docs/loop-cpu.md: ``darwin sim --ftdi-latency-ms 1``."""
+def test_the_documented_command_serves_the_bus_reply_by_reply() -> None:
+    """docs/loop-cpu.md: ``darwin sim --ftdi-latency-ms 0``."""
     proc = subprocess.Popen(
-        darwin_command("sim", "--ftdi-latency-ms", "1"), stdout=subprocess.PIPE, text=True
+        darwin_command("sim", "--ftdi-latency-ms", "0"), stdout=subprocess.PIPE, text=True
     )
     try:
         assert proc.stdout is not None
