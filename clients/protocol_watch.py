@@ -23,8 +23,12 @@ log = logging.getLogger(__name__)
 
 
 class ProtocolWatch:
-    def __init__(self, program: str) -> None:
+    def __init__(self, program: str, *, log_skew: bool = True) -> None:
+        """``log_skew``: log a skew as it is seen (a long-lived client learns so of a daemon
+        that changed under it); a program that checks once and says it in its own line does
+        not (the log record could come after that line, from Zenoh's thread)."""
         self.program = program
+        self.log_skew = log_skew
         self.warning: str | None = None
         self.error: IncompatibleProtocolError | None = None
         self._seen: Any = None  # the last announcement checked
@@ -65,16 +69,18 @@ class ProtocolWatch:
             warning = check_daemon(status, self.program)
         except IncompatibleProtocolError as exc:
             error = exc
+        # Logged before a waiter is woken: a program that refuses in one line on the main
+        # thread then prints its line last.
+        if warning and self.log_skew:
+            log.warning("%s", warning)
+        if error and self.log_skew:
+            log.error("%s", error)
         with self._cond:
             self._seen, self.warning, self.error = seen, warning, error
             self._cond.notify_all()
             listeners = list(self._listeners)
         for callback in listeners:
             callback(warning, error)
-        if warning:
-            log.warning("%s", warning)
-        if error:
-            log.error("%s", error)
 
     def refuse(self) -> None:
         if self.error is not None:
@@ -90,8 +96,9 @@ class ProtocolWatch:
 
 
 def check_at(session: zenoh.Session, keys: Keys, program: str, timeout: float = 3.0) -> str | None:
-    """:meth:`ProtocolWatch.wait` on a session of a client that has no ``Robot`` (a recorder)."""
-    watch = ProtocolWatch(program)
+    """:meth:`ProtocolWatch.wait` on a session of a client that has no ``Robot`` (a recorder),
+    which says what it returns or raises in its own line."""
+    watch = ProtocolWatch(program, log_skew=False)
     sub = session.declare_subscriber(keys.status, lambda s: watch.observe(s.payload.to_bytes()))
     try:
         return watch.wait(timeout)

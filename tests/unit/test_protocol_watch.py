@@ -4,6 +4,8 @@ machine the first status came after the TUI's 3 s wait and the skew was never sh
 
 from __future__ import annotations
 
+import logging
+
 import msgpack
 import pytest
 
@@ -57,3 +59,30 @@ def test_a_listener_added_later_hears_what_was_already_announced() -> None:
     heard: list[str | None] = []
     watch.listen(lambda w, e: heard.append(w))
     assert len(heard) == 1 and heard[0] is not None and "upgrade this client" in heard[0]
+
+
+def test_the_skew_is_logged_before_a_waiter_wakes_and_not_at_all_for_a_one_line_program(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A program that refuses in one line prints it when its wait wakes: the watch's own log
+    record (from Zenoh's thread) must come before, never after (it was the last line of
+    `darwin record` on a loaded machine); a program that says it itself is not logged for."""
+    watch = ProtocolWatch("this client")
+    refused_when_logged: list[bool] = []
+
+    class Probe(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            refused_when_logged.append(watch.error is not None)
+
+    probe = Probe()
+    logging.getLogger("clients.protocol_watch").addHandler(probe)
+    try:
+        watch.observe(status((MAJOR + 1, 0)))
+    finally:
+        logging.getLogger("clients.protocol_watch").removeHandler(probe)
+    assert refused_when_logged == [False]
+    caplog.clear()
+    quiet = ProtocolWatch("darwin record", log_skew=False)
+    quiet.observe(status((MAJOR + 1, 0)))
+    quiet.observe(status((MAJOR, MINOR + 1)))
+    assert quiet.warning is not None and not caplog.records
