@@ -25,11 +25,14 @@ def check_priority(value: object, setting: str) -> int:
     return value
 
 
-def enter_realtime(priority: int) -> str | None:
+def enter_realtime(
+    priority: int, thread: str = "the motion thread", setting: str = "daemon.realtime_priority"
+) -> str | None:
     """Make the calling thread real-time at ``priority`` (1..99; 0 leaves it as it is).
 
     Returns None on success, else a warning that says why and how to allow it: running
-    without real-time priority is slower to wake, not unsafe, so the daemon goes on."""
+    without real-time priority is slower to wake, not unsafe, so the program goes on.
+    ``thread`` and ``setting`` name the thread and its setting in that warning."""
     if check_priority(priority, "realtime_priority") == 0:
         return None
     if not hasattr(os, "sched_setscheduler"):
@@ -39,12 +42,12 @@ def enter_realtime(priority: int) -> str | None:
         os.sched_setscheduler(0, policy, os.sched_param(priority))
     except PermissionError:
         return (
-            f"the motion thread may not run real-time (priority {priority}): allow it for the "
-            "robot's user in /etc/security/limits.conf (e.g. `robot - rtprio 50`) or run the "
-            "daemon as root; set daemon.realtime_priority = 0 to silence this"
+            f"{thread} may not run real-time (priority {priority}): allow it for the "
+            "robot's user in /etc/security/limits.conf (e.g. `robot - rtprio 50`) or run it "
+            f"as root; set {setting} = 0 to silence this"
         )
     except OSError as exc:
-        return f"could not make the motion thread real-time (priority {priority}): {exc}"
+        return f"could not make {thread} real-time (priority {priority}): {exc}"
     return None
 
 

@@ -209,7 +209,11 @@ class Emulator:
     # ---- the serving thread -----------------------------------------------------------------
 
     def _serve(self) -> None:
-        warning = enter_realtime(self.settings.realtime_priority)
+        warning = enter_realtime(
+            self.settings.realtime_priority,
+            "the emulator's bus thread",
+            "emulator.realtime_priority",
+        )
         if warning:
             log.info("emulator: %s", warning)
         while not self._stopping.is_set():

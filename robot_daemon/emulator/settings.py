@@ -77,9 +77,10 @@ class EmulatorSettings:
     ambient_c: float = 35.0
     heat_gain_c: float = 70.0
     thermal_tau_s: float = 60.0
-    # SCHED_FIFO priority of the serving thread, so replies leave when the wire model says;
-    # 0 = normal scheduling (the default for an emulator inside another program, e.g. tests).
-    realtime_priority: int = 0
+    # SCHED_FIFO priority of the serving thread, so replies leave when the wire model says
+    # however busy the computer (servos answer on time; a starved emulator made the daemon see
+    # them go offline); below the daemon's loop (40). 0 = normal scheduling.
+    realtime_priority: int = 30
     # The plant behind the servos: "kinematic" (no extra dependency) or "mujoco" (physics,
     # `pip install -e '.[physics]'`; its numbers in config/physics.toml).
     physics: str = "kinematic"
