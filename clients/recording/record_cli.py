@@ -13,11 +13,9 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
 import sys
 import threading
 from collections.abc import Callable
-from types import FrameType
 
 import zenoh
 
@@ -36,6 +34,7 @@ from clients.robot import TOPICS
 from schemas.errors import ClientError, IncompatibleProtocolError
 from schemas.keys import Keys
 from schemas.session import add_target_arguments, connect, credentials_from_args, resolve
+from schemas.signals import on_stop_signals
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -205,14 +204,10 @@ def run_record(args: argparse.Namespace) -> int:
         return 2
     stop = threading.Event()
 
-    def on_signal(signum: int, frame: FrameType | None) -> None:
-        stop.set()
-
     def notice(line: str) -> None:
         print(f"darwin record: {line}", file=sys.stderr, flush=True)
 
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    on_stop_signals(lambda _signum: stop.set())
     session = connect(target)
     try:
         try:

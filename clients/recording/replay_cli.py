@@ -5,10 +5,8 @@ on ``…/replay/control``. A recording of several robots plays one of them: ``--
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import threading
-from types import FrameType
 
 from clients.recording.reader import read_session
 from clients.recording.replay import BLOCK_WAIT_US, Replayer, default_robot_name
@@ -22,6 +20,7 @@ from schemas.session import (
     resolve,
     server_config,
 )
+from schemas.signals import on_stop_signals
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -93,11 +92,7 @@ def run(args: argparse.Namespace) -> int:
     robot = args.robot or default_robot_name(rec)
     stop = threading.Event()
 
-    def on_signal(signum: int, frame: FrameType | None) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    on_stop_signals(lambda _signum: stop.set())
     if args.listen:
         conf = server_config([args.listen], block_wait_us=BLOCK_WAIT_US)
         where = f"listening on {args.listen}"

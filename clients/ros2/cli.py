@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import logging
 import os
-import signal
 import sys
 import threading
 
@@ -16,6 +15,7 @@ from schemas.session import (
     credentials,
     credentials_from_args,
 )
+from schemas.signals import on_stop_signals
 
 log = logging.getLogger("darwin.ros2")
 
@@ -141,8 +141,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"ros2: domain {domain} namespace {namespace} node {args.node_name}", flush=True)
         print(f"ros2 zenoh: {ros_endpoint}", flush=True)
         stop = threading.Event()
-        signal.signal(signal.SIGTERM, lambda *_: stop.set())
-        signal.signal(signal.SIGINT, lambda *_: stop.set())
+        on_stop_signals(lambda _signum: stop.set())
         stop.wait()
         return 0
     except DarwinError as exc:

@@ -11,7 +11,6 @@ import argparse
 import logging
 import os
 import shutil
-import signal
 import sys
 import tempfile
 from pathlib import Path
@@ -36,6 +35,7 @@ from schemas.session import (
     credentials_from_args,
     free_tcp_port,
 )
+from schemas.signals import on_stop_signals
 
 if TYPE_CHECKING:
     from robot_daemon.engine.daemon import Daemon
@@ -244,12 +244,11 @@ def run(args: argparse.Namespace) -> int:
         daemon, _ = build(args, port)
         daemon.options.connect = connect
 
-        def on_signal(signum: int, _frame: object) -> None:
+        def on_signal(signum: int) -> None:
             log.info("signal %d: stopping", signum)
             daemon.stop()
 
-        signal.signal(signal.SIGTERM, on_signal)
-        signal.signal(signal.SIGINT, on_signal)
+        on_stop_signals(on_signal)
         # Fail fast on a wrong or busy port at start; later losses are reopened with back-off.
         daemon.connect_bus()
         if daemon.options.router:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import signal
 import sys
 import threading
 from typing import Any
@@ -29,6 +28,7 @@ from robot_daemon.security.options import (
 )
 from schemas.errors import ConfigError, DarwinError
 from schemas.session import open_session, server_config
+from schemas.signals import on_stop_signals
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 
@@ -102,12 +102,7 @@ def run(args: argparse.Namespace) -> int:
     if security is not None:
         security.apply(conf)
     stop = threading.Event()
-
-    def on_signal(_signum: int, _frame: object) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    on_stop_signals(lambda _signum: stop.set())
     try:
         session = open_router(listen, conf)
     finally:
@@ -116,9 +111,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         for ep in listen:
             print(f"router: {ep}", flush=True)
-        # With a timeout: a signal handled while the main thread waits must end the wait.
-        while not stop.wait(0.5):
-            pass
+        stop.wait()
         return 0
     finally:
         with contextlib.suppress(Exception):

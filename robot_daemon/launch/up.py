@@ -47,6 +47,7 @@ from schemas import registry
 from schemas.errors import ConfigError
 from schemas.roles import LADDER, Role
 from schemas.session import add_credential_arguments, credential_args
+from schemas.signals import on_stop_signals
 
 START_TIMEOUT = 30.0
 RESTART_BACKOFF_MIN = 1.0  # s before an adapter that died is started again, doubling …
@@ -242,12 +243,7 @@ def _run(
     # told otherwise (each prints where it listens).
     free = "127.0.0.1:0" if router else None
     stop = threading.Event()
-
-    def on_signal(_signum: int, _frame: object) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    on_stop_signals(lambda _signum: stop.set())
     children: list[Child] = []
     adapters: list[Adapter] = []
     # With the UI in this terminal, the children's chatter would scribble over it.

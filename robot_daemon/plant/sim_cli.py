@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
-import signal
 import sys
 import threading
 from typing import Any
@@ -24,6 +23,7 @@ from typing import Any
 from robot_daemon.emulator.emulator import Emulator
 from robot_daemon.emulator.settings import EmulatorSettings, add_physics_option
 from robot_daemon.plant import world_link
+from schemas.signals import on_stop_signals
 
 log = logging.getLogger(__name__)
 
@@ -149,12 +149,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"darwin sim: {exc}", file=sys.stderr)
             return 2
     stop = threading.Event()
-
-    def on_signal(signum: int, frame: Any) -> None:
-        stop.set()
-
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, on_signal)
+    on_stop_signals(lambda _signum: stop.set())
     closers = []
     with contextlib.ExitStack() as stack:
         try:
