@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from textual.app import App, ComposeResult
+from textual.app import App, ComposeResult, ScreenStackError
 from textual.binding import Binding
 from textual.screen import Screen
 from textual.widgets import TabbedContent, TabPane
@@ -211,7 +211,11 @@ class DarwinApp(App[None]):
         self.command_router.send(message)
 
     def on_command_done(self, message: CommandDone) -> None:
-        self.command_router.done(message, self.screen)
+        try:
+            screen = self.screen
+        except ScreenStackError:
+            return  # the app is closing: a reply that comes in now has nowhere to be shown
+        self.command_router.done(message, screen)
 
     def _config_reply(self, applied: dict[str, Any]) -> None:
         try:

@@ -288,3 +288,14 @@ async def test_full_collections_walk_only_what_the_running_app_allocated(scene_a
         alive_at_start = gc.get_freeze_count()
         assert alive_at_start > len(gc.get_objects())  # the young heap is the smaller part
     assert gc.get_freeze_count() == 0
+
+
+def test_a_reply_that_comes_in_while_the_app_closes_is_dropped(scene_app) -> None:
+    # The link's thread posts a command's outcome whenever it comes; on a loaded machine one
+    # came in after the app had closed its last screen, and reading `app.screen` then raised
+    # ScreenStackError out of the app (test_versions_power failed so).
+    from clients.tui.link import CommandDone
+
+    app = scene_app()
+    assert not app.screen_stack  # not running: no screen at all, as after the last is closed
+    app.on_command_done(CommandDone("config", "app:config", {}))
