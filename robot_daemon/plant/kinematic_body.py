@@ -75,6 +75,9 @@ class Body:
         self.soles_b: dict[Side, np.ndarray] = {s: np.eye(4) for s in SIDES}
         self.soles_w: dict[Side, np.ndarray] = {s: np.eye(4) for s in SIDES}
         self.sole_velocity: dict[Side, np.ndarray] = {s: np.zeros(3) for s in SIDES}
+        # Where the soles and the body's rotation were at the last step (set at placing).
+        self._last_soles_w: dict[Side, np.ndarray] = {s: np.eye(4) for s in SIDES}
+        self._last_R = np.eye(3)
         self.gyro = np.zeros(3)  # body rate, rad/s, body axes (right-hand rule)
         self._gyro_felt = np.zeros(3)  # what the IMU feels: lagged by the body's compliance
         self.fallen = "none"
@@ -182,11 +185,8 @@ class Body:
         arrays = [
             self.T_wb, self.support_world, self.gyro, self._gyro_felt,
             *self.soles_b.values(), *self.soles_w.values(), *self.sole_velocity.values(),
-            *getattr(self, "_last_soles_w", {}).values(),
+            *self._last_soles_w.values(), self._last_R,
         ]  # fmt: skip
-        last_r = getattr(self, "_last_R", None)
-        if last_r is not None:
-            arrays.append(last_r)
         return (
             b"".join(a.tobytes() for a in arrays),
             self.support, self.fallen, self.com_outside, self._crouched, self._initialised,
