@@ -545,7 +545,8 @@ def export(agent: PPO, out: Path, made: dict[str, Any]) -> None:
 # reinforcement learning": ARS V1-t) scores each candidate on what the push table asks, the
 # shoves stood, and needs no value function: a linear map from the sagittal state to the four
 # mirrored pairs, 56 numbers, which is what a standing reflex (ankle and hip strategy) is.
-ARS_SCALES = {"gravity": 0.1, "gyro": 1.0, "joint_pos": 0.1, "joint_vel": 1.0, "last_action": 1.0}
+ARS_SCALES = {"gravity": 0.1, "gyro": 1.0, "joint_pos": 0.1, "joint_vel": 1.0, "last_action": 1.0,
+              "stance": 0.2}
 
 
 def ars_features(pairs: Sequence[str]) -> tuple[np.ndarray, list[str]]:
@@ -636,6 +637,16 @@ class SearchSettings:
     # forward 1.4 N·s there fell 3 of 3 forward shoves of 1.0 on the stack); held 2–4 it
     # gave all three rows of the stack's one-run table (docs/learning.md).
     probe_hold: tuple[int, int] = (1, 1)
+    # A constant feature (1 / ARS_SCALES["stance"]) each pair answers with an offset of its
+    # own, searched with the rest: the pose the reflex rests in, its crouch and its lean. With
+    # the feet planted what a shove each way takes is set by where the body rests over the
+    # feet more than by the answer (docs/learning.md: a reflex without its forward rows rested
+    # leaning further forward and stood backward shoves, and no forward one; the stand page
+    # held, its knees bent 0.3 rad more and its ankles 0.09 rad back, stood 1.2 N·s either
+    # way on the full model read as the loaded stack, where the page itself stands 1.4
+    # backward and no forward 1.0). Off, the search's numbers and random draws are those of
+    # the runs before it (the shipped file's command makes the same file).
+    stance: bool = False
 
 
 _WORKER: dict[str, Any] = {}
@@ -718,6 +729,9 @@ class Search:
         self.rng = np.random.default_rng(seed)
         self.out_map = action_map(s.pairs)
         self.features, self.names = ars_features(s.pairs)
+        if s.stance:  # a constant: its column reads nothing, its bias (layers) is the value
+            self.features = np.concatenate([self.features, np.zeros((OBSERVATION_SIZE, 1))], 1)
+            self.names.append("stance")
         # The tilt and the pitch rate are answered on each side of zero by rows of their
         # own: a shove forward and one backward may take different answers (a linear map
         # traded one direction for the other: backward 1.6 N·s stood, forward 1.0 not).
@@ -736,6 +750,8 @@ class Search:
             for k, joint in enumerate(s.pairs):
                 for field in own:
                     self.mask[self.names.index(f"{field}.{joint}"), k] = 1.0
+            if s.stance:
+                self.mask[self.names.index("stance")] = 1.0
         self.push = {1.0: s.push, -1.0: s.push_back}
         self.best: tuple[int, int, int] = (-1, -1, -1)
         self.best_m = self.m.copy()
@@ -769,6 +785,8 @@ class Search:
             raise ValueError(f"{path}'s reflex splits the tilt at {zero:g}, this search at "
                              f"{self.s.tilt_zero:g}: give --tilt-zero {zero:g}")
         rows = [*self.names, *(f"{self.names[i]}<0" for i in self.split)]
+        if self.s.stance and "stance" not in reflex:  # a file searched without: none yet
+            reflex = {r: reflex.get(r, [0.0] * len(self.s.pairs)) for r in rows}
         if list(reflex) != rows or np.shape(list(reflex.values())) != self.m.shape:
             raise ValueError(f"{path}'s reflex reads other features or pairs than this search")
         self.m = np.array(list(reflex.values()), dtype=float)
@@ -783,6 +801,9 @@ class Search:
         b1 = np.zeros(2 * n)
         tilt = self.names.index("gravity_x")
         b1[tilt], b1[n + tilt] = np.array([-1.0, 1.0]) * self.s.tilt_zero / ARS_SCALES["gravity"]
+        if self.s.stance:  # the constant on its positive side (its negative one reads 0)
+            k = self.names.index("stance")
+            b1[k], b1[n + k] = np.array([1.0, -1.0]) / ARS_SCALES["stance"]
         w2 = np.concatenate([m[:n], -m[:n]])
         for k, i in enumerate(self.split):
             w2[n + i] = -m[n + k]
@@ -871,6 +892,7 @@ def search(
     log: Any = sys.stdout,
     imitate: bool = True,
     start: Path | None = None,
+    stance: Sequence[float] | None = None,
 ) -> Search:
     """Random search; every ``probe_every`` generations the policy is shoved on the full model
     as the push table shoves it (1.0–2.0 N·s each way) and the file keeps the best: most
@@ -882,6 +904,8 @@ def search(
         agent.start_from(start)
     elif imitate:
         agent.copy_stand_balance()
+    if stance is not None:  # where the search starts the rest pose: per pair, action units
+        agent.m[agent.names.index("stance")] = np.asarray(stance) * ARS_SCALES["stance"]
     ctx = multiprocessing.get_context("fork")
     init = (agent.out_map, s.randomize, s.hold, s.probe_hold)
     pool = ctx.Pool(s.workers, _init_worker, init) if s.workers > 1 else None
@@ -999,6 +1023,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--tilt-zero", type=float, default=0.0, metavar="G",
                     help="ars: the gravity's x where the tilt's two sides meet (the stand "
                     "pose's lean reads 0.22)")
+    ap.add_argument("--stance", type=float, nargs="*", metavar="OFFSET",
+                    help="ars: search the pose the reflex rests in too, an offset per pair "
+                    "(action units, added every step), starting at these (default: the "
+                    "start's, or none)")
     args = ap.parse_args(argv)
     given = sys.argv[1:] if argv is None else argv
     if args.method == "ars":
@@ -1007,13 +1035,18 @@ def main(argv: Sequence[str] | None = None) -> int:
                             hold=tuple(args.hold),
                             impulse_weight=args.impulse_weight,
                             balance=args.balance, tilt_zero=args.tilt_zero,
+                            stance=args.stance is not None,
                             probe_hold=tuple(args.probe_hold))  # fmt: skip
         if args.push != Settings.push:
             ss.push = ss.push_back = tuple(args.push)
         if args.push_back:
             ss.push_back = tuple(args.push_back)
+        if args.stance and len(args.stance) != len(ss.pairs):
+            ap.error(f"--stance takes an offset for each of the {len(ss.pairs)} pairs "
+                     f"({', '.join(ss.pairs)}), not {len(args.stance)}")
         search(ss, args.seed, args.iterations, args.minutes, args.out,
-               imitate=bool(args.imitate), start=args.start)  # fmt: skip
+               imitate=bool(args.imitate), start=args.start,
+               stance=args.stance or None)  # fmt: skip
         print(f"policy: {args.out}", flush=True)
         return 0
     s = Settings(envs=args.envs, horizon=args.horizon, push=tuple(args.push),

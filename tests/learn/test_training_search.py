@@ -158,3 +158,60 @@ def test_the_probe_reads_as_the_loaded_stack_when_asked_and_a_start_keeps_its_ti
     train.Search(s, seed=1).start_from(out)  # the same zero
     with pytest.raises(ValueError, match=r"splits the tilt at 0\.1, this search at 0: give"):
         train.Search(train.SearchSettings(search="tilt"), seed=1).start_from(out)
+
+
+def test_the_stance_is_an_offset_per_pair_the_search_moves_and_the_written_file_keeps(
+    tmp_path: Path,
+) -> None:
+    """``stance``: a constant feature whose row is each pair's offset, the pose the reflex
+    rests in (its crouch and lean), searched with the rest; a file searched without it goes
+    on with none; without it the search's rows, and so its random draws, are as before."""
+    plain = train.Search(train.SearchSettings(search="tilt"), seed=0)
+    assert "stance" not in plain.names
+    s = train.SearchSettings(search="tilt", stance=True)
+    agent = train.Search(s, seed=0)
+    k = agent.names.index("stance")
+    assert agent.m.shape == (plain.m.shape[0] + 1, plain.m.shape[1])
+    assert agent.mask[k].tolist() == [1.0] * len(s.pairs)  # searched, for every pair
+    offset = np.array([0.0, -0.5, 1.0, 0.2])  # a crouch, the ankles back: pair units
+    agent.m[k] = offset * train.ARS_SCALES["stance"]
+    rest = np.zeros(OBSERVATION_SIZE)
+    np.testing.assert_allclose(agent.deterministic(rest), offset @ agent.out_map, atol=1e-12)
+    out = tmp_path / "stance.onnx"
+    train.export_linear(agent, out, {"generations": 0})
+    policy, _ = load_policy(str(out), "numpy")
+    rng = np.random.default_rng(2)
+    for obs in [rest, *rng.normal(0, 0.3, (4, OBSERVATION_SIZE))]:
+        np.testing.assert_allclose(policy(obs.astype(np.float32)), agent.deterministic(obs),
+                                   atol=1e-5)  # fmt: skip
+    again = train.Search(s, seed=1)
+    again.start_from(out)
+    np.testing.assert_array_equal(again.m, agent.m)
+    # A reflex written without the stance: the same rows, no offset yet.
+    plain.m[:] = rng.normal(0, 0.1, plain.m.shape)
+    old = tmp_path / "plain.onnx"
+    train.export_linear(plain, old, {"generations": 0})
+    grown = train.Search(s, seed=1)
+    grown.start_from(old)
+    assert grown.m[k].tolist() == [0.0] * len(s.pairs)
+    np.testing.assert_array_equal(np.delete(grown.m, k, axis=0), plain.m)
+    for obs in rng.normal(0, 0.3, (4, OBSERVATION_SIZE)):
+        np.testing.assert_allclose(grown.deterministic(obs), plain.deterministic(obs), atol=1e-12)
+    with pytest.raises(ValueError, match="reads other features"):
+        train.Search(train.SearchSettings(search="tilt"), seed=1).start_from(out)
+
+
+def test_a_stance_search_starts_at_the_offsets_given_and_refuses_a_count_of_another_pairs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "stance.onnx"
+    s = train.SearchSettings(search="tilt", stance=True, directions=1, top=1, episodes=2,
+                             probe_every=1, after=0.5, noise=0.0)  # fmt: skip
+    agent = train.search(s, seed=0, generations=1, out=out, stance=(0.0, -0.5, 1.0, 0.2))
+    row = agent.m[agent.names.index("stance")] / train.ARS_SCALES["stance"]
+    assert row.tolist() == pytest.approx([0.0, -0.5, 1.0, 0.2])  # no noise: not moved
+    with pytest.raises(SystemExit):
+        train.main(["--method", "ars", "--stance", "1", "2", "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.endswith("--stance takes an offset for each of the 4 pairs (shoulder_pitch, "
+                        "hip_pitch, knee, ankle_pitch), not 2")  # fmt: skip
