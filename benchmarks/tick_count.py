@@ -596,6 +596,10 @@ def count_daemon(args: argparse.Namespace) -> int:
                                re.M)
             if totals:
                 threads.append(int(totals.group(1)))
+        if args.keep:  # callgrind's per-thread profiles, for callgrind_annotate
+            Path(args.keep).mkdir(parents=True, exist_ok=True)
+            for path in Path(tmp).glob("daemon.out*"):
+                shutil.copy2(path, Path(args.keep) / path.name)
     n = max(1, last - first)
     total = sum(threads)
     top = max(threads, default=0)
@@ -619,6 +623,7 @@ def main() -> int:
     parser.add_argument("--json", help="also write the figures here")
     parser.add_argument("--seconds", type=float, default=60.0,
                         help="daemon: the counted window of its walk")
+    parser.add_argument("--keep", help="daemon: keep callgrind's per-thread profiles here")
     args = parser.parse_args()
     if args.mode == "child-tick":
         child_tick(args)

@@ -17,6 +17,7 @@
 
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <limits.h>
 #include <math.h>
 
 /* -- the leg IK (ik.leg_ik_end_point) --------------------------------------------------------- */
@@ -634,6 +635,80 @@ static PyObject *hot_take_whole(PyObject *self, PyObject *const *args, Py_ssize_
     Py_RETURN_TRUE;
 }
 
+/* take_run(buf, pos, due, order, lengths, data, errors): bulk_receive._take_run_py compiled:
+ * the replies from the ``due``-th of ``order`` on, at ``pos`` in ``buf``, each whole and in
+ * order, into ``data`` and ``errors``, up to the first not all in ``buf``: (due, pos, True)
+ * where the next one starts, or (due, pos, False) at the first that is not a good reply
+ * (header or checksum). NotImplemented when the arguments are not what that takes. */
+static PyObject *hot_take_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 7) {
+        PyErr_SetString(PyExc_TypeError, "take_run takes 7 arguments");
+        return NULL;
+    }
+    PyObject *buf = args[0], *order = args[3], *lengths = args[4];
+    PyObject *data = args[5], *errors = args[6];
+    if (!PyBytes_CheckExact(buf) || !PyLong_CheckExact(args[1]) || !PyLong_CheckExact(args[2])
+        || !PyTuple_CheckExact(order) || !PyTuple_CheckExact(lengths)
+        || !PyDict_CheckExact(data) || !PyDict_CheckExact(errors))
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_ssize_t n = PyTuple_GET_SIZE(order);
+    Py_ssize_t have = PyBytes_GET_SIZE(buf);
+    Py_ssize_t pos = PyLong_AsSsize_t(args[1]), due = PyLong_AsSsize_t(args[2]);
+    if ((pos == -1 || due == -1) && PyErr_Occurred()) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    if (PyTuple_GET_SIZE(lengths) != n || pos < 0 || pos > PY_SSIZE_T_MAX / 2 || due < 0
+        || due > n)
+        Py_RETURN_NOTIMPLEMENTED;
+    for (Py_ssize_t k = due; k < n; k++) {  /* everything checked before anything is taken */
+        PyObject *i = PyTuple_GET_ITEM(order, k), *l = PyTuple_GET_ITEM(lengths, k);
+        if (!PyLong_CheckExact(i) || !PyLong_CheckExact(l))
+            Py_RETURN_NOTIMPLEMENTED;
+        long id = PyLong_AsLong(i), len = PyLong_AsLong(l);
+        if (id < 0 || id > 255 || len < 0 || len > 253) {
+            PyErr_Clear();
+            Py_RETURN_NOTIMPLEMENTED;
+        }
+    }
+    const unsigned char *b = (const unsigned char *)PyBytes_AS_STRING(buf);
+    int good = 1;
+    while (due < n) {
+        long id = PyLong_AsLong(PyTuple_GET_ITEM(order, due));
+        long len = PyLong_AsLong(PyTuple_GET_ITEM(lengths, due));
+        Py_ssize_t end = pos + len + 6;
+        if (have < end)
+            break;
+        unsigned int sum = 0;
+        for (Py_ssize_t q = pos + 2; q < end; q++)
+            sum += b[q];
+        if (b[pos] != 0xFF || b[pos + 1] != 0xFF || b[pos + 2] != id || b[pos + 3] != len + 2
+            || (sum & 0xFF) != 0xFF) {
+            good = 0;
+            break;
+        }
+        PyObject *key = PyTuple_GET_ITEM(order, due);
+        PyObject *d = PyBytes_FromStringAndSize((const char *)b + pos + 5, len);
+        if (d == NULL || PyDict_SetItem(data, key, d) < 0) {
+            Py_XDECREF(d);
+            return NULL;
+        }
+        Py_DECREF(d);
+        if (b[pos + 4]) {
+            PyObject *e = PyLong_FromLong(b[pos + 4]);
+            if (e == NULL || PyDict_SetItem(errors, key, e) < 0) {
+                Py_XDECREF(e);
+                return NULL;
+            }
+            Py_DECREF(e);
+        }
+        due++;
+        pos = end;
+    }
+    return Py_BuildValue("(nnO)", due, pos, good ? Py_True : Py_False);
+}
+
 /* A one-dimensional (or, for ``rows`` > 0, rows × n) C-contiguous numpy array's memory, as an
  * int of 4 or 8 bytes or a double: 0 and ``view`` filled, or -1 with no error set (not such an
  * array: the caller hands the work to the Python). */
@@ -653,10 +728,126 @@ static char buffer_kind(const Py_buffer *view)
     return 0;
 }
 
+/* numpy's array object as numpy's own header lays it out (ndarraytypes.h,
+ * PyArrayObject_fields: the same from numpy 1.7 to 2.x). Asking an array for its buffer costs
+ * ~1 k instructions (numpy builds the buffer's description each time), thirty times a tick: an
+ * array numpy made with one of the dtypes configure_arrays was given is read from these fields
+ * instead, once configure_arrays has checked them against the buffer numpy gives. */
+typedef struct {
+    PyObject_HEAD
+    char *data;
+    int nd;
+    Py_ssize_t *dimensions;
+    Py_ssize_t *strides;
+    PyObject *base;
+    PyObject *descr;
+    int flags;
+} np_fields;
+
+#define NP_C_CONTIGUOUS 0x0001
+#define NP_ALIGNED 0x0100
+#define NP_WRITEABLE 0x0400
+#define NP_WARN_ON_WRITE (1U << 31)
+#define NP_DTYPES 8
+
+static PyTypeObject *np_type; /* numpy.ndarray; NULL: every array through its buffer */
+static PyObject *np_descr[NP_DTYPES];
+static char np_kind[NP_DTYPES];
+static Py_ssize_t np_itemsize[NP_DTYPES];
+static char np_format[NP_DTYPES][2];
+static int np_count;
+
+/* The view numpy's buffer would give of ``obj`` (its kind), or 0 where only the buffer can say
+ * (not a numpy array, a dtype not configured, not aligned C-contiguous, or not writable when
+ * asked to be): the caller then asks for the buffer, as before. */
+static char np_direct(PyObject *obj, Py_buffer *view, int writable)
+{
+    if (np_type == NULL || Py_TYPE(obj) != np_type)
+        return 0;
+    const np_fields *a = (const np_fields *)obj;
+    unsigned int need = NP_C_CONTIGUOUS | NP_ALIGNED | (writable ? NP_WRITEABLE : 0);
+    if (((unsigned int)a->flags & need) != need
+        || (writable && ((unsigned int)a->flags & NP_WARN_ON_WRITE)) || a->nd < 0 || a->nd > 2)
+        return 0;
+    for (int i = 0; i < np_count; i++) {
+        if (a->descr != np_descr[i])
+            continue;
+        Py_ssize_t len = np_itemsize[i];
+        for (int d = 0; d < a->nd; d++)
+            len *= a->dimensions[d];
+        view->buf = a->data;
+        view->obj = NULL; /* nothing to release */
+        view->len = len;
+        view->itemsize = np_itemsize[i];
+        view->readonly = !((unsigned int)a->flags & NP_WRITEABLE);
+        view->ndim = a->nd;
+        view->format = np_format[i];
+        view->shape = a->dimensions;
+        view->strides = a->strides;
+        view->suboffsets = NULL;
+        view->internal = NULL;
+        return np_kind[i];
+    }
+    return 0;
+}
+
+/* configure_arrays(ndarray, samples): the fields above checked against numpy's buffer of each
+ * sample (a one-dimensional array of each dtype to read directly): True and in use, or False
+ * (numpy lays its arrays out otherwise: every array through its buffer, as before). */
+static PyObject *hot_configure_arrays(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 2 || !PyType_Check(args[0]) || !PyTuple_CheckExact(args[1])
+        || PyTuple_GET_SIZE(args[1]) > NP_DTYPES) {
+        PyErr_SetString(PyExc_TypeError, "configure_arrays(ndarray, samples)");
+        return NULL;
+    }
+    np_type = NULL;
+    np_count = 0;
+    PyTypeObject *type = (PyTypeObject *)args[0];
+    int ok = 1;
+    for (Py_ssize_t i = 0; ok && i < PyTuple_GET_SIZE(args[1]); i++) {
+        PyObject *sample = PyTuple_GET_ITEM(args[1], i);
+        Py_buffer v;
+        if (Py_TYPE(sample) != type
+            || PyObject_GetBuffer(sample, &v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+            PyErr_Clear();
+            ok = 0;
+            break;
+        }
+        const np_fields *a = (const np_fields *)sample;
+        PyObject *dtype = PyObject_GetAttrString(sample, "dtype");
+        char kind = buffer_kind(&v);
+        ok = dtype != NULL && dtype == a->descr && kind != 0 && a->data == v.buf
+             && a->nd == 1 && v.ndim == 1 && a->dimensions[0] == v.shape[0] && v.shape[0] > 1
+             && a->strides[0] == v.itemsize && ((unsigned int)a->flags & NP_C_CONTIGUOUS)
+             && ((unsigned int)a->flags & NP_WRITEABLE) && !v.readonly;
+        if (ok) {
+            np_descr[np_count] = dtype; /* a dtype numpy keeps: the sample holds it, and the
+                                           module keeps this reference */
+            Py_INCREF(dtype);
+            np_kind[np_count] = kind;
+            np_itemsize[np_count] = v.itemsize;
+            np_format[np_count][0] = kind == 'i' ? (v.itemsize == 8 ? 'q' : 'i') : kind;
+            np_format[np_count][1] = 0;
+            np_count++;
+        }
+        Py_XDECREF(dtype);
+        PyErr_Clear();
+        PyBuffer_Release(&v);
+    }
+    if (!ok)
+        np_count = 0;
+    else
+        np_type = type;
+    return PyBool_FromLong(ok);
+}
+
 /* The same, of whichever of the three kinds the array is (``*kind`` says which); one request
- * of the buffer (numpy builds its description each time: ~1 k instructions). */
+ * of the buffer where the array is not read directly (np_direct). */
 static int array_any(PyObject *obj, Py_buffer *view, char *kind)
 {
+    if ((*kind = np_direct(obj, view, 0)) != 0)
+        return 0;
     if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
         PyErr_Clear();
         return -1;
@@ -671,6 +862,8 @@ static int array_any(PyObject *obj, Py_buffer *view, char *kind)
 
 static int array_view(PyObject *obj, Py_buffer *view, char kind, int writable)
 {
+    if (np_direct(obj, view, writable) == kind)
+        return 0;
     int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
     if (PyObject_GetBuffer(obj, view, flags) < 0) {
         PyErr_Clear();
@@ -694,6 +887,50 @@ static inline void set_int(Py_buffer *v, Py_ssize_t i, long long x)
         ((long long *)v->buf)[i] = x;
     else
         ((int *)v->buf)[i] = (int)x;
+}
+
+/* put_ints(array, at, values): ``array[list(at)] = values`` for a one-dimensional writable
+ * numpy array of ints, ``at`` a tuple of its indexes (0 … len − 1) and ``values`` a list of
+ * as many ints, each fitting the array's item: True, written; NotImplemented, nothing
+ * written, for anything else (the Python's then). */
+static PyObject *hot_put_ints(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "put_ints takes 3 arguments");
+        return NULL;
+    }
+    PyObject *at = args[1], *values = args[2];
+    if (!PyTuple_CheckExact(at) || !PyList_CheckExact(values)
+        || PyTuple_GET_SIZE(at) != PyList_GET_SIZE(values))
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_buffer v;
+    if (array_view(args[0], &v, 'i', 1) < 0)
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_ssize_t n = PyTuple_GET_SIZE(at);
+    long long lo = v.itemsize == 8 ? LLONG_MIN : INT_MIN;
+    long long hi = v.itemsize == 8 ? LLONG_MAX : INT_MAX;
+    int ok = v.ndim == 1;
+    for (Py_ssize_t k = 0; k < n && ok; k++) {  /* everything checked before a write */
+        PyObject *j = PyTuple_GET_ITEM(at, k), *x = PyList_GET_ITEM(values, k);
+        if (!PyLong_CheckExact(j) || !PyLong_CheckExact(x)) {
+            ok = 0;
+            break;
+        }
+        int over = 0;
+        Py_ssize_t i = PyLong_AsSsize_t(j);
+        long long value = PyLong_AsLongLongAndOverflow(x, &over);
+        ok = !PyErr_Occurred() && !over && i >= 0 && i < v.shape[0] && value >= lo
+             && value <= hi;
+    }
+    PyErr_Clear();
+    if (ok)
+        for (Py_ssize_t k = 0; k < n; k++)
+            set_int(&v, PyLong_AsSsize_t(PyTuple_GET_ITEM(at, k)),
+                    PyLong_AsLongLong(PyList_GET_ITEM(values, k)));
+    PyBuffer_Release(&v);
+    if (!ok)
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_RETURN_TRUE;
 }
 
 /* apply_fast(data, fast, position, speed, load, misses, at_position, at_speed, at_load, width):
@@ -1415,6 +1652,8 @@ static PyObject *hot_snapshot_lists(PyObject *self, PyObject *const *args, Py_ss
 }
 
 static PyMethodDef methods[] = {
+    {"configure_arrays", (PyCFunction)(void (*)(void))hot_configure_arrays, METH_FASTCALL,
+     "numpy's array fields checked, to read arrays without asking for their buffer"},
     {"configure_walk", (PyCFunction)(void (*)(void))hot_configure_walk, METH_FASTCALL,
      "the gait's constants for walk_pose"},
     {"walk_pose", (PyCFunction)(void (*)(void))hot_walk_pose, METH_FASTCALL,
@@ -1423,6 +1662,10 @@ static PyMethodDef methods[] = {
      "engine/snapshot.take's lists, compiled"},
     {"take_whole", (PyCFunction)(void (*)(void))hot_take_whole, METH_FASTCALL,
      "bulk_receive._take_whole_py compiled"},
+    {"put_ints", (PyCFunction)(void (*)(void))hot_put_ints, METH_FASTCALL,
+     "array[list(at)] = values, for ints"},
+    {"take_run", (PyCFunction)(void (*)(void))hot_take_run, METH_FASTCALL,
+     "bulk_receive._take_run_py compiled"},
     {"apply_fast", (PyCFunction)(void (*)(void))hot_apply_fast, METH_FASTCALL,
      "SensorReader._apply_fast's whole answer into the state's arrays, compiled"},
     {"joint_arrays", (PyCFunction)(void (*)(void))hot_joint_arrays, METH_FASTCALL,

@@ -49,3 +49,11 @@ def snapshot_lists(
     arrays: tuple[Any, ...], goal: Any, sign: list[float], offset: list[float], k: float, c: int,
     /,
 ) -> Any: ...  # tuple of lists, or NotImplemented
+def configure_arrays(ndarray: type, samples: tuple[Any, ...], /) -> bool: ...
+def take_run(
+    buf: bytes, pos: int, due: int, order: tuple[int, ...], lengths: tuple[int, ...],
+    data: dict[int, bytes], errors: dict[int, int], /,
+) -> Any: ...  # (due, pos, good), or NotImplemented
+def put_ints(
+    array: Any, at: tuple[int, ...], values: list[int], /,
+) -> Any: ...  # True, or NotImplemented

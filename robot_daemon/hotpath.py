@@ -18,7 +18,7 @@ from types import ModuleType
 EXPORTS = (
     "configure_leg", "leg_ik_end_point", "goals_raw", "pack_fields", "positions_list",
     "leg_servo_angles", "take_whole", "apply_fast", "joint_arrays", "configure_walk",
-    "walk_pose", "snapshot_lists",
+    "walk_pose", "snapshot_lists", "configure_arrays", "take_run", "put_ints",
 )  # fmt: skip
 
 
@@ -39,6 +39,20 @@ def _load() -> tuple[ModuleType | None, str]:
     return _hotpath, "hot path: compiled (robot_daemon._hotpath)"
 
 
+def _read_arrays_directly(ext: ModuleType) -> bool:
+    """The extension reads the dtypes the tick's arrays have (float, bool and numpy's ints)
+    from numpy's array fields instead of asking each array for its buffer, once it has
+    checked those fields against the buffer of an array of each (False: it asks, as before)."""
+    import numpy as np
+
+    kinds = (np.float64, np.bool_, np.int_, np.intc, np.longlong, np.intp)
+    dtypes = list(dict.fromkeys(np.dtype(k) for k in kinds))
+    ok: bool = ext.configure_arrays(np.ndarray, tuple(np.zeros(2, d) for d in dtypes))
+    return ok
+
+
 compiled, status = _load()
+# Whether the extension reads numpy's arrays from their fields (False: through their buffer).
+arrays_direct = compiled is not None and _read_arrays_directly(compiled)
 # Not built (not chosen away): the daemon says so as a warning, shown without -v.
 missing = compiled is None and ("not built" in status or "older than" in status)

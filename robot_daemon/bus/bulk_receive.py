@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 
@@ -135,7 +135,6 @@ def receive(
     # is not that hands the rest to the parser, which copes with anything.
     raw = bytearray()
     pos = 0
-    expect = plan.expect
     n = len(order)
     in_order = True
     while due < n:
@@ -156,22 +155,13 @@ def receive(
                 pending.clear()
                 heard.update(order)
                 due, pos = n, have
-            while due < n:
-                dxl_id, length, header = expect[due]
-                end = pos + length + PACKET_OVERHEAD
-                if have < end:
-                    break
-                # ID + LEN + ERR + data + checksum of a good packet sum to 0xFF (mod 256).
-                if buf[pos : pos + 4] != header or sum(buf[pos + 2 : end]) & 0xFF != 0xFF:
-                    in_order = False
-                    break
-                data[dxl_id] = buf[pos + 5 : end - 1]
-                if buf[pos + 4]:
-                    errors[dxl_id] = buf[pos + 4]
-                pending.discard(dxl_id)
-                heard.add(dxl_id)
-                due += 1
-                pos = end
+            if due < n:
+                first = due
+                due, pos, in_order = _take_run(plan, buf, pos, due, data, errors)
+                if due > first:
+                    taken = order[first:due]
+                    pending.difference_update(taken)
+                    heard.update(taken)
             if in_order:
                 if due < n:
                     now = port.getCurrentTime()
@@ -216,6 +206,44 @@ def receive(
         heard.add(late)  # cut short on the wire: the device was still talking
     missing = [i for i in order if i in pending] if pending else []
     return Received(missing, heard, woken, seen)
+
+
+def _take_run(
+    plan: BulkPlan, buf: bytes, pos: int, due: int, data: dict[int, bytes],
+    errors: dict[int, int],
+) -> tuple[int, int, bool]:
+    """:func:`_take_run_py`, by the compiled take where it is built (the same data, errors and
+    answer, tests/unit/test_hotpath.py)."""
+    if _compiled is not None:
+        took = _compiled.take_run(buf, pos, due, plan.ids, plan.lengths, data, errors)
+        if took is not NotImplemented:
+            return cast("tuple[int, int, bool]", took)
+    return _take_run_py(plan, buf, pos, due, data, errors)
+
+
+def _take_run_py(
+    plan: BulkPlan, buf: bytes, pos: int, due: int, data: dict[int, bytes],
+    errors: dict[int, int],
+) -> tuple[int, int, bool]:
+    """The replies of ``plan`` from its ``due``-th on, at ``pos`` in ``buf``, each whole and
+    in order, into ``data`` and ``errors``, up to the first not all in ``buf``: where the
+    next one starts (its place in the order, its byte) and True; False at the first that is
+    not a good reply (its header or checksum), which the parser then reads."""
+    expect, n, have = plan.expect, len(plan.expect), len(buf)
+    while due < n:
+        dxl_id, length, header = expect[due]
+        end = pos + length + PACKET_OVERHEAD
+        if have < end:
+            break
+        # ID + LEN + ERR + data + checksum of a good packet sum to 0xFF (mod 256).
+        if buf[pos : pos + 4] != header or sum(buf[pos + 2 : end]) & 0xFF != 0xFF:
+            return due, pos, False
+        data[dxl_id] = buf[pos + 5 : end - 1]
+        if buf[pos + 4]:
+            errors[dxl_id] = buf[pos + 4]
+        due += 1
+        pos = end
+    return due, pos, True
 
 
 def _take_whole(

@@ -39,6 +39,7 @@ from robot_daemon.bus.tables import (
 )
 from robot_daemon.bus.transport import Transport
 from robot_daemon.frames import N_SLOTS, JointFrame, Targets
+from robot_daemon.hotpath import compiled as _compiled
 from schemas import units
 from schemas.errors import BusError, NoReplyError, PortError
 
@@ -421,7 +422,8 @@ class RobotBus:
             if raws is not None:
                 flat = plan.flat
                 flat[5::6] = raws
-                self.state.goal[plan.at] = raws
+                if _compiled is None or _compiled.put_ints(self.state.goal, ids, raws) is not True:
+                    self.state.goal[plan.at] = raws  # (what put_ints does, in numpy)
                 self._bus().sync_write_rows(SYNC_WRITE_START, SYNC_WRITE_LENGTH,
                                             plan.rows.pack(*flat))
                 c = self.counters
@@ -611,13 +613,14 @@ class RobotBus:
             st.torque[dxl_id] = bool(data[enable_at - address])
 
     def status(self) -> dict[str, Any]:
-        st = self.state
+        # As lists: forty numpy scalars looked at one by one cost most of a status message.
+        online, torque = self.state.online.tolist(), self.state.torque.tolist()
         return {
             "port": self.port_name,
             "open": self.is_open,
             **self.counters.to_dict(),
-            "offline": [j for j in self.ids if not st.online[j]],
-            "torque_off": [j for j in self.ids if st.online[j] and not st.torque[j]],
+            "offline": [j for j in self.ids if not online[j]],
+            "torque_off": [j for j in self.ids if online[j] and not torque[j]],
             "cm730_online": self.cm730_online,
             "warnings": list(self.warnings),
             "bytes_written": self.handler.bytes_written if self.handler else 0,

@@ -112,18 +112,29 @@ def imu_si(
     return np.array(gyro), np.array(accel)
 
 
+# The fields status reports, each one's (offset, size) in the block looked up once: an enum
+# member's register looked up per field was most of cm730_status's cost.
+_STATUS_FIELDS = tuple(
+    (reg.reg.address - CM730_BULK_START, reg.reg.size)
+    for reg in (CM730.BUTTON, CM730.LED_HEAD, CM730.LED_EYE, CM730.LED_PANEL, CM730.VOLTAGE,
+                CM730.DXL_POWER)
+)
+
+
 def cm730_status(block: bytes) -> dict[str, Any]:
     """LEDs, buttons, voltage and power from the block; empty before the CM-730 answered."""
     if not block or not any(block):
         return {"leds": {}, "buttons": {}, "voltage": 0.0}
-    buttons = cm730_field(block, CM730.BUTTON)
+    buttons, head, eye, panel, voltage, power = (
+        word(block, off) if size == 2 else block[off] for off, size in _STATUS_FIELDS
+    )
     return {
         "leds": {
-            "head": list(units.color_word_to_rgb(cm730_field(block, CM730.LED_HEAD))),
-            "eye": list(units.color_word_to_rgb(cm730_field(block, CM730.LED_EYE))),
-            "panel": cm730_field(block, CM730.LED_PANEL),
+            "head": list(units.color_word_to_rgb(head)),
+            "eye": list(units.color_word_to_rgb(eye)),
+            "panel": panel,
         },
         "buttons": {"mode": bool(buttons & 1), "start": bool(buttons & 2)},
-        "voltage": units.voltage_raw_to_v(cm730_field(block, CM730.VOLTAGE)),
-        "power": bool(cm730_field(block, CM730.DXL_POWER)),
+        "voltage": units.voltage_raw_to_v(voltage),
+        "power": bool(power),
     }

@@ -15,8 +15,12 @@ from typing import Any
 import numpy as np
 
 from config.loader import RobotConfig
-from robot_daemon.frames import JointFrame, Targets
+from robot_daemon.frames import N_SLOTS, JointFrame, Targets
 from robot_daemon.motion.interface import MotionModule
+
+_NONE: frozenset[int] = frozenset()
+# Every servo online with torque on, as a frame's bool arrays' bytes past slot 0.
+_ALL_HELD = b"\x01" * (N_SLOTS - 1)
 
 
 class MotionManager:
@@ -58,12 +62,15 @@ class MotionManager:
         return self._owner.get(joint_id)
 
     def owned_by(self, name: str) -> frozenset[int]:
+        return self._owned_map().get(name, _NONE)
+
+    def _owned_map(self) -> dict[str | None, frozenset[int]]:
         if self._owned is None:
             by: dict[str | None, set[int]] = {}
             for j, o in self._owner.items():
                 by.setdefault(o, set()).add(j)
             self._owned = {o: frozenset(js) for o, js in by.items()}
-        return self._owned.get(name, frozenset())
+        return self._owned
 
     def claim(self, name: str, ids: set[int]) -> None:
         if name not in self._by_name:
@@ -102,14 +109,19 @@ class MotionManager:
     # -- the tick ----------------------------------------------------------------------------
     def step(self, frame: JointFrame) -> Targets:
         self.last_frame = frame
-        limp = ~(frame.online & frame.torque_enabled)
-        if limp[1:].any():  # slot 0 is unused; most ticks every servo holds
-            self.stop_limp(frame, limp)
+        online, torque = frame.online, frame.torque_enabled
+        # Most ticks every servo holds (slot 0 is unused): its 20 bools' bytes say so without
+        # three numpy calls.
+        if online.tobytes()[1:] != _ALL_HELD or torque.tobytes()[1:] != _ALL_HELD:
+            limp = ~(online & torque)
+            if limp[1:].any():
+                self.stop_limp(frame, limp)
         targets = Targets()
         for m in self.modules:
             m.observe(frame)
+        by_owner = self._owned_map()
         for m in self.modules:
-            owned = self.owned_by(m.name)
+            owned = by_owner.get(m.name, _NONE)
             if not owned:
                 continue
             goals = m.step(frame)
@@ -126,6 +138,7 @@ class MotionManager:
                 targets.gains.update(gains)
             else:
                 targets.gains.update((j, pid) for j, pid in gains.items() if j in kept)
+            by_owner = self._owned_map()  # its step may have claimed or released joints
         for j, g in self._hold.items():
             targets.goal.setdefault(j, g)
         self._hold.clear()

@@ -225,3 +225,28 @@ def test_goals_written_as_a_batch_are_the_goals_written_one_by_one(seed: int) ->
         assert np.array_equal(fast.state.goal, each.state.goal)
         assert fast.counters == each.counters
     assert fast._write_plans  # the batch's way was taken
+
+
+def test_cm730_status_reads_each_field_where_its_register_is() -> None:
+    """status's CM-730 fields from offsets looked up once: each the value its register
+    (``cm730_field``) holds, in random blocks; an all-zero block is the CM-730 not read yet."""
+    from robot_daemon.bus.state import cm730_field, cm730_status
+    from robot_daemon.bus.tables import CM730
+
+    rng = np.random.default_rng(48)
+    for _ in range(2_000):
+        block = rng.integers(0, 256, 30, dtype=np.uint8).tobytes()
+        got = cm730_status(block)
+        buttons = cm730_field(block, CM730.BUTTON)
+        assert got == {
+            "leds": {
+                "head": list(units.color_word_to_rgb(cm730_field(block, CM730.LED_HEAD))),
+                "eye": list(units.color_word_to_rgb(cm730_field(block, CM730.LED_EYE))),
+                "panel": cm730_field(block, CM730.LED_PANEL),
+            },
+            "buttons": {"mode": bool(buttons & 1), "start": bool(buttons & 2)},
+            "voltage": cm730_field(block, CM730.VOLTAGE) / 10.0,
+            "power": bool(cm730_field(block, CM730.DXL_POWER)),
+        }
+    assert cm730_status(bytes(30)) == cm730_status(b"") == {"leds": {}, "buttons": {},
+                                                             "voltage": 0.0}

@@ -324,6 +324,48 @@ def test_take_whole_takes_and_refuses_what_the_python_does() -> None:
         assert compiled.take_whole(*odd) is NotImplemented  # type: ignore[union-attr]
 
 
+def test_take_run_takes_what_the_reply_by_reply_loop_takes() -> None:
+    """The bulk read's replies taken one after another from wherever the receive is (a
+    reply's start, its place in the order) in whatever has arrived (cut anywhere, a reply or
+    a byte short or over, faults anywhere): the same data, error bits, place, byte and
+    verdict as the Python loop (_take_run_py); what it does not take is handed back."""
+    from robot_daemon.bus.bulk_receive import _take_run_py
+
+    rng = random.Random(47)
+    verdicts: set[tuple[bool, bool]] = set()
+    for i in range(20_000):
+        plan, whole = _bulk_answer(rng, i % 8)
+        n = len(plan.ids)
+        due = rng.randrange(n + 1) if rng.random() < 0.7 else 0
+        pos = sum(plan.lengths[:due]) + 6 * due
+        if rng.random() < 0.1:  # a position that is not a reply's start
+            pos = rng.randrange(len(whole) + 1)
+        cut = rng.randrange(min(pos, len(whole)), len(whole) + 1)
+        buf = whole[:cut] if rng.random() < 0.6 else whole
+        results = []
+        for take in (compiled.take_run, None):  # type: ignore[union-attr]
+            data: dict[int, bytes] = {99: b"kept"}
+            errors: dict[int, int] = {}
+            if take is not None:
+                got = take(buf, pos, due, plan.ids, plan.lengths, data, errors)
+            else:
+                got = _take_run_py(plan, buf, pos, due, data, errors)
+            results.append((got, list(data.items()), list(errors.items())))
+        assert results[0] == results[1]
+        verdicts.add((results[0][0][2], results[0][0][0] == n))
+    assert verdicts == {(True, True), (True, False), (False, False)}
+    plan, whole = _bulk_answer(rng, 0)
+    ok = (whole, 0, 0, plan.ids, plan.lengths, {}, {})
+    assert compiled.take_run(*ok)[2] is True  # type: ignore[union-attr]
+    for at, odd in ((0, bytearray(whole)), (1, -1), (2, -1),
+                    (2, len(plan.ids) + 1), (2, 1.0), (1, 2**70), (3, list(plan.ids)),
+                    (4, plan.lengths[:-1]), (3, (300,) * len(plan.ids)),
+                    (4, (254,) * len(plan.ids)), (5, [])):
+        args = list(ok)
+        args[at] = odd
+        assert compiled.take_run(*args) is NotImplemented  # type: ignore[union-attr]
+
+
 def _servo_state(rng: random.Random) -> Any:
     from robot_daemon.bus.state import ServoState
 
@@ -506,3 +548,95 @@ def test_snapshot_lists_are_the_python_s(monkeypatch: pytest.MonkeyPatch) -> Non
     sign, offset = bus.calibration.angle_columns
     assert compiled.snapshot_lists((st.position,), st.goal.astype(float), sign, offset,  # type: ignore[union-attr]
                                    units.RAD_PER_UNIT, 2048) is NotImplemented
+
+
+def test_arrays_read_from_their_fields_as_through_their_buffer() -> None:
+    """The extension reads numpy's arrays from their fields (configure_arrays, done at import)
+    rather than asking each for its buffer: every function gives the same lists and bits, and
+    refuses the same arrays (another dtype, byte order, a view with strides, not aligned,
+    read-only where it writes, a subclass, two dimensions), as through the buffer."""
+    import numpy as np
+
+    from config.loader import load_all, robot_from_dict
+    from robot_daemon.bus.calibration import Calibration
+
+    assert hotpath.arrays_direct
+    ext: Any = compiled
+    sign, offset = Calibration(robot_from_dict(load_all()["robot"])).angle_columns
+    goal = np.arange(2000, 2021)
+
+    class Sub(np.ndarray):
+        pass
+
+    def make() -> list[Any]:  # fresh each time: the writes below change them
+        arrays: list[Any] = []
+        for dt in (np.float64, np.bool_, np.int_, np.intc, np.longlong, np.intp, np.int16,
+                   np.uint8, np.float32, ">f8", ">i8"):
+            a = np.arange(-10, 11).astype(dt)
+            read_only = a.copy()
+            read_only.flags.writeable = False
+            arrays += [a, a[::2], a[3:], a[:0], a[:1], read_only, a.reshape(3, 7),
+                       a.reshape(3, 7).T, a.view(Sub)]
+        arrays.append(np.frombuffer(bytes(8 * 21 + 1), np.float64, offset=1))  # not aligned
+        arrays.append(np.frombuffer(bytearray(8 * 21 + 1), np.float64, offset=1))
+        return arrays
+
+    def reads(a: Any) -> Any:
+        lists = ext.snapshot_lists((a,), goal, sign, offset, units.RAD_PER_UNIT, 2048)
+        out = [a.copy() for _ in range(4)] if a.ndim == 1 else None
+        wrote = (ext.apply_fast({1: b"\x01\x02\x03\x04\x05\x06"}, [1], *out, 0, 1, 2, 6)
+                 if out is not None and len(a) > 1 else None)
+        view_of = (ext.apply_fast({1: bytes(6)}, [1], a, a, a, a, 0, 1, 2, 6)
+                   if a.ndim == 1 and len(a) > 1 else None)  # refused where read-only
+        return (_bits(list(lists)) if lists is not NotImplemented else lists,
+                wrote, [_bits(o.tolist()) for o in out] if out is not None else None, view_of,
+                _bits(a.tolist()))
+
+    direct = [reads(a) for a in make()]
+    try:
+        assert ext.configure_arrays(np.ndarray, ()) is True  # no dtype read directly
+        buffered = [reads(a) for a in make()]
+    finally:
+        assert hotpath._read_arrays_directly(ext)
+    assert direct == buffered
+    assert sum(d[0] is NotImplemented for d in direct) > 20  # refusals were among them
+    assert sum(d[0] is not NotImplemented for d in direct) > 20
+    with pytest.raises(TypeError):
+        ext.configure_arrays(np.ndarray)
+    assert hotpath.arrays_direct
+
+
+def test_put_ints_writes_what_numpy_writes() -> None:
+    """The goals written into the servo state's array (write_targets): put_ints writes the
+    ints numpy's ``array[list(at)] = values`` writes, into arrays of numpy's int kinds; what it
+    does not take (another dtype, read-only, not one-dimensional, an index numpy would wrap or
+    refuse, a value not an int or not fitting) is handed back with nothing written."""
+    import numpy as np
+
+    ext: Any = compiled
+    rng = random.Random(49)
+    for _ in range(3_000):
+        dt = rng.choice([np.int_, np.intc, np.longlong, np.int32, np.int64])
+        size = rng.randrange(1, 30)
+        at = tuple(rng.randrange(size) for _ in range(rng.randrange(0, 25)))
+        values = [rng.randrange(-5000, 70000) for _ in at]
+        got = np.arange(size, dtype=dt)
+        want = got.copy()
+        assert ext.put_ints(got, at, values) is True
+        want[list(at)] = values
+        assert got.tolist() == want.tolist()
+    a = np.arange(21)
+    ok = (a, (1, 2), [3, 4])
+    read_only = a.copy()
+    read_only.flags.writeable = False
+    for k, odd in ((0, a.astype(float)), (0, a.astype(np.int16)), (0, read_only),
+                   (0, a.reshape(3, 7)), (0, a[::2]), (0, a.tolist()), (1, [1, 2]),
+                   (1, (1, -1)), (1, (1, 21)), (1, (1, 2.0)), (1, (1,)), (2, (3, 4)),
+                   (2, [3, 4.0]), (2, [3, True]), (2, [3, 2**63]), (2, [3, -(2**63) - 1])):
+        args = list(ok)
+        args[k] = odd
+        before = a.copy()
+        assert ext.put_ints(*args) is NotImplemented
+        assert (a == before).all()
+    small = np.zeros(3, np.int32)
+    assert ext.put_ints(small, (0,), [2**31]) is NotImplemented and small.tolist() == [0, 0, 0]
