@@ -933,6 +933,66 @@ static PyObject *hot_put_ints(PyObject *self, PyObject *const *args, Py_ssize_t 
     Py_RETURN_TRUE;
 }
 
+/* put_row(arrays, j, values): ``a[j] = v`` for each array ``a`` of the tuple ``arrays`` and
+ * its value ``v`` of ``values``: one-dimensional writable numpy arrays of ints, doubles or
+ * bools, each given a value of its own kind (an int that fits, a float, a bool). True,
+ * written; NotImplemented, nothing written, for anything else (the Python's then). */
+static PyObject *hot_put_row(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "put_row takes 3 arguments");
+        return NULL;
+    }
+    PyObject *arrays = args[0], *values = args[2];
+    if (!PyTuple_CheckExact(arrays) || !PyTuple_CheckExact(values) || !PyLong_CheckExact(args[1])
+        || PyTuple_GET_SIZE(arrays) != PyTuple_GET_SIZE(values) || PyTuple_GET_SIZE(arrays) > 16)
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_ssize_t j = PyLong_AsSsize_t(args[1]);
+    if (j == -1 && PyErr_Occurred()) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    Py_ssize_t n = PyTuple_GET_SIZE(arrays);
+    Py_buffer v[16];
+    char kind[16];
+    long long ints[16];
+    int got = 0, ok = 1;
+    for (; got < n && ok; got++) {  /* everything checked before a write */
+        if (array_any(PyTuple_GET_ITEM(arrays, got), &v[got], &kind[got]) < 0) {
+            ok = 0;
+            break;
+        }
+        PyObject *x = PyTuple_GET_ITEM(values, got);
+        ok = !v[got].readonly && v[got].ndim == 1 && j >= 0 && j < v[got].shape[0];
+        if (ok && kind[got] == 'i') {
+            int over = 0;
+            ok = PyLong_CheckExact(x);
+            ints[got] = ok ? PyLong_AsLongLongAndOverflow(x, &over) : 0;
+            long long lo = v[got].itemsize == 8 ? LLONG_MIN : INT_MIN;
+            long long hi = v[got].itemsize == 8 ? LLONG_MAX : INT_MAX;
+            ok = ok && !over && !PyErr_Occurred() && ints[got] >= lo && ints[got] <= hi;
+        } else if (ok) {
+            ok = kind[got] == 'd' ? PyFloat_CheckExact(x) : PyBool_Check(x);
+        }
+    }
+    PyErr_Clear();
+    if (ok)
+        for (int k = 0; k < n; k++) {
+            PyObject *x = PyTuple_GET_ITEM(values, k);
+            if (kind[k] == 'i')
+                set_int(&v[k], j, ints[k]);
+            else if (kind[k] == 'd')
+                ((double *)v[k].buf)[j] = PyFloat_AS_DOUBLE(x);
+            else
+                ((unsigned char *)v[k].buf)[j] = x == Py_True;
+        }
+    for (int k = 0; k < got; k++)
+        PyBuffer_Release(&v[k]);
+    if (!ok)
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_RETURN_TRUE;
+}
+
 /* apply_fast(data, fast, position, speed, load, misses, at_position, at_speed, at_load, width):
  * SensorReader._apply_fast's whole-answer case compiled: each servo of ``fast``'s reply
  * (``width`` bytes of little-endian words in ``data``) into the state's integer arrays by its
@@ -1662,6 +1722,8 @@ static PyMethodDef methods[] = {
      "engine/snapshot.take's lists, compiled"},
     {"take_whole", (PyCFunction)(void (*)(void))hot_take_whole, METH_FASTCALL,
      "bulk_receive._take_whole_py compiled"},
+    {"put_row", (PyCFunction)(void (*)(void))hot_put_row, METH_FASTCALL,
+     "a[j] = v for each array and value"},
     {"put_ints", (PyCFunction)(void (*)(void))hot_put_ints, METH_FASTCALL,
      "array[list(at)] = values, for ints"},
     {"take_run", (PyCFunction)(void (*)(void))hot_take_run, METH_FASTCALL,

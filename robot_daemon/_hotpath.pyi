@@ -57,3 +57,6 @@ def take_run(
 def put_ints(
     array: Any, at: tuple[int, ...], values: list[int], /,
 ) -> Any: ...  # True, or NotImplemented
+def put_row(
+    arrays: tuple[Any, ...], j: int, values: tuple[Any, ...], /,
+) -> Any: ...  # True, or NotImplemented

@@ -277,14 +277,17 @@ class SensorReader:
         """A servo's slow block (torque … temperature) into the state, its alarm bits too."""
         st = self.state
         # An MX-28 in alarm shutdown has TORQUE_LIMIT 0 and TORQUE_ENABLE still 1: limp.
-        st.torque_limit[jid] = word(data, _TORQUE_LIMIT)
-        st.torque[jid] = bool(data[_TORQUE]) and st.torque_limit[jid] > 0
-        st.goal[jid] = word(data, _GOAL)
-        st.position[jid] = word(data, _POSITION)
-        st.speed[jid] = word(data, _SPEED)
-        st.load[jid] = word(data, _LOAD)
-        st.voltage[jid] = units.voltage_raw_to_v(data[_VOLTAGE])
-        st.temperature[jid] = float(data[_TEMPERATURE])
+        limit = word(data, _TORQUE_LIMIT)
+        arrays = (st.torque_limit, st.torque, st.goal, st.position, st.speed, st.load,
+                  st.voltage, st.temperature)
+        values = (limit, bool(data[_TORQUE]) and limit > 0, word(data, _GOAL),
+                  word(data, _POSITION), word(data, _SPEED), word(data, _LOAD),
+                  units.voltage_raw_to_v(data[_VOLTAGE]), float(data[_TEMPERATURE]))
+        # Eight numpy item writes in one compiled call where it is built (the same values:
+        # tests/unit/test_hotpath.py), else one by one.
+        if _compiled is None or _compiled.put_row(arrays, jid, values) is not True:
+            for array, value in zip(arrays, values, strict=True):
+                array[jid] = value
         self._alarm(jid, error)
 
     def _alarm(self, jid: int, bits: int) -> None:

@@ -640,3 +640,45 @@ def test_put_ints_writes_what_numpy_writes() -> None:
         assert (a == before).all()
     small = np.zeros(3, np.int32)
     assert ext.put_ints(small, (0,), [2**31]) is NotImplemented and small.tolist() == [0, 0, 0]
+
+
+def test_put_row_writes_what_numpy_writes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A servo's slow block into the state (SensorReader.apply_slow): put_row writes into each
+    array the value numpy's ``a[j] = v`` writes, compiled or one by one, over random blocks;
+    an array or value it does not take (another dtype or kind, read-only, an index outside,
+    a value not fitting) is handed back with nothing written."""
+    import numpy as np
+
+    import robot_daemon.bus.sensor_read as sensor_read
+
+    ext: Any = compiled
+    rng = random.Random(50)
+    for i in range(2_000):
+        block = rng.randbytes(sensor_read.SLOW_LENGTH)
+        jid, error = rng.randrange(1, 21), 0
+        states = []
+        for use in (compiled, None):
+            monkeypatch.setattr(sensor_read, "_compiled", use)
+            st = _servo_state(random.Random(i))
+            reader = object.__new__(sensor_read.SensorReader)
+            reader.state, reader._alarmed, reader.emit = st, set(), lambda *a, **k: None
+            reader.apply_slow(jid, block, error)
+            states.append([_bits(getattr(st, n).tolist()) for n in (
+                "torque_limit", "torque", "goal", "position", "speed", "load", "voltage",
+                "temperature", "alarm")])
+        assert states[0] == states[1]
+    ints, floats, bools = np.zeros(21, int), np.zeros(21), np.zeros(21, bool)
+    ok = ((ints, floats, bools), 3, (7, 1.5, True))
+    assert ext.put_row(*ok) is True and (ints[3], floats[3], bools[3]) == (7, 1.5, True)
+    read_only = ints.copy()
+    read_only.flags.writeable = False
+    for k, odd in ((0, [ints, floats, bools]), (0, (ints.astype(np.int16), floats, bools)),
+                   (0, (read_only, floats, bools)), (0, (ints.reshape(3, 7), floats, bools)),
+                   (0, (ints, floats[::2], bools)), (1, 21), (1, -1), (1, 3.0),
+                   (2, (7, 1, True)), (2, (7.0, 1.5, True)), (2, (7, 1.5, 1)),
+                   (2, (2**63, 1.5, True)), (2, (7, 1.5)), (2, [7, 1.5, True])):
+        args = list(ok)
+        args[k] = odd
+        before = [a.copy() for a in (ints, floats, bools)]
+        assert ext.put_row(*args) is NotImplemented
+        assert all((a == b).all() for a, b in zip(before, (ints, floats, bools), strict=True))
