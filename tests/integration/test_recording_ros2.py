@@ -153,7 +153,11 @@ def test_ros2_bag_decodes_with_the_daemons_joints(
                 for n, p in zip(msg.name, msg.position, strict=True):
                     assert math.isclose(p, want[n], abs_tol=1e-12), n
     assert len(got["/joint_states"]) > 50
-    assert matched > 0.9 * len(got["/joint_states"])
+    # Every bag message the witness also saw carries the daemon's stamp and positions. Not a
+    # share of the bag: a witness in a busy test process may miss some (the daemon drops
+    # joints to a lagging subscriber rather than slow the others), the recorder none. A bag
+    # stamped with its own receive times would match none at all.
+    assert matched >= 50, (matched, len(got["/joint_states"]), len(seen))
     frames = {link.name for link in body.links}
     for tf in got["/tf"]:
         assert tf.transforms
