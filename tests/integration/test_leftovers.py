@@ -45,7 +45,11 @@ def test_a_stopped_run_leaves_no_process_and_no_temporary_file(sig: signal.Signa
         assert len(pids) >= 3, info  # darwin up, at least one child of it, the plain child
         assert tmp.is_relative_to(run), info  # tempfile lands in the run directory
         proc.send_signal(sig)
-        proc.communicate(timeout=120)
+        try:
+            proc.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            why = f"the probe did not end within 120 s of {sig.name}:\n{stuck(proc)}"
+            raise AssertionError(why) from None
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -55,3 +59,18 @@ def test_a_stopped_run_leaves_no_process_and_no_temporary_file(sig: signal.Signa
         timeout=60,
         what=f"after {sig.name}: processes {[p for p in pids if alive(p)]} gone, {run} removed",
     )
+
+
+def stuck(proc: subprocess.Popen[str]) -> str:
+    """What a probe that does not end is doing: every thread's stack (the probe dumps them on
+    SIGUSR1) and the processes it still has."""
+    kids = subprocess.run(
+        ["ps", "-o", "pid,ppid,stat,wchan:20,args", "--ppid", str(proc.pid), "-p", str(proc.pid)],
+        capture_output=True, text=True,
+    ).stdout  # fmt: skip
+    proc.send_signal(signal.SIGUSR1)
+    try:
+        out, _ = proc.communicate(timeout=10)
+    except subprocess.TimeoutExpired as e:
+        out = e.output if isinstance(e.output, str) else (e.output or b"").decode(errors="replace")
+    return f"{kids}\n{out}"
