@@ -13,7 +13,11 @@ asked for (``callgrind_requests.py`` toggles counting around them), so the figur
 - ``servos``: ``Bus.step(0.004)``, every servo's motion, heat, alarms and registers (the emulator
   runs it before answering a packet and at each physics round: ~300 times a second);
 - ``world``: ``SimWorld.step(0.01)``, the body's legs, balance and the ball (100 a second);
-- ``answer``: the replies of the 21 devices to the daemon's bulk read of a tick (125 a second).
+- ``answer``: the replies of the 21 devices to the daemon's bulk read of a tick (125 a second),
+  and their delivery as the FTDI chip hands them over.
+
+The bus is brought up first as the daemon does (the servos powered, torque on, holding the pose):
+an unpowered bus answers nothing, and the child refuses to count one.
 """
 
 from __future__ import annotations
@@ -36,6 +40,8 @@ def child(what: str, root: Path) -> None:
     sys.path[:0] = [str(root), str(HERE.parent)]
     from callgrind_requests import Callgrind
 
+    from robot_daemon.bus.packet import instruction_packet
+    from robot_daemon.bus.tables import BROADCAST_ID, CM730, MX28, Instruction, sensor_blocks
     from robot_daemon.emulator.emulator import Emulator
     from robot_daemon.emulator.settings import EmulatorSettings
     from robot_daemon.plant.world import SimWorld
@@ -44,20 +50,36 @@ def child(what: str, root: Path) -> None:
     emulator = Emulator(EmulatorSettings.load(realtime=False))
     world = SimWorld(seed=1)
     world.attach(emulator)
-    emulator.advance(1.0)  # powered, standing, settled
+
+    def send(packet: bytes) -> int:
+        """The packet as the daemon's port would put it on the bus; how many replies."""
+        with emulator.lock:
+            emulator._process(emulator.parser.feed(packet), 0.0)
+            replies = len(emulator._out)
+            emulator._out.clear()
+        return replies
+
+    # As the daemon brings the robot up: the servos powered, then torque on, holding the pose.
+    send(instruction_packet(200, Instruction.WRITE, [CM730.DXL_POWER.reg.address, 1]))
+    emulator.advance(0.5)
+    torque = [MX28.TORQUE_ENABLE.reg.address, 1]
+    for dxl_id in range(1, 21):
+        torque += [dxl_id, 1]
+    send(instruction_packet(BROADCAST_ID, Instruction.SYNC_WRITE, torque))
+    emulator.advance(1.0)  # standing, settled
     positions = emulator.api.present_positions()
-    from robot_daemon.bus.packet import instruction_packet
-    from robot_daemon.bus.tables import BROADCAST_ID, Instruction, sensor_blocks
 
     param = [0x00]
     for dxl_id, start, length in sensor_blocks():
         param += [length, dxl_id, start]
     request = instruction_packet(BROADCAST_ID, Instruction.BULK_READ, param)
+    answered = send(request)
+    if answered == 0 or not all(emulator.api.torque_enabled().values()):
+        # Counting an unpowered bus counted nothing: say so rather than print a figure.
+        raise SystemExit(f"sim_count: the bus is not up (bulk read: {answered} deliveries)")
 
     def answer() -> None:
-        with emulator.lock:
-            emulator._process(emulator.parser.feed(request), 0.0)
-            emulator._out.clear()
+        send(request)
 
     step = {
         "servos": lambda: emulator.bus.step(0.004),

@@ -31,15 +31,15 @@ def checksum(body: Iterable[int]) -> int:
 
 
 def _build(dxl_id: int, code: int, params: bytes | Iterable[int]) -> bytes:
-    params = bytes(params)
+    if type(params) is not bytes:
+        params = bytes(params)
+    n = len(params)
     if not 0 <= dxl_id <= MAX_ID:
         raise ValueError(f"Dynamixel ID {dxl_id} is outside 0..{MAX_ID}")
-    if len(params) > MAX_LENGTH - MIN_LENGTH:
-        raise ValueError(
-            f"{len(params)} parameter bytes do not fit one packet (at most {MAX_LENGTH - 2})"
-        )
-    body = bytes((dxl_id, len(params) + 2, code & 0xFF)) + params
-    return HEADER + body + bytes((checksum(body),))
+    if n > MAX_LENGTH - MIN_LENGTH:
+        raise ValueError(f"{n} parameter bytes do not fit one packet (at most {MAX_LENGTH - 2})")
+    body = bytes((dxl_id, n + 2, code & 0xFF)) + params
+    return HEADER + body + bytes((~sum(body) & 0xFF,))  # checksum(body), without the call
 
 
 def instruction_packet(dxl_id: int, instruction: int, params: bytes | Iterable[int] = b"") -> bytes:

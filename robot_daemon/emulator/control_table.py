@@ -77,6 +77,9 @@ class ControlTable:
 
     def read(self, address: int, length: int) -> tuple[bytes, int]:
         """Bytes for a READ and the error bits: past the end reads as zeros with RANGE set."""
+        end = address + length
+        if length and end <= self.size:
+            return bytes(self.data[address:end]), 0
         if address >= self.size or length == 0:
             return bytes(length), ErrorBit.RANGE
         end = min(address + length, self.size)

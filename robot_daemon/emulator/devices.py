@@ -62,11 +62,45 @@ _MOVING = MX28.MOVING.value.address
 _GOAL_POSITION = MX28.GOAL_POSITION.value.address
 _TORQUE_ENABLE = MX28.TORQUE_ENABLE.value.address
 _TORQUE_LIMIT = MX28.TORQUE_LIMIT.value.address
+# And those every status packet reads (its alarms), and the reply settings, which the CM-730
+# keeps at the servos' addresses.
+_MIN_VOLTAGE_LIMIT = MX28.MIN_VOLTAGE_LIMIT.value.address
+_MAX_VOLTAGE_LIMIT = MX28.MAX_VOLTAGE_LIMIT.value.address
+_TEMPERATURE_LIMIT = MX28.TEMPERATURE_LIMIT.value.address
+_TORQUE_LIMIT_HIGH = MX28.TORQUE_LIMIT.value.high
+_ID = MX28.ID.value.address
+_RETURN_DELAY_TIME = MX28.RETURN_DELAY_TIME.value.address
+_STATUS_RETURN_LEVEL = MX28.STATUS_RETURN_LEVEL.value.address
+assert tuple(
+    r.value.address for r in (CM730.ID, CM730.RETURN_DELAY_TIME, CM730.STATUS_RETURN_LEVEL)
+) == (_ID, _RETURN_DELAY_TIME, _STATUS_RETURN_LEVEL)
 _TWO_BYTES = (MX28.PRESENT_POSITION, MX28.PRESENT_SPEED, MX28.PRESENT_LOAD, MX28.GOAL_POSITION)
-_ONE_BYTE = (MX28.PRESENT_VOLTAGE, MX28.PRESENT_TEMPERATURE, MX28.MOVING, MX28.TORQUE_ENABLE)
+_ONE_BYTE = (
+    MX28.PRESENT_VOLTAGE,
+    MX28.PRESENT_TEMPERATURE,
+    MX28.MOVING,
+    MX28.TORQUE_ENABLE,
+    MX28.MIN_VOLTAGE_LIMIT,
+    MX28.MAX_VOLTAGE_LIMIT,
+    MX28.TEMPERATURE_LIMIT,
+    MX28.ID,
+    MX28.RETURN_DELAY_TIME,
+    MX28.STATUS_RETURN_LEVEL,
+    CM730.ID,
+    CM730.RETURN_DELAY_TIME,
+    CM730.STATUS_RETURN_LEVEL,
+)
 assert all(r.value.size == 2 for r in (*_TWO_BYTES, MX28.TORQUE_LIMIT))
 assert all(r.value.size == 1 for r in _ONE_BYTE)
 
+# The CM-730's registers its refresh writes in place: gyro x, y, z then accelerometer x, y, z,
+# as the IMU's axes map onto them.
+_CM730_VOLTAGE = CM730.VOLTAGE.value.address
+_IMU_ADDRESSES = tuple(m.value.address for m, _ in (*IMU_GYRO_AXES, *IMU_ACCEL_AXES))
+_GYRO_SIGNS = tuple(sign for _, sign in IMU_GYRO_AXES)
+_ACCEL_SIGNS = tuple(sign for _, sign in IMU_ACCEL_AXES)
+assert CM730.VOLTAGE.value.size == 1
+assert all(m.value.size == 2 for m, _ in (*IMU_GYRO_AXES, *IMU_ACCEL_AXES))
 # The overheating alarm, once raised, lasts until the servo is this much below its limit.
 OVERHEAT_HYSTERESIS_C = 5.0
 # Under a physics plant, a motor saturated at its torque limit this long raises OVERLOAD (s).
@@ -95,21 +129,28 @@ class Device:
         self.regs: type[MX28] | type[CM730] = table.kind  # type: ignore[assignment]
         self.env = env
 
+    # Read for every status packet (21 a bulk read, 125 bulk reads a second): the byte at its
+    # address, the same value the table's item access decodes.
     @property
     def id(self) -> int:
-        return self.table[self.regs.ID]
+        return self.table.data[_ID]
 
     @property
     def status_return_level(self) -> int:
-        return self.table[self.regs.STATUS_RETURN_LEVEL]
+        return self.table.data[_STATUS_RETURN_LEVEL]
 
     @property
     def return_delay_s(self) -> float:
-        return units.return_delay_s(self.table[self.regs.RETURN_DELAY_TIME])
+        return units.return_delay_s(self.table.data[_RETURN_DELAY_TIME])
 
     def alarm_bits(self) -> int:
         """Standing error bits every status packet of this device carries."""
         return 0
+
+    def read_key(self) -> tuple[object, ...] | None:
+        """Everything a read of this device depends on, when a read changes nothing (then two
+        reads with equal keys give equal bytes and error bits); None when that is not known."""
+        return None
 
     def refresh(self) -> None:
         """Bring computed registers up to date before a read."""
@@ -178,31 +219,35 @@ class Servo(Device):
     # ---- alarms -----------------------------------------------------------------------------
 
     def alarm_bits(self) -> int:
-        t = self.table
+        d = self.table.data  # every status packet: the bytes, not the items
         bits = 0
         v10 = self.env.voltage * 10
-        if not t[MX28.MIN_VOLTAGE_LIMIT] <= v10 <= t[MX28.MAX_VOLTAGE_LIMIT]:
+        if not d[_MIN_VOLTAGE_LIMIT] <= v10 <= d[_MAX_VOLTAGE_LIMIT]:
             bits |= ErrorBit.INPUT_VOLTAGE
-        limit = t[MX28.TEMPERATURE_LIMIT]
+        limit = d[_TEMPERATURE_LIMIT]
         if self.temperature > limit:
             self.overheated = True
         elif self.temperature < limit - OVERHEAT_HYSTERESIS_C:
             self.overheated = False
         if self.overheated:
             bits |= ErrorBit.OVERHEATING
-        if self._overloaded():
+        if not self.overload_latched and self._overloaded():  # latched: nothing to look at
             self.overload_latched = True
         if self.overload_latched:
             bits |= ErrorBit.OVERLOAD
         return bits
 
     def _overloaded(self) -> bool:
-        t = self.table
-        if not (self.powered and t[MX28.TORQUE_ENABLE] and t[MX28.TORQUE_LIMIT]):
+        if self.plant_torque is None and not self.external_load:
+            return False  # kinematic and no load from the world (the case of nearly every read)
+        if not self.drives():
             return False
         if self.plant_torque is None:  # kinematic: the world's load against the limit
-            load = abs(self.external_load) * MX28.TORQUE_LIMIT.reg.high
-            return load > 0 and load >= t[MX28.TORQUE_LIMIT]
+            load = abs(self.external_load) * _TORQUE_LIMIT_HIGH
+            if load <= 0:
+                return False
+            d = self.table.data
+            return load >= d[_TORQUE_LIMIT] | (d[_TORQUE_LIMIT + 1] << 8)
         # physics: the motor cannot exceed its limit, it stays saturated at it
         return self.saturated_s >= OVERLOAD_AFTER_S
 
@@ -253,8 +298,10 @@ class Servo(Device):
     def drives(self) -> bool:
         """The motor holds its goal: powered, torque enabled and a torque limit above 0."""
         d = self.table.data  # several times a step: the bytes, not the items
-        return self.powered and d[_TORQUE_ENABLE] != 0 and (
-            d[_TORQUE_LIMIT] != 0 or d[_TORQUE_LIMIT + 1] != 0
+        return (
+            self.powered
+            and d[_TORQUE_ENABLE] != 0
+            and (d[_TORQUE_LIMIT] != 0 or d[_TORQUE_LIMIT + 1] != 0)
         )
 
     def load_fraction(self) -> float:
@@ -287,6 +334,12 @@ class Servo(Device):
             self.overheated,
             self.overload_latched,
         )
+
+    def read_key(self) -> tuple[object, ...] | None:
+        # At rest a read's inputs are all in the rest key: the registers (the present values
+        # synced into them included), power, supply, the alarms' latches; no load, no plant
+        # torque and the ambient temperature leave nothing else for the alarms to look at.
+        return self._rest_key()
 
     def step(self, dt: float) -> None:
         if dt <= 0:
@@ -388,18 +441,24 @@ class CM730Device(Device):
             self.on_power(bool(self.table[CM730.DXL_POWER]))
 
     def refresh(self) -> None:
-        t = self.table
-        t[CM730.VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
-        for (member, sign), value in zip(IMU_GYRO_AXES, self.gyro, strict=True):
-            raw = units.rad_s_to_gyro_raw(sign * value, self.gyro_full_scale_dps)
-            t.put(member.value, self._noisy(raw))
-        for (member, sign), value in zip(IMU_ACCEL_AXES, self.accel, strict=True):
-            t.put(member.value, self._noisy(units.ms2_to_accel_raw(sign * value)))
-
-    def _noisy(self, raw: float) -> int:
+        # Before every read of the CM-730 (each bulk read, 125 a second): the bytes in place.
+        d = self.table.data
+        d[_CM730_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
+        full_scale = self.gyro_full_scale_dps
+        gx, gy, gz = (units.rad_s_to_gyro_raw(s * v, full_scale) for s, v in zip(
+            _GYRO_SIGNS, self.gyro, strict=True))  # fmt: skip
+        ax, ay, az = (units.ms2_to_accel_raw(s * v) for s, v in zip(
+            _ACCEL_SIGNS, self.accel, strict=True))  # fmt: skip
+        raws: list[float] = [gx, gy, gz, ax, ay, az]
         if self.imu_noise > 0:
-            raw += self.rng.normal(0.0, self.imu_noise)
-        return max(0, min(units.IMU_MAX, round(raw)))
+            # One draw of six: the generator gives the same numbers as six draws of one.
+            noise = self.rng.normal(0.0, self.imu_noise, 6).tolist()
+            raws = [r + n for r, n in zip(raws, noise, strict=True)]
+        top = units.IMU_MAX
+        for address, raw in zip(_IMU_ADDRESSES, raws, strict=True):
+            value = max(0, min(top, round(raw)))
+            d[address] = value & 0xFF
+            d[address + 1] = (value >> 8) & 0xFF
 
     def set_buttons(self, mask: int) -> None:
         self.table[CM730.BUTTON] = mask & 0x03

@@ -279,9 +279,7 @@ class Emulator:
             self.byte_time_s = 10.0 / bps
 
     def _process(self, frames: list[Frame], t_rx: float) -> None:
-        replies, self._bus_free = self._answer(
-            frames, max(t_rx, self._bus_free), self.wire_timing
-        )
+        replies, self._bus_free = self._answer(frames, max(t_rx, self._bus_free), self.wire_timing)
         if self.ftdi is not None and replies:
             self.stats["replies"] += len(replies)
             replies = self.ftdi.deliver(replies)
@@ -294,6 +292,7 @@ class Emulator:
         reply with the time its last byte is on the line (faults applied), and the time the bus
         is free again. Call with the lock held."""
         out: list[tuple[float, bytes]] = []
+        byte_s = self.byte_time_s
         for frame in frames:
             self.received.append(frame)
             self.stats["frames"] += 1
@@ -305,17 +304,22 @@ class Emulator:
             if wire_timing:
                 t += size * self.byte_time_s
             chain = frame.code == Instruction.BULK_READ and not isinstance(frame, BadChecksum)
+            faults = self.faults if self.faults.active else None
             for reply in self.bus.handle(frame):
-                packet, extra, fault = self.faults.apply(self.rng, reply.packet)
-                if fault:
-                    self.stats[fault] += 1
+                if faults is not None:
+                    packet, extra, fault = faults.apply(self.rng, reply.packet)
+                    if fault:
+                        self.stats[fault] += 1
+                else:  # what apply gives with no fault set, without a call for each reply
+                    packet, extra = reply.packet, 0.0
                 if packet is None:
                     if chain:
                         break  # a bulk read's later devices wait for the lost status packet
                     continue
                 if wire_timing:
-                    t += reply.return_delay_s + len(packet) * self.byte_time_s
-                t += extra
+                    t += reply.return_delay_s + len(packet) * byte_s
+                if extra:
+                    t += extra
                 out.append((t, packet))
         return out, t
 

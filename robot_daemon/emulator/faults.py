@@ -36,6 +36,12 @@ class Faults:
         if self.delay_ms < 0:
             raise ValueError(f"delay_ms={self.delay_ms!r} must be ≥ 0")
 
+    @property
+    def active(self) -> bool:
+        """Any fault set: otherwise :meth:`apply` passes every packet as it is, drawing
+        nothing from the generator."""
+        return bool(self.drop or self.corrupt or self.delay)
+
     def apply(self, rng: np.random.Generator, packet: bytes) -> tuple[bytes | None, float, str]:
         """The packet as it goes out (None if dropped), extra delay in s, and the fault's name."""
         if self.drop and rng.random() < self.drop:

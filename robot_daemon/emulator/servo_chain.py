@@ -35,7 +35,7 @@ Which instructions answer (as the firmware does):
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -57,10 +57,15 @@ from schemas import units
 _MAX_READ = 250 - 6  # a status packet must fit the SDK's 250-byte receive buffer
 _READ_ONLY = frozenset((Instruction.PING, Instruction.READ, Instruction.BULK_READ))
 _READS = frozenset((Instruction.READ, Instruction.BULK_READ))
+# Bounds of what bulk reads keep (a host asking ever new layouts empties them and goes on).
+_KEPT_PLANS = 64
+_KEPT_REPLIES = 256
 
 
-@dataclass(frozen=True)
-class Reply:
+class Reply(NamedTuple):
+    """A status packet a device sends. A tuple: 21 of them a bulk read, 125 bulk reads a
+    second, and a frozen dataclass costs a Python ``__setattr__`` call a field to make."""
+
     device_id: int
     packet: bytes
     return_delay_s: float
@@ -104,6 +109,14 @@ class Bus:
         # ID → the devices answering it (more than one: a shared ID), rebuilt after anything
         # that can change who answers (power, writes).
         self._index: dict[int, list[Device]] | None = None
+        # Bulk reads' (length, ID, address) blocks by their parameters: the daemon asks a
+        # handful of layouts (the slow block goes round the servos), 125 times a second.
+        self._bulk_plans: dict[bytes, list[tuple[int, int, int]]] = {}
+        # A device's last reply to a block of a bulk read, when reading it changed nothing,
+        # with what the read depends on (Device.read_key): a robot standing still is asked
+        # the same and answers the same bytes. False: always build them.
+        self.reuse_replies = True
+        self._replies: dict[tuple[int, int, int], tuple[tuple[object, ...], list[Reply]]] = {}
 
     # ---- power and time -----------------------------------------------------------------------
 
@@ -187,11 +200,14 @@ class Bus:
 
     def sharing(self, dxl_id: int) -> list[Device]:
         """Every device answering ``dxl_id``, in bus order (two or more: a shared ID)."""
+        return self._by_id().get(dxl_id, [])
+
+    def _by_id(self) -> dict[int, list[Device]]:
         if self._index is None:
             self._index = {}
             for dev in self.devices():
                 self._index.setdefault(dev.id, []).append(dev)
-        return self._index.get(dxl_id, [])
+        return self._index
 
     def set_id(self, dxl_id: int, new_id: int) -> None:
         """Give servo ``dxl_id`` (configured ID) the ID ``new_id``, as a servo replaced with a
@@ -214,13 +230,14 @@ class Bus:
     def _reply(
         self, dev: Device, instruction: int, error: int, data: bytes = b"", level: int | None = None
     ) -> list[Reply]:
+        dxl_id = dev.id
         level = dev.status_return_level if level is None else level
-        if dev.id in self.silent or not _answers(level, instruction):
+        if dxl_id in self.silent or (level < 2 and not _answers(level, instruction)):
             return []
         if dev is self.cm730 and self.cm730_late_reads > 0 and instruction in _READS:
             self.cm730_late_reads -= 1
             return []
-        return [Reply(dev.id, status_packet(dev.id, error, data), dev.return_delay_s)]
+        return [Reply(dxl_id, status_packet(dxl_id, error, data), dev.return_delay_s)]
 
     # ---- frames ------------------------------------------------------------------------------
 
@@ -233,11 +250,13 @@ class Bus:
 
     def _handle(self, frame: Frame) -> list[Reply]:
         if isinstance(frame, BadChecksum):
-            return _collide([
-                r
-                for dev in self.sharing(frame.id)
-                for r in self._reply(dev, frame.code, ErrorBit.CHECKSUM | dev.alarm_bits())
-            ])
+            return _collide(
+                [
+                    r
+                    for dev in self.sharing(frame.id)
+                    for r in self._reply(dev, frame.code, ErrorBit.CHECKSUM | dev.alarm_bits())
+                ]
+            )
         if frame.id == BROADCAST_ID:
             return self._broadcast(frame)
         replies: list[Reply] = []
@@ -328,26 +347,57 @@ class Bus:
 
     def _bulk_read(self, params: bytes) -> list[Reply]:
         replies: list[Reply] = []
-        body = params[1:]  # params[0] is the 0x00 the protocol puts first
-        for i in range(0, len(body) - 2, 3):
-            length, dxl_id, address = body[i], body[i + 1], body[i + 2]
-            devs = self.sharing(dxl_id)
+        blocks = self._bulk_plans.get(params)
+        if blocks is None:
+            body = params[1:]  # params[0] is the 0x00 the protocol puts first
+            blocks = [(body[i], body[i + 1], body[i + 2]) for i in range(0, len(body) - 2, 3)]
+            if len(self._bulk_plans) >= _KEPT_PLANS:  # a host asking ever new ones
+                self._bulk_plans.clear()
+            self._bulk_plans[params] = blocks
+        by_id = self._by_id()
+        for length, dxl_id, address in blocks:
+            devs = by_id.get(dxl_id)
             if not devs:
                 break  # nobody sends this status packet: the next device waits for ever
-            reply: list[Reply] = []
-            for dev in devs:
-                if length > _MAX_READ:
-                    reply += self._reply(dev, Instruction.BULK_READ, ErrorBit.RANGE)
-                else:
-                    data, error = dev.read(address, length)
-                    reply += self._reply(dev, Instruction.BULK_READ, error, data)
+            if len(devs) == 1 and length <= _MAX_READ:
+                reply = self._bulk_reply(devs[0], address, length)
+            else:
+                reply = []
+                for dev in devs:
+                    if length > _MAX_READ:
+                        reply += self._reply(dev, Instruction.BULK_READ, ErrorBit.RANGE)
+                    else:
+                        data, error = dev.read(address, length)
+                        reply += self._reply(dev, Instruction.BULK_READ, error, data)
             if not reply:
                 break  # silent: the chain stops here
+            if len(reply) == 1:  # one device with this ID: nothing to collide with
+                replies += reply
+                continue
             collided = _collide(reply)
             replies += collided
             if collided[0].packet not in (r.packet for r in reply):
                 break  # garbled: the next device never hears the packet it waits for
         return replies
+
+    def _bulk_reply(self, dev: Device, address: int, length: int) -> list[Reply]:
+        """One device's answer to its block of a bulk read: the one it gave last time when
+        nothing it depends on has changed since (its read key, and not silenced)."""
+        key = dev.read_key() if self.reuse_replies else None
+        block = (id(dev), address, length)
+        if key is not None and dev.id not in self.silent:
+            last = self._replies.get(block)
+            if last is not None and last[0] == key:
+                return last[1]
+        data, error = dev.read(address, length)
+        reply = self._reply(dev, Instruction.BULK_READ, error, data)
+        # Kept only when the read changed nothing (an alarm it latched changes the key), and
+        # only an answer: a silenced device's none would outlast the silence (not in the key).
+        if key is not None and reply and dev.read_key() == key:
+            if len(self._replies) >= _KEPT_REPLIES:
+                self._replies.clear()
+            self._replies[block] = (key, reply)
+        return reply
 
 
 def _collide(replies: list[Reply]) -> list[Reply]:

@@ -1,7 +1,9 @@
-"""A servo at rest skips its step (``Servo._rest_key``): that must never change what the bus
-reads. Two emulators live the same seeded random life (goals, torque, speed and torque limits,
-loads, heat, supply voltage, writes of any RAM register, steps of any length); one always runs
-the whole step. After every step every servo's control table and state are the same."""
+"""A servo at rest skips its step (``Servo._rest_key``), and a bulk read of a device whose
+read changes nothing gives its last reply again (``Bus.reuse_replies``): neither may ever change
+what the bus reads. Two emulators live the same seeded random life (goals, torque, speed and
+torque limits, loads, heat, supply voltage, writes of any RAM register, steps of any length);
+one always runs the whole step (or builds every reply). After every step every servo's control
+table and state are the same (and so is every bulk read's answer)."""
 
 from __future__ import annotations
 
@@ -10,7 +12,8 @@ from collections.abc import Callable
 
 import pytest
 
-from robot_daemon.bus.tables import MX28
+from robot_daemon.bus.packet import Packet
+from robot_daemon.bus.tables import BROADCAST_ID, MX28, Instruction
 from robot_daemon.emulator.emulator import Emulator
 from robot_daemon.emulator.settings import EmulatorSettings
 
@@ -90,3 +93,120 @@ def test_a_servo_skipped_at_rest_reads_as_if_it_had_been_stepped(seed: int) -> N
         assert _state(skipping) == _state(stepping)
     # Not vacuous: many servo steps were skipped, and many were not.
     assert steps / 10 < full_steps[0] < steps * 0.9, (full_steps[0], steps)
+
+
+def _bulk(length: int, address: int) -> bytes:
+    return bytes([0x00, *(b for i in range(1, 21) for b in (length, i, address)), 30, 200, 24])
+
+
+# The daemon's sensor read, and now and then another block of the same servos.
+SENSORS, OTHERS = _bulk(8, 36), (_bulk(6, 36), _bulk(8, 30))
+
+
+def _eeprom_ops(rng: random.Random, ids: list[int]) -> Callable[[Emulator], None]:
+    """What else a read depends on: the reply settings, the alarm limits, a silenced servo."""
+    # Limits on a few servos, so each goes back and forth; silence on any.
+    dxl_id, silenced, roll = rng.choice(ids[:3]), rng.choice(ids), rng.random()
+    level, delay = rng.choice([0, 1, 2, 2]), rng.choice([0, 0, 250])
+    # Limits that put the servo (at 35 °C, 12 V) in and out of its alarms, back and forth.
+    limit, value = rng.choice([
+        (MX28.TEMPERATURE_LIMIT, rng.choice([20, 80])),
+        (MX28.MIN_VOLTAGE_LIMIT, rng.choice([60, 130])),
+        (MX28.MAX_VOLTAGE_LIMIT, rng.choice([160, 100])),
+    ])  # fmt: skip
+
+    def op(emulator: Emulator) -> None:
+        servo = emulator.bus.servo(dxl_id)
+        if roll < 0.03:
+            servo.write(MX28.STATUS_RETURN_LEVEL.value.address, bytes([level]))
+        elif roll < 0.06:
+            servo.write(MX28.RETURN_DELAY_TIME.value.address, bytes([delay]))
+        elif roll < 0.16:
+            servo.write(limit.value.address, bytes([value]))
+        elif roll < 0.18:
+            emulator.api.silence(silenced, level == 0)
+
+    return op
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_bulk_read_answered_again_reads_as_one_answered_anew(seed: int) -> None:
+    """A device whose read changes nothing gives its last bulk-read reply again while nothing
+    it depends on changed (``Bus.reuse_replies``): the replies are byte for byte those of an
+    emulator that builds every one."""
+    # One seed: the CM-730's IMU noise draws the same numbers in both.
+    reusing = Emulator(EmulatorSettings.load(realtime=False, seed=seed + 1))
+    building = Emulator(EmulatorSettings.load(realtime=False, seed=seed + 1))
+    building.bus.reuse_replies = False
+    reads = [0]
+    for servo in reusing.bus.servos.values():
+        read = servo.read
+
+        def counted(address: int, length: int, read: Callable = read) -> tuple[bytes, int]:
+            reads[0] += 1
+            return read(address, length)
+
+        servo.read = counted  # type: ignore[method-assign]
+    for emulator in (reusing, building):
+        emulator.bus.restore(power=True)
+        emulator.advance(1.0)
+        for servo in emulator.bus.servos.values():
+            servo.write(MX28.TORQUE_ENABLE.value.address, b"\x01")
+    rng = random.Random(seed)
+    ids = sorted(reusing.bus.servos)
+    answered = 0
+    for _ in range(600):
+        # Half as eventful as the life above, so that servos come to rest between events.
+        calm = rng.random() < 0.5
+        for op in (_ops(rng, ids), _eeprom_ops(rng, ids)):
+            if not calm:
+                op(reusing)
+                op(building)
+        dt = rng.choice([0.0005, 0.004, 0.004, 0.02, 0.3])
+        for emulator in (reusing, building):
+            emulator.bus.step(dt)
+        params = SENSORS if rng.random() < 0.9 else rng.choice(OTHERS)
+        frame = Packet(BROADCAST_ID, Instruction.BULK_READ, params)
+        got, want = reusing.bus.handle(frame), building.bus.handle(frame)
+        assert got == want
+        answered += sum(r.device_id != 200 for r in got)
+        assert _state(reusing) == _state(building)
+    # Not vacuous: many replies were given again, and many were built.
+    assert answered / 10 < reads[0] < answered * 0.9, (reads[0], answered)
+
+
+def _standing() -> Emulator:
+    emulator = Emulator(EmulatorSettings.load(realtime=False, seed=1))
+    emulator.bus.restore(power=True)
+    emulator.advance(1.0)
+    return emulator
+
+
+def _answers(emulator: Emulator) -> list[int]:
+    frame = Packet(BROADCAST_ID, Instruction.BULK_READ, SENSORS)
+    return [r.device_id for r in emulator.bus.handle(frame)]
+
+
+def test_a_servo_silenced_at_rest_answers_again_once_heard() -> None:
+    emulator = _standing()
+    assert _answers(emulator) == [*range(1, 21), 200]
+    emulator.api.silence(5)
+    assert _answers(emulator) == [1, 2, 3, 4]  # the chain waits for 5 for ever
+    emulator.api.silence(5, False)
+    assert _answers(emulator) == [*range(1, 21), 200]
+
+
+def test_a_read_that_raises_an_alarm_raises_it_each_time_it_is_due() -> None:
+    """Reading a servo over its temperature limit latches OVERHEATING (a read that changes
+    the servo); with the limit raised and lowered again in between, the next read latches
+    it again, as the first did."""
+    emulator = _standing()
+    servo = emulator.bus.servo(1)
+    limit = MX28.TEMPERATURE_LIMIT.value.address
+    for _ in range(2):
+        servo.write(limit, bytes([20]))  # below the room's 35 °C
+        servo.overheated = False  # as the write left it: no read since
+        _answers(emulator)
+        assert servo.overheated
+        servo.write(limit, bytes([80]))
+        servo.overheated = False
