@@ -215,3 +215,33 @@ def test_a_stance_search_starts_at_the_offsets_given_and_refuses_a_count_of_anot
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert err.endswith("--stance takes an offset for each of the 4 pairs (shoulder_pitch, "
                         "hip_pitch, knee, ankle_pitch), not 2")  # fmt: skip
+
+
+def test_a_search_from_a_file_keeps_it_until_a_generation_probes_as_well(tmp_path: Path) -> None:
+    """The start (a file, or offsets given) is probed before the first generation: a search
+    that only gets worse writes the start, not its best worse probe."""
+    start = tmp_path / "start.onnx"
+    copy = train.Search(train.SearchSettings(search="tilt"), seed=0)
+    copy.copy_stand_balance()  # stands 1.0 N·s each way on the full model (test above)
+    train.export_linear(copy, start, {"generations": 0})
+    wild = train.SearchSettings(search="tilt", directions=1, top=1, episodes=2, probe_every=1,
+                                after=0.5, noise=2.0, step=50.0)  # fmt: skip
+    out = tmp_path / "kept.onnx"
+    lines: list[str] = []
+
+    class Log:
+        def write(self, text: str) -> None:
+            lines.extend(t for t in text.splitlines() if t.startswith("probe"))
+
+        def flush(self) -> None: ...
+
+    agent = train.search(wild, seed=0, generations=1, out=out, log=Log(), start=start)
+    assert lines[0].startswith("probe 0: stood forward 1+") and "backward 1+" in lines[0]
+    assert lines[0].endswith("(best so far, written)")
+    assert lines[1].startswith("probe 1: ") and "best" not in lines[1]  # the wild step fell
+    np.testing.assert_array_equal(agent.m, copy.m)
+    import onnx
+
+    made = json.loads({p.key: p.value for p in onnx.load(str(out)).metadata_props}
+                      ["darwin.training"])  # fmt: skip
+    assert made["generations"] == 0 and made["trained_generations"] == 1
