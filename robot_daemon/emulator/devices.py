@@ -68,6 +68,9 @@ _MIN_VOLTAGE_LIMIT = MX28.MIN_VOLTAGE_LIMIT.value.address
 _MAX_VOLTAGE_LIMIT = MX28.MAX_VOLTAGE_LIMIT.value.address
 _TEMPERATURE_LIMIT = MX28.TEMPERATURE_LIMIT.value.address
 _TORQUE_LIMIT_HIGH = MX28.TORQUE_LIMIT.value.high
+_ALARM_SHUTDOWN = MX28.ALARM_SHUTDOWN.value.address
+_GOAL_REGISTER = MX28.GOAL_POSITION.value
+_TORQUE_LIMIT_REGISTER = MX28.TORQUE_LIMIT.value
 _ID = MX28.ID.value.address
 _RETURN_DELAY_TIME = MX28.RETURN_DELAY_TIME.value.address
 _STATUS_RETURN_LEVEL = MX28.STATUS_RETURN_LEVEL.value.address
@@ -83,6 +86,7 @@ _ONE_BYTE = (
     MX28.MIN_VOLTAGE_LIMIT,
     MX28.MAX_VOLTAGE_LIMIT,
     MX28.TEMPERATURE_LIMIT,
+    MX28.ALARM_SHUTDOWN,
     MX28.ID,
     MX28.RETURN_DELAY_TIME,
     MX28.STATUS_RETURN_LEVEL,
@@ -252,20 +256,23 @@ class Servo(Device):
         return self.saturated_s >= OVERLOAD_AFTER_S
 
     def _shutdown_active(self) -> bool:
-        return bool(self.alarm_bits() & self.table[MX28.ALARM_SHUTDOWN])
+        return bool(self.alarm_bits() & self.table.data[_ALARM_SHUTDOWN])
 
     # ---- writes -----------------------------------------------------------------------------
+    # Every goal the daemon sends passes here (20 a tick while it moves). A register is one
+    # object, the table's own: compared by identity, not by the dataclass's field-by-field
+    # ``__eq__`` (Python code, once for each register of the write).
 
     def check_values(self, changes: list) -> int:
         cw, ccw = self.table[MX28.CW_ANGLE_LIMIT], self.table[MX28.CCW_ANGLE_LIMIT]
         for reg, value in changes:
-            if reg == MX28.GOAL_POSITION.reg and (cw or ccw) and not cw <= value <= ccw:
+            if reg is _GOAL_REGISTER and (cw or ccw) and not cw <= value <= ccw:
                 return ErrorBit.ANGLE_LIMIT
         return 0
 
     def after_write(self, changed: list) -> None:
         t = self.table
-        if MX28.TORQUE_LIMIT.reg in changed and t[MX28.TORQUE_LIMIT]:
+        if any(reg is _TORQUE_LIMIT_REGISTER for reg in changed) and t[MX28.TORQUE_LIMIT]:
             # A re-arm: the overload alarm goes if its cause has (else it latches again below).
             self.overload_latched = False
         self._shut_down_if_alarmed()
