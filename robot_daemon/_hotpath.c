@@ -993,6 +993,79 @@ static PyObject *hot_put_row(PyObject *self, PyObject *const *args, Py_ssize_t n
     Py_RETURN_TRUE;
 }
 
+/* imu_lists(gyro_raw, accel_raw, gyro_sign, accel_sign, c, f, pi, a, g): state.imu_lists_py
+ * compiled: the gyro's s·((r − c)·f·pi/180) and the accelerometer's s·((r − c)·a·g) for each
+ * of the three counts r and signs s, one operation per assignment in the Python's order (each
+ * rounded to a double as each Python float operation is, -ffloat-store on i386). Two lists
+ * of three floats; NotImplemented for anything else (the Python's then). */
+static PyObject *hot_imu_lists(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 9) {
+        PyErr_SetString(PyExc_TypeError, "imu_lists takes 9 arguments");
+        return NULL;
+    }
+    const long long big = 1LL << 40;
+    long long raw[2][3], sign[2][3];
+    for (int v = 0; v < 2; v++) {
+        PyObject *r = args[v], *sg = args[2 + v];
+        if (!PyList_CheckExact(r) || PyList_GET_SIZE(r) != 3 || !PyTuple_CheckExact(sg)
+            || PyTuple_GET_SIZE(sg) != 3)
+            Py_RETURN_NOTIMPLEMENTED;
+        for (int k = 0; k < 3; k++) {
+            PyObject *x = PyList_GET_ITEM(r, k), *y = PyTuple_GET_ITEM(sg, k);
+            if (!PyLong_CheckExact(x) || !PyLong_CheckExact(y))
+                Py_RETURN_NOTIMPLEMENTED;
+            raw[v][k] = PyLong_AsLongLong(x);
+            sign[v][k] = PyLong_AsLongLong(y);
+            if (PyErr_Occurred() || raw[v][k] > big || raw[v][k] < -big || sign[v][k] > big
+                || sign[v][k] < -big) {
+                PyErr_Clear();
+                Py_RETURN_NOTIMPLEMENTED;
+            }
+        }
+    }
+    if (!PyLong_CheckExact(args[4]) || !PyFloat_CheckExact(args[5])
+        || !PyFloat_CheckExact(args[6]) || !PyFloat_CheckExact(args[7])
+        || !PyFloat_CheckExact(args[8]))
+        Py_RETURN_NOTIMPLEMENTED;
+    long long c = PyLong_AsLongLong(args[4]);
+    if (PyErr_Occurred() || c > big || c < -big) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    double f = PyFloat_AS_DOUBLE(args[5]), pi = PyFloat_AS_DOUBLE(args[6]);
+    double a = PyFloat_AS_DOUBLE(args[7]), g = PyFloat_AS_DOUBLE(args[8]);
+    PyObject *out[2] = {PyList_New(3), PyList_New(3)};
+    for (int k = 0; k < 3 && out[0] != NULL && out[1] != NULL; k++) {
+        double t = (double)(raw[0][k] - c);
+        t = t * f;
+        t = t * pi;
+        t = t / 180.0;
+        t = (double)sign[0][k] * t;
+        PyList_SET_ITEM(out[0], k, PyFloat_FromDouble(t));
+        double u = (double)(raw[1][k] - c);
+        u = u * a;
+        u = u * g;
+        u = (double)sign[1][k] * u;
+        PyList_SET_ITEM(out[1], k, PyFloat_FromDouble(u));
+    }
+    for (int v = 0; v < 2; v++)
+        for (int k = 0; k < 3 && out[v] != NULL; k++)
+            if (PyList_GET_ITEM(out[v], k) == NULL) {
+                Py_CLEAR(out[v]);
+                break;
+            }
+    if (out[0] == NULL || out[1] == NULL) {
+        Py_XDECREF(out[0]);
+        Py_XDECREF(out[1]);
+        return NULL;
+    }
+    PyObject *res = PyTuple_Pack(2, out[0], out[1]);
+    Py_DECREF(out[0]);
+    Py_DECREF(out[1]);
+    return res;
+}
+
 /* apply_fast(data, fast, position, speed, load, misses, at_position, at_speed, at_load, width):
  * SensorReader._apply_fast's whole-answer case compiled: each servo of ``fast``'s reply
  * (``width`` bytes of little-endian words in ``data``) into the state's integer arrays by its
@@ -1722,6 +1795,8 @@ static PyMethodDef methods[] = {
      "engine/snapshot.take's lists, compiled"},
     {"take_whole", (PyCFunction)(void (*)(void))hot_take_whole, METH_FASTCALL,
      "bulk_receive._take_whole_py compiled"},
+    {"imu_lists", (PyCFunction)(void (*)(void))hot_imu_lists, METH_FASTCALL,
+     "state.imu_lists_py compiled"},
     {"put_row", (PyCFunction)(void (*)(void))hot_put_row, METH_FASTCALL,
      "a[j] = v for each array and value"},
     {"put_ints", (PyCFunction)(void (*)(void))hot_put_ints, METH_FASTCALL,

@@ -60,3 +60,7 @@ def put_ints(
 def put_row(
     arrays: tuple[Any, ...], j: int, values: tuple[Any, ...], /,
 ) -> Any: ...  # True, or NotImplemented
+def imu_lists(
+    gyro_raw: list[int], accel_raw: list[int], gyro_sign: tuple[int, ...],
+    accel_sign: tuple[int, ...], c: int, f: float, pi: float, a: float, g: float, /,
+) -> Any: ...  # (gyro, accel) lists, or NotImplemented

@@ -19,6 +19,7 @@ from robot_daemon.bus.tables import (
     Register,
 )
 from robot_daemon.frames import N_SLOTS
+from robot_daemon.hotpath import compiled as _compiled
 from schemas import units
 
 
@@ -105,11 +106,25 @@ def imu_si(
     """Gyro (rad/s) and accelerometer (m/s²) in robot axes from :func:`imu_raw`'s counts:
     ``units.gyro_raw_to_rad_s`` and ``units.accel_raw_to_ms2`` written out in their own order
     of operations (the same bits; six Python calls a tick fewer)."""
-    c, f, pi = units.IMU_CENTER, 2 * gyro_dps / units.IMU_MAX, math.pi
+    f = 2 * gyro_dps / units.IMU_MAX
+    lists: Any = NotImplemented
+    if _compiled is not None:  # the same bits (tests/unit/test_hotpath.py)
+        lists = _compiled.imu_lists(gyro_raw, accel_raw, _GYRO_SIGN, _ACCEL_SIGN,
+                                    units.IMU_CENTER, f, math.pi, units.ACCEL_G_PER_COUNT,
+                                    units.GRAVITY)
+    gyro, accel = imu_lists_py(gyro_raw, accel_raw, f) if lists is NotImplemented else lists
+    return np.array(gyro), np.array(accel)
+
+
+def imu_lists_py(gyro_raw: list[int], accel_raw: list[int], f: float
+                 ) -> tuple[list[float], list[float]]:
+    """:func:`imu_si`'s arithmetic (``f``: rad/s-per-count before the degrees' π/180), the
+    definition of what ``robot_daemon/_hotpath.c``'s ``imu_lists`` computes."""
+    c, pi = units.IMU_CENTER, math.pi
     a, g = units.ACCEL_G_PER_COUNT, units.GRAVITY
     gyro = [s * ((r - c) * f * pi / 180.0) for r, s in zip(gyro_raw, _GYRO_SIGN, strict=True)]
     accel = [s * ((r - c) * a * g) for r, s in zip(accel_raw, _ACCEL_SIGN, strict=True)]
-    return np.array(gyro), np.array(accel)
+    return gyro, accel
 
 
 # The fields status reports, each one's (offset, size) in the block looked up once: an enum

@@ -682,3 +682,34 @@ def test_put_row_writes_what_numpy_writes(monkeypatch: pytest.MonkeyPatch) -> No
         before = [a.copy() for a in (ints, floats, bools)]
         assert ext.put_row(*args) is NotImplemented
         assert all((a == b).all() for a, b in zip(before, (ints, floats, bools), strict=True))
+
+
+@pytest.mark.parametrize("dps", [500, 1000.0, 250, 333.3])
+def test_imu_lists_give_the_bits_of_the_python(dps: float) -> None:
+    """The frame's IMU in SI units (state.imu_si): imu_lists against imu_lists_py, the same
+    bits over every count of the CM-730's range and beyond, with the robot's axis signs;
+    what it does not take (not lists of three ints, signs not ints, a float count) is the
+    Python's."""
+    from robot_daemon.bus import state
+
+    ext: Any = compiled
+    f = 2 * dps / units.IMU_MAX
+    consts = (units.IMU_CENTER, f, math.pi, units.ACCEL_G_PER_COUNT, units.GRAVITY)
+    rng = random.Random(51)
+    counts = [[r, (r * 7) % 1100 - 20, 1023 - r] for r in range(-20, 1100)]
+    counts += [[rng.randrange(-(2**40), 2**40) for _ in range(3)] for _ in range(500)]
+    for gyro_raw in counts:
+        accel_raw = gyro_raw[::-1]
+        got = ext.imu_lists(gyro_raw, accel_raw, state._GYRO_SIGN, state._ACCEL_SIGN, *consts)
+        want = state.imu_lists_py(gyro_raw, accel_raw, f)
+        assert _bits(list(got)) == _bits(list(want))
+        signs = (1, -1, -1)
+        got = ext.imu_lists(gyro_raw, accel_raw, signs, signs, *consts)
+        assert got is not NotImplemented
+    ok = ([1, 2, 3], [4, 5, 6], (1, 1, 1), (1, 1, 1), *consts)
+    for at, odd in ((0, (1, 2, 3)), (0, [1, 2]), (0, [1, 2, 3.0]), (1, [4, 5, 2**41]),
+                    (2, [1, 1, 1]), (2, (1, 1, 1.0)), (3, (1, 1)), (4, 512.0), (5, 1),
+                    (8, 9)):
+        args = list(ok)
+        args[at] = odd
+        assert ext.imu_lists(*args) is NotImplemented
