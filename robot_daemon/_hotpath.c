@@ -1066,6 +1066,100 @@ static PyObject *hot_imu_lists(PyObject *self, PyObject *const *args, Py_ssize_t
     return res;
 }
 
+/* imu_arrays(block, need, gyro_at, accel_at, gyro_sign, accel_sign, c, f, pi, a, g,
+ *            gyro_raw, accel_raw, gyro, accel):
+ * the frame's IMU straight into its four arrays (state.imu_arrays_py: imu_raw, imu_si and
+ * np.array of the counts): each axis's little-endian word at its byte offset in ``block``
+ * (bytes of at least ``need``) into the int arrays, and imu_lists' arithmetic of them into the
+ * double arrays (three each, writable). True, or NotImplemented, nothing written, for anything
+ * else (the Python's then). */
+static PyObject *hot_imu_arrays(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 15) {
+        PyErr_SetString(PyExc_TypeError, "imu_arrays takes 15 arguments");
+        return NULL;
+    }
+    PyObject *block = args[0];
+    if (!PyBytes_CheckExact(block) || !PyLong_CheckExact(args[1]))
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_ssize_t need = PyLong_AsSsize_t(args[1]), have = PyBytes_GET_SIZE(block);
+    if (need < 0 || have < need) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    const unsigned char *b = (const unsigned char *)PyBytes_AS_STRING(block);
+    PyObject *lists[2] = {NULL, NULL};
+    for (int v = 0; v < 2; v++) {
+        PyObject *at = args[2 + v];
+        if (!PyTuple_CheckExact(at) || PyTuple_GET_SIZE(at) != 3)
+            goto refuse;
+        lists[v] = PyList_New(3);
+        if (lists[v] == NULL)
+            goto fail;
+        for (int k = 0; k < 3; k++) {
+            PyObject *o = PyTuple_GET_ITEM(at, k);
+            Py_ssize_t off = PyLong_CheckExact(o) ? PyLong_AsSsize_t(o) : -1;
+            if (off < 0 || off + 2 > need) {
+                PyErr_Clear();
+                goto refuse;
+            }
+            PyObject *w = PyLong_FromLong(b[off] | (b[off + 1] << 8));
+            if (w == NULL)
+                goto fail;
+            PyList_SET_ITEM(lists[v], k, w);
+        }
+    }
+    PyObject *largs[9] = {lists[0], lists[1], args[4], args[5], args[6], args[7], args[8],
+                          args[9], args[10]};
+    PyObject *si = hot_imu_lists(self, largs, 9);
+    if (si == NULL)
+        goto fail;
+    if (si == Py_NotImplemented) {
+        Py_DECREF(si);
+        goto refuse;
+    }
+    Py_buffer view[4];
+    static const char kinds[4] = {'i', 'i', 'd', 'd'};
+    int got = 0, ok = 1;
+    for (; got < 4; got++) {
+        if (array_view(args[11 + got], &view[got], kinds[got], 1) < 0) {
+            ok = 0;
+            break;
+        }
+        if (view[got].ndim != 1 || view[got].shape[0] != 3) {
+            got++; /* held: released below */
+            ok = 0;
+            break;
+        }
+    }
+    if (ok) {
+        for (int k = 0; k < 3; k++) {
+            set_int(&view[0], k, PyLong_AsLongLong(PyList_GET_ITEM(lists[0], k)));
+            set_int(&view[1], k, PyLong_AsLongLong(PyList_GET_ITEM(lists[1], k)));
+            ((double *)view[2].buf)[k] = PyFloat_AS_DOUBLE(
+                PyList_GET_ITEM(PyTuple_GET_ITEM(si, 0), k));
+            ((double *)view[3].buf)[k] = PyFloat_AS_DOUBLE(
+                PyList_GET_ITEM(PyTuple_GET_ITEM(si, 1), k));
+        }
+    }
+    for (int k = 0; k < got; k++)
+        PyBuffer_Release(&view[k]);
+    Py_DECREF(si);
+    Py_DECREF(lists[0]);
+    Py_DECREF(lists[1]);
+    if (!ok)
+        Py_RETURN_NOTIMPLEMENTED;
+    Py_RETURN_TRUE;
+refuse:
+    Py_XDECREF(lists[0]);
+    Py_XDECREF(lists[1]);
+    Py_RETURN_NOTIMPLEMENTED;
+fail:
+    Py_XDECREF(lists[0]);
+    Py_XDECREF(lists[1]);
+    return NULL;
+}
+
 /* apply_fast(data, fast, position, speed, load, misses, at_position, at_speed, at_load, width):
  * SensorReader._apply_fast's whole-answer case compiled: each servo of ``fast``'s reply
  * (``width`` bytes of little-endian words in ``data``) into the state's integer arrays by its
@@ -1795,6 +1889,8 @@ static PyMethodDef methods[] = {
      "engine/snapshot.take's lists, compiled"},
     {"take_whole", (PyCFunction)(void (*)(void))hot_take_whole, METH_FASTCALL,
      "bulk_receive._take_whole_py compiled"},
+    {"imu_arrays", (PyCFunction)(void (*)(void))hot_imu_arrays, METH_FASTCALL,
+     "state.imu_arrays_py compiled"},
     {"imu_lists", (PyCFunction)(void (*)(void))hot_imu_lists, METH_FASTCALL,
      "state.imu_lists_py compiled"},
     {"put_row", (PyCFunction)(void (*)(void))hot_put_row, METH_FASTCALL,

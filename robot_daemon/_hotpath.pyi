@@ -64,3 +64,8 @@ def imu_lists(
     gyro_raw: list[int], accel_raw: list[int], gyro_sign: tuple[int, ...],
     accel_sign: tuple[int, ...], c: int, f: float, pi: float, a: float, g: float, /,
 ) -> Any: ...  # (gyro, accel) lists, or NotImplemented
+def imu_arrays(
+    block: bytes, need: int, gyro_at: tuple[int, ...], accel_at: tuple[int, ...],
+    gyro_sign: tuple[int, ...], accel_sign: tuple[int, ...], c: int, f: float, pi: float,
+    a: float, g: float, gyro_raw: Any, accel_raw: Any, gyro: Any, accel: Any, /,
+) -> Any: ...  # True, or NotImplemented

@@ -27,7 +27,13 @@ from robot_daemon.bus.preflight import firmware_refusal
 from robot_daemon.bus.scan import Identity, identify, identity_warnings, shared_id
 from robot_daemon.bus.sensor_read import PROTECT_BITS, SLOW_LENGTH, SLOW_START, SensorReader
 from robot_daemon.bus.servo_ram import FULL_TORQUE, reset_servo_ram
-from robot_daemon.bus.state import BusCounters, ServoState, cm730_status, imu_raw, imu_si
+from robot_daemon.bus.state import (
+    BusCounters,
+    ServoState,
+    cm730_status,
+    imu_arrays,
+    imu_raw,
+)
 from robot_daemon.bus.tables import (
     CM730,
     CM730_BULK_LENGTH,
@@ -504,8 +510,7 @@ class RobotBus:
         # Whole arrays at once, handed to the frame as made (slot 0 is unused and stays
         # meaningless): this runs every tick.
         cal = self.calibration
-        gyro_raw, accel_raw = self.imu_raw()
-        gyro, accel = imu_si(gyro_raw, accel_raw, self.gyro_dps)
+        gyro_raw, accel_raw, gyro, accel = imu_arrays(self.cm730, self.gyro_dps)
         position, velocity, load = cal.joint_arrays(st.position, st.speed, st.load)
         return JointFrame(
             tick=tick,
@@ -520,8 +525,8 @@ class RobotBus:
             torque_enabled=st.torque.copy(),
             gyro=gyro,
             accel=accel,
-            gyro_raw=np.array(gyro_raw),
-            accel_raw=np.array(accel_raw),
+            gyro_raw=gyro_raw,
+            accel_raw=accel_raw,
             imu_valid=self.cm730_valid,
             gyro_centre=_AT_REST,
         )

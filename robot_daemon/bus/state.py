@@ -100,6 +100,36 @@ def imu_raw(block: bytes) -> tuple[list[int], list[int]]:
     return list(_GYRO_PICK(words)), list(_ACCEL_PICK(words))
 
 
+_IMU_NEED = _IMU_FIRST + _IMU_WORDS.size  # imu_raw's unpack reads this much of the block
+# Each axis's word's byte offset in the block, as imu_raw picks them out of its unpack.
+_GYRO_BYTES = tuple(_IMU_FIRST + 2 * i for i in _GYRO_PICK(range(_IMU_WORDS.size // 2)))
+_ACCEL_BYTES = tuple(_IMU_FIRST + 2 * i for i in _ACCEL_PICK(range(_IMU_WORDS.size // 2)))
+
+
+def imu_arrays(
+    block: bytes, gyro_dps: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The frame's IMU arrays: gyro and accelerometer counts and SI values in robot axes
+    (x, y, z), by one compiled call into four arrays made empty where it is built (the same
+    values, tests/unit/test_hotpath.py), else :func:`imu_arrays_py`, their definition."""
+    if _compiled is not None and block:
+        out = (np.empty(3, int), np.empty(3, int), np.empty(3), np.empty(3))
+        if _compiled.imu_arrays(block, _IMU_NEED, _GYRO_BYTES, _ACCEL_BYTES, _GYRO_SIGN,
+                                _ACCEL_SIGN, units.IMU_CENTER, 2 * gyro_dps / units.IMU_MAX,
+                                math.pi, units.ACCEL_G_PER_COUNT, units.GRAVITY, *out) is True:
+            return out
+    return imu_arrays_py(block, gyro_dps)
+
+
+def imu_arrays_py(
+    block: bytes, gyro_dps: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`imu_arrays`' definition: :func:`imu_raw`'s counts and :func:`imu_si`'s values."""
+    gyro_raw, accel_raw = imu_raw(block)
+    gyro, accel = imu_si(gyro_raw, accel_raw, gyro_dps)
+    return np.array(gyro_raw), np.array(accel_raw), gyro, accel
+
+
 def imu_si(
     gyro_raw: list[int], accel_raw: list[int], gyro_dps: float
 ) -> tuple[np.ndarray, np.ndarray]:

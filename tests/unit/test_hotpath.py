@@ -713,3 +713,42 @@ def test_imu_lists_give_the_bits_of_the_python(dps: float) -> None:
         args = list(ok)
         args[at] = odd
         assert ext.imu_lists(*args) is NotImplemented
+
+
+@pytest.mark.parametrize("dps", [500, 2000.0])
+def test_imu_arrays_are_the_python_s(dps: float) -> None:
+    """The frame's four IMU arrays (state.imu_arrays) compiled and as imu_raw, imu_si and
+    np.array make them (imu_arrays_py): the same dtypes and bits from random CM-730 blocks and
+    every count; a block too short is refused as the Python's struct refuses it, an empty one
+    is the centre; arrays or offsets it does not take leave everything to the Python."""
+    import numpy as np
+
+    from robot_daemon.bus import state
+
+    ext: Any = compiled
+    rng = random.Random(52)
+    blocks = [rng.randbytes(rng.randrange(state._IMU_NEED, 40)) for _ in range(3_000)]
+    blocks += [bytes([v & 0xFF, v >> 8] * 20) for v in range(0, 65536, 97)]
+    for block in [*blocks, b""]:
+        got, want = state.imu_arrays(block, dps), state.imu_arrays_py(block, dps)
+        assert [a.dtype for a in got] == [a.dtype for a in want]
+        assert _bits([a.tolist() for a in got]) == _bits([a.tolist() for a in want])
+    with pytest.raises(struct.error):
+        state.imu_arrays(bytes(state._IMU_NEED - 1), dps)
+    out = [np.zeros(3, int), np.zeros(3, int), np.zeros(3), np.zeros(3)]
+    consts = (state._GYRO_SIGN, state._ACCEL_SIGN, units.IMU_CENTER, 1.0, math.pi,
+              units.ACCEL_G_PER_COUNT, units.GRAVITY)
+    ok = [bytes(30), 26, state._GYRO_BYTES, state._ACCEL_BYTES, *consts, *out]
+    assert ext.imu_arrays(*ok) is True
+    read_only = np.zeros(3)
+    read_only.flags.writeable = False
+    for at, odd in ((0, bytearray(30)), (1, 31), (1, -1), (2, (14, 16, 29)), (2, (14, 16)),
+                    (2, (14, 16, -1)), (3, [20, 22, 24]), (11, np.zeros(3)),
+                    (12, np.zeros(4, int)), (13, np.zeros(3, np.float32)), (14, read_only),
+                    (14, np.zeros((1, 3))), (6, 512.0)):
+        args = list(ok)
+        args[at] = odd
+        for a in out:
+            a[:] = 7
+        assert ext.imu_arrays(*args) is NotImplemented
+        assert all((a == 7).all() for a in out)
