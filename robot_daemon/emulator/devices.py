@@ -97,12 +97,8 @@ _ONE_BYTE = (
 assert all(r.value.size == 2 for r in (*_TWO_BYTES, MX28.TORQUE_LIMIT))
 assert all(r.value.size == 1 for r in _ONE_BYTE)
 
-# The CM-730's registers its refresh writes in place: gyro x, y, z then accelerometer x, y, z,
-# as the IMU's axes map onto them.
+# The CM-730's registers its refresh writes in place (the IMU's are two bytes each).
 _CM730_VOLTAGE = CM730.VOLTAGE.value.address
-_IMU_ADDRESSES = tuple(m.value.address for m, _ in (*IMU_GYRO_AXES, *IMU_ACCEL_AXES))
-_GYRO_SIGNS = tuple(sign for _, sign in IMU_GYRO_AXES)
-_ACCEL_SIGNS = tuple(sign for _, sign in IMU_ACCEL_AXES)
 assert CM730.VOLTAGE.value.size == 1
 assert all(m.value.size == 2 for m, _ in (*IMU_GYRO_AXES, *IMU_ACCEL_AXES))
 # The overheating alarm, once raised, lasts until the servo is this much below its limit.
@@ -451,18 +447,26 @@ class CM730Device(Device):
         # Before every read of the CM-730 (each bulk read, 125 a second): the bytes in place.
         d = self.table.data
         d[_CM730_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
+        # The axis map is read here, each time (a test flips its signs to see the balance
+        # feedback throw the robot over): members' registers by ``_value_``, not the enum's
+        # ``value`` property, Python code each time.
         full_scale = self.gyro_full_scale_dps
-        gx, gy, gz = (units.rad_s_to_gyro_raw(s * v, full_scale) for s, v in zip(
-            _GYRO_SIGNS, self.gyro, strict=True))  # fmt: skip
-        ax, ay, az = (units.ms2_to_accel_raw(s * v) for s, v in zip(
-            _ACCEL_SIGNS, self.accel, strict=True))  # fmt: skip
-        raws: list[float] = [gx, gy, gz, ax, ay, az]
+        axes = (*IMU_GYRO_AXES, *IMU_ACCEL_AXES)
+        raws: list[float] = [
+            units.rad_s_to_gyro_raw(s * v, full_scale)
+            for (_, s), v in zip(IMU_GYRO_AXES, self.gyro, strict=True)
+        ]
+        raws += [
+            units.ms2_to_accel_raw(s * v)
+            for (_, s), v in zip(IMU_ACCEL_AXES, self.accel, strict=True)
+        ]
         if self.imu_noise > 0:
             # One draw of six: the generator gives the same numbers as six draws of one.
             noise = self.rng.normal(0.0, self.imu_noise, 6).tolist()
             raws = [r + n for r, n in zip(raws, noise, strict=True)]
         top = units.IMU_MAX
-        for address, raw in zip(_IMU_ADDRESSES, raws, strict=True):
+        for (member, _), raw in zip(axes, raws, strict=True):
+            address = member._value_.address
             value = max(0, min(top, round(raw)))
             d[address] = value & 0xFF
             d[address + 1] = (value >> 8) & 0xFF
