@@ -39,7 +39,7 @@ def _build(dxl_id: int, code: int, params: bytes | Iterable[int]) -> bytes:
     if n > MAX_LENGTH - MIN_LENGTH:
         raise ValueError(f"{n} parameter bytes do not fit one packet (at most {MAX_LENGTH - 2})")
     body = bytes((dxl_id, n + 2, code & 0xFF)) + params
-    return HEADER + body + bytes((~sum(body) & 0xFF,))  # checksum(body), without the call
+    return HEADER + body + bytes((checksum(body),))
 
 
 def instruction_packet(dxl_id: int, instruction: int, params: bytes | Iterable[int] = b"") -> bytes:

@@ -22,20 +22,26 @@ def taken() -> Iterator[int]:
         yield int(s.getsockname()[1])
 
 
-def test_a_port_taken_before_the_daemon_listens_is_chosen_again(
-    taken: int, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    chosen = iter([taken])
-    monkeypatch.setattr(system_fixture, "free_tcp_port", lambda: next(chosen, free_tcp_port()))
-    started: list[int] = []
+@pytest.fixture
+def started(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """The pids of every `darwin up` the fixture starts."""
+    pids: list[int] = []
     spawn = system_fixture.spawn_darwin
 
     def spawn_and_note(*args: str, **kwargs: object) -> object:
         proc = spawn(*args, **kwargs)  # type: ignore[arg-type]
-        started.append(proc.pid)
+        pids.append(proc.pid)
         return proc
 
     monkeypatch.setattr(system_fixture, "spawn_darwin", spawn_and_note)
+    return pids
+
+
+def test_a_port_taken_before_the_daemon_listens_is_chosen_again(
+    taken: int, started: list[int], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    chosen = iter([taken])
+    monkeypatch.setattr(system_fixture, "free_tcp_port", lambda: next(chosen, free_tcp_port()))
     with system_fixture.start_system(gateway=False) as running:
         assert not running.endpoint.endswith(f":{taken}")
         with running.robot_client(name="fixture test") as robot:
@@ -44,16 +50,7 @@ def test_a_port_taken_before_the_daemon_listens_is_chosen_again(
     assert not any(map(alive, started))
 
 
-def test_any_other_failure_at_start_is_not_tried_again(monkeypatch: pytest.MonkeyPatch) -> None:
-    started: list[int] = []
-    spawn = system_fixture.spawn_darwin
-
-    def spawn_and_note(*args: str, **kwargs: object) -> object:
-        proc = spawn(*args, **kwargs)  # type: ignore[arg-type]
-        started.append(proc.pid)
-        return proc
-
-    monkeypatch.setattr(system_fixture, "spawn_darwin", spawn_and_note)
+def test_any_other_failure_at_start_is_not_tried_again(started: list[int]) -> None:
     bad_config = ["--config", "/nonexistent"]
     with (
         pytest.raises(RuntimeError, match="exited with"),
