@@ -120,6 +120,9 @@ class PolicyModule(MotionModule):
         self._seq = -1
         self._tokens = 0.0
         self._token_at = 0.0
+        # The newest observation published, and the newest one an accepted action answered.
+        self._published_tick = 0
+        self._answered_tick = 0
 
     def attach(self, manager: Any) -> None:
         super().attach(manager)
@@ -135,6 +138,7 @@ class PolicyModule(MotionModule):
             self.client, self.rate_hz, self.mode, self.scale = client, rate_hz, mode, scale
             self._tokens = float(self.settings.burst)
             self._token_at = self.clock()
+            self._answered_tick = self._published_tick
             self._mail = None
         frame = self.manager.last_frame if self.manager else None
         # Observations of later ticks are published after this start (they say `running`).
@@ -161,6 +165,18 @@ class PolicyModule(MotionModule):
                 key, why = "bad_mac", "the action's mac does not match the stream key"
             elif action.seq <= self._seq:
                 key, why = "old_seq", f"seq {action.seq} is not after {self._seq} (replayed?)"
+            elif 0 < action.obs_tick <= self._published_tick:
+                # It answers an observation: paced by them, one action each. Not by when it
+                # arrives: a loaded machine delivers actions sent 20 ms apart in bunches.
+                if action.obs_tick <= self._answered_tick:
+                    key = "too_fast"
+                    why = (
+                        f"too fast: observation {action.obs_tick} was answered already (one "
+                        f"action per observation, {self.rate_hz:g} Hz)"
+                    )
+                else:
+                    self._answered_tick = action.obs_tick
+                    return self._accept(action, now)
             else:
                 rate = self.rate_hz * 1.25
                 self._tokens = min(
@@ -171,13 +187,16 @@ class PolicyModule(MotionModule):
                     key, why = "too_fast", f"too fast: the stream runs at {self.rate_hz:g} Hz"
                 else:
                     self._tokens -= 1.0
-                    self._seq = action.seq
-                    if self._mail is not None:
-                        self.counts["overruns"] += 1  # the one before it was never applied
-                    self._mail = (action, now)
-                    return ""
+                    return self._accept(action, now)
             self.refused[key] = self.refused.get(key, 0) + 1
             return why
+
+    def _accept(self, action: PolicyAction, now: float) -> str:
+        self._seq = action.seq
+        if self._mail is not None:
+            self.counts["overruns"] += 1  # the one before it was never applied
+        self._mail = (action, now)
+        return ""
 
     def set_command(self, x: float, y: float, turn: float) -> None:
         self.command = [float(x), float(y), float(turn)]
@@ -201,6 +220,7 @@ class PolicyModule(MotionModule):
             return
         pos = (frame.position[IDX] - self.default).tolist()
         self._obs_stamps.append((frame.tick, frame.time))
+        self._published_tick = frame.tick
         self.sink(
             "obs",
             PolicyObservation(

@@ -187,6 +187,32 @@ def test_refusals_name_the_reason() -> None:
     assert set(rig.policy.refused) == {"no_stream", "not_holder", "bad_mac", "old_seq", "too_fast"}
 
 
+def test_actions_answering_observations_are_paced_by_them_not_by_when_they_arrive() -> None:
+    rig = Rig(burst=1)
+    zero = [0.0] * 20
+    key = rig.start()
+    rig.step(20)
+    ticks = [m.tick for t, m in rig.sent if t == "obs"][-5:]  # type: ignore[attr-defined]
+    assert len(ticks) == 5 and len(set(ticks)) == 5
+    # Sent as each observation came, delivered at one instant (a loaded machine bunches
+    # them): each answers an observation of its own, so none is too fast; the newest
+    # overtakes the others in the mailbox (counted).
+    for seq, tick in enumerate(ticks, 1):
+        assert rig.policy.offer(PolicyAction.signed("me", key, seq, zero, tick)) == ""
+    assert rig.policy.counts["overruns"] == 4
+    # A second answer to an observation is too fast, and so is one to an older observation.
+    for seq, tick in ((6, ticks[-1]), (7, ticks[0])):
+        why = rig.policy.offer(PolicyAction.signed("me", key, seq, zero, tick))
+        assert "too fast" in why and "answered already" in why
+    # A tick no observation had is paced by the rate and `burst` (1): the second at the same
+    # instant is too fast.
+    future = ticks[-1] + 1000
+    assert rig.policy.offer(PolicyAction.signed("me", key, 8, zero, future)) == ""
+    assert "too fast" in rig.policy.offer(PolicyAction.signed("me", key, 9, zero, future + 1))
+    rig.step()
+    assert rig.applied()[-1].seq == 8
+
+
 def test_silence_holds_then_damps_then_safe_stops() -> None:
     rig = Rig(damp_after=0.1, silence_timeout=0.3)
     key = rig.start()
