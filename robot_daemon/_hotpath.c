@@ -306,7 +306,8 @@ static PyObject *hot_goals_raw(PyObject *self, PyObject *const *args, Py_ssize_t
 /* -- msgpack of the joints and IMU messages (schemas/packed.py's Prepacked) ------------------ */
 
 /* The bytes msgpack-python's Packer(use_bin_type=True) gives for None, bool, int, float, str,
- * bytes and lists or tuples of them; anything else (a subclass included) is left to msgpack. */
+ * bytes and lists, tuples or dicts of them; anything else (a subclass included) is left to
+ * msgpack. */
 
 typedef struct {
     char *buf;
@@ -453,7 +454,58 @@ static int pack_obj(Out *o, PyObject *v, int depth)
         }
         return 0;
     }
+    if (PyDict_CheckExact(v)) {
+        /* msgpack's map: the header's smallest form, then each key and its value in the
+         * dict's order (msgpack walks it with PyDict_Next too). Packing runs no Python code,
+         * so nothing changes the dict meanwhile. */
+        if (depth > 8)
+            return 1;
+        Py_ssize_t n = PyDict_GET_SIZE(v);
+        int r;
+        if (n < 16) {
+            char h = (char)(0x80 | n);
+            r = out_write(o, &h, 1);
+        }
+        else if (n < 65536)
+            r = out_be(o, 0xde, (unsigned long long)n, 2);
+        else if (n <= 0xFFFFFFFFLL)
+            r = out_be(o, 0xdf, (unsigned long long)n, 4);
+        else
+            return 1;
+        if (r < 0)
+            return -1;
+        Py_ssize_t pos = 0;
+        PyObject *key, *value;
+        while (PyDict_Next(v, &pos, &key, &value)) {
+            r = pack_obj(o, key, depth + 1);
+            if (r == 0)
+                r = pack_obj(o, value, depth + 1);
+            if (r != 0)
+                return r;
+        }
+        return 0;
+    }
     return 1;
+}
+
+/* packb(obj): msgpack's bytes of obj (Packer(use_bin_type=True).pack) for what pack_obj packs
+ * (None, bools, floats, ints of 64 bits, str, bytes, lists, tuples and dicts of those, nine
+ * deep); NotImplemented for anything else, which msgpack packs. */
+static PyObject *hot_packb(PyObject *self, PyObject *obj)
+{
+    Out o = {NULL, 0, 0};
+    int r = out_reserve(&o, 4096);
+    if (r == 0)
+        r = pack_obj(&o, obj, 0);
+    PyObject *result = NULL;
+    if (r == 0)
+        result = PyBytes_FromStringAndSize(o.buf, o.len);
+    else if (r == 1) {
+        result = Py_NotImplemented;
+        Py_INCREF(result);
+    }
+    PyMem_Free(o.buf);
+    return result;
 }
 
 /* pack_fields(head, keys, values, tail): head, then each key's packed bytes followed by its
@@ -1907,6 +1959,8 @@ static PyMethodDef methods[] = {
      "the conversion of Calibration.positions_list, compiled"},
     {"pack_fields", (PyCFunction)(void (*)(void))hot_pack_fields, METH_FASTCALL,
      "msgpack of a message's changing fields between its packed fixed bytes"},
+    {"packb", hot_packb, METH_O,
+     "msgpack's bytes of a message's dict (status, events), or NotImplemented"},
     {"configure_leg", hot_configure_leg, METH_VARARGS,
      "configure_leg(ankle, leg, thigh**2, calf**2, 2*thigh*calf, calf, thigh, pi, tau, "
      "fallback): the leg's lengths as the Python IK computes with them"},

@@ -16,6 +16,7 @@ def goals_raw(
 def pack_fields(
     head: bytes, keys: tuple[bytes, ...], values: list[Any], tail: bytes, /,
 ) -> Any: ...  # bytes, or NotImplemented
+def packb(obj: Any, /) -> Any: ...  # bytes, or NotImplemented
 def positions_list(
     raw: list[int], sign: list[float], offset: list[float], k: float, c: int, /,
 ) -> Any: ...  # list[float], or NotImplemented

@@ -19,7 +19,7 @@ EXPORTS = (
     "configure_leg", "leg_ik_end_point", "goals_raw", "pack_fields", "positions_list",
     "leg_servo_angles", "take_whole", "apply_fast", "joint_arrays", "configure_walk",
     "walk_pose", "snapshot_lists", "configure_arrays", "take_run", "put_ints", "put_row",
-    "imu_lists", "imu_arrays",
+    "imu_lists", "imu_arrays", "packb",
 )  # fmt: skip
 
 

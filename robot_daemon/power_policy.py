@@ -91,6 +91,11 @@ class Graded:
                 level += 1
         return level
 
+    @property
+    def pending(self) -> int:
+        """The level the value last asked for (the level itself unless one is being held)."""
+        return self._want
+
     def update(self, value: float, now: float) -> int | None:
         """The new level when it changes now, else None."""
         want = self._target(value)
@@ -122,6 +127,7 @@ class PowerPolicy:
         }
         self.voltage = 0.0
         self.temps: dict[int, float] = {}
+        self._heat_quiet = True  # every servo at level 0 with no other level pending
 
     def update(
         self, voltage: float, temps: dict[int, float], now: float
@@ -134,6 +140,11 @@ class PowerPolicy:
                 name = LEVELS[new]
                 out.append(("power", name, f"battery {voltage:.1f} V: {name}", {"volts": voltage}))
         if self.heat_settings.enabled:
+            # A quiet robot below warn everywhere: nothing can change (each servo's update
+            # would find level 0 asked for at level 0), so one max() instead of twenty
+            # updates, ~0.1 M instructions a status message on the robot's Python.
+            if self._heat_quiet and (not temps or max(temps.values()) < self.heat_settings.warn_c):
+                return out
             for j, celsius in temps.items():
                 graded = self.servos.get(j)
                 new = graded.update(celsius, now) if graded is not None else None
@@ -148,6 +159,7 @@ class PowerPolicy:
                             {"id": j, "name": joint, "celsius": celsius},
                         )
                     )
+            self._heat_quiet = all(g.level == 0 and g.pending == 0 for g in self.servos.values())
         return out
 
     @property

@@ -151,6 +151,12 @@ class Daemon:
         self.status_sources: StatusSources | None = None
         self._sampled_at = time.time()
         self._stop = threading.Event()
+        # Held until stop() lets it go: the loop paces itself by waiting for it (one C call; an
+        # Event's wait is a Condition's, in Python: ~15 k instructions a tick on the robot's
+        # Python, docs/loop-cpu.md).
+        self._stop_gate = threading.Lock()
+        self._stop_gate.acquire()
+        self._stop_lock = threading.Lock()  # stop() from two threads releases the gate once
         self._stop_by: float | None = None  # after stop(): the walk's last step ends by then
         self._wake = threading.Event()  # a command arrived (the port-lost wait ends at once)
         self._safe_stop = threading.Event()
@@ -262,7 +268,10 @@ class Daemon:
         self._set_state(DaemonState.RUNNING if healthy else DaemonState.DEGRADED)
 
     def stop(self) -> None:
-        self._stop.set()
+        with self._stop_lock:
+            if not self._stop.is_set():
+                self._stop.set()
+                self._stop_gate.release()
         self._wake.set()
 
     def close(self) -> None:
@@ -383,8 +392,8 @@ class Daemon:
             delay = max(0.0, next_deadline - time.monotonic())
             if self._stop.is_set():
                 time.sleep(delay)  # the walk's last step, paced as every tick
-            else:
-                self._stop.wait(delay)
+            elif self._stop_gate.acquire(timeout=delay):
+                self._stop_gate.release()  # stopped: left free for whoever waits next
 
     def _ticking(self) -> bool:
         """Whether the loop ticks on: until :meth:`stop`, and after it while a walk ends its

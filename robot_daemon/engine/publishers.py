@@ -21,9 +21,10 @@ from typing import Any
 
 import zenoh
 
+from robot_daemon.engine.broadcast import as_payload
 from schemas import qos
 from schemas.keys import Keys
-from schemas.messages import Event, Message, encode
+from schemas.messages import Event, Message
 
 log = logging.getLogger(__name__)
 
@@ -151,7 +152,7 @@ class Publishers:
 
     def _put(self, topic: str, msg: Message) -> None:
         try:
-            self._pubs[topic].put(encode(msg))
+            self._pubs[topic].put(as_payload(msg))
         except Exception:  # a closed session at shutdown, a value msgpack refuses
             log.exception("publishing %s failed", topic)
 

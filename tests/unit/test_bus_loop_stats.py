@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import random
+
 import pytest
 
 from robot_daemon.engine.loop_stats import LoopStats
@@ -56,3 +58,45 @@ def test_sustained_overruns_raise_the_alarm_once_and_a_clean_window_clears_it() 
     window(0)
     assert not stats.summary()["overloaded"]
     assert [k for k, _ in events] == ["loop_overloaded", "loop_recovered"]
+
+
+def _sorted_pct(values: list[float], q: float) -> float:
+    """The definition: the q-th percentile (nearest rank) of the values sorted, in ms."""
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, round(q / 100.0 * (len(ordered) - 1)))] * 1000.0
+
+
+@pytest.mark.parametrize("ticks", [1, 2, 7, 99, 100, 101, 250, 1234])
+def test_percentiles_are_those_of_the_sorted_window(ticks: int) -> None:
+    # The window is a ring picked by numpy's partition: the same values as sorting the last
+    # `window` of each series, before the ring is full, when it just wrapped and long after;
+    # ties and a reset period (no period for that tick) included.
+    rng = random.Random(ticks)
+    stats = LoopStats(0.008, window=100)
+    periods: list[float] = []
+    bus: list[float] = []
+    work: list[float] = []
+    t, last = 0.0, None
+    for i in range(ticks):
+        if i == ticks // 2:
+            stats.reset_period()
+            last = None
+        b, w = rng.choice([0.002, rng.random() * 0.01]), rng.random() * 0.02
+        stats.tick(t, b, w)
+        if last is not None:
+            periods.append(t - last)
+        last = t
+        bus.append(b)
+        work.append(w)
+        t += 0.008 + rng.choice([0.0, rng.random() * 0.01])
+    s = stats.summary()
+    p, b100, w100 = periods[-100:], bus[-100:], work[-100:]
+    want = {
+        "period_p50_ms": _sorted_pct(p, 50) if p else 0.0,
+        "period_p99_ms": _sorted_pct(p, 99) if p else 0.0,
+        "period_max_ms": max(p) * 1000.0 if p else 0.0,
+        "bus_p50_ms": _sorted_pct(b100, 50),
+        "bus_p99_ms": _sorted_pct(b100, 99),
+        "work_p99_ms": _sorted_pct(w100, 99),
+    }
+    assert {k: s[k] for k in want} == want  # the same floats, not approximately

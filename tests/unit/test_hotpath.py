@@ -163,7 +163,7 @@ def test_a_walk_gives_the_same_goals_and_servo_units_either_way() -> None:
     assert runs[0][3:] == runs[1][3:]
 
 
-def _value(rng: random.Random, depth: int = 0) -> Any:
+def _value(rng: random.Random, depth: int = 0, dicts: bool = False) -> Any:
     kind = rng.randrange(9 if depth < 3 else 7)
     if kind == 0:
         return rng.choice([None, True, False])
@@ -187,6 +187,10 @@ def _value(rng: random.Random, depth: int = 0) -> Any:
     else:
         n = rng.choice([0, 2, 3, 16])
         items = [_value(rng, depth + 1) for _ in range(n)]
+    if dicts and rng.random() < 0.4:  # a map: its header's forms' edges, keys of any kind
+        n = rng.choice([0, 1, 15, 16, 17]) if depth or rng.random() < 0.9 else 65536
+        keys = [rng.choice([f"k{i}", i, -i, float(i) + 0.5, b"k%d" % i, None]) for i in range(n)]
+        return {k: _value(rng, depth + 1, dicts) for k in keys}
     return items[:n] if kind == 7 else tuple(items[:n])
 
 
@@ -204,8 +208,56 @@ def test_pack_fields_gives_msgpacks_bytes() -> None:
         values = [_value(rng) for _ in range(n)]
         want = b"H" + b"".join(k + pack(v) for k, v in zip(keys, values, strict=True)) + b"T"
         assert compiled.pack_fields(b"H", keys, values, b"T") == want  # type: ignore[union-attr]
-    for other in (2**63, 2**64 - 1, 2**70, 1.5j, {"a": 1}, [1, [2, {3}]], "\ud800"):
+    for other in (2**63, 2**64 - 1, 2**70, 1.5j, [1, [2, {3}]], {"a": {1, 2}}, "\ud800"):
         assert compiled.pack_fields(b"", (b"k",), [other], b"") is NotImplemented  # type: ignore[union-attr]
+
+
+class _Str(str):
+    pass
+
+
+def test_packb_gives_msgpacks_bytes() -> None:
+    """packb (status and events through the publisher, broadcast.as_payload): msgpack's bytes
+    for every form pack_fields packs plus maps (their header forms' edges, keys of any kind,
+    nested); NotImplemented, for msgpack to pack, for what it leaves."""
+    import msgpack
+
+    pack = msgpack.Packer(use_bin_type=True).pack
+    rng = random.Random(37)
+    for _ in range(2000):
+        value = {f"f{i}": _value(rng, 1, dicts=True) for i in range(rng.randrange(0, 20))}
+        if rng.random() < 0.2:
+            value = _value(rng, 0, dicts=True)
+        assert compiled.packb(value) == pack(value)  # type: ignore[union-attr]
+    nine = deep = {"leaf": 1.0}
+    for _ in range(8):
+        nine = {"down": nine}
+    assert compiled.packb(nine) == pack(nine)  # type: ignore[union-attr]
+    for other in (2**63, 1.5j, {"a": {1, 2}}, {_Str("k"): 1}, {"k": _Str("v")}, {"down": nine},
+                  {(1, 2): {3: [{"x": 2**70}]}}, "\ud800"):
+        assert compiled.packb(other) is NotImplemented  # type: ignore[union-attr]
+    del deep
+
+
+def test_status_and_events_are_packed_compiled_with_encodes_bytes() -> None:
+    """The daemon's status and an event, as the publisher sends them (broadcast.as_payload):
+    the bytes of ``encode``, packed by the compiled packer (not handed back to msgpack)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from tick_count import one_tick, tick_daemon
+
+    from robot_daemon.engine.broadcast import LoopFacts, as_payload, status_message
+    from schemas.messages import Event, encode
+
+    daemon = tick_daemon(True, seconds=1.0)
+    for _ in range(40):
+        one_tick(daemon)
+    facts = LoopFacts(state="running", bus_errors=3, scheduling="SCHED_OTHER", events_dropped=0)
+    status = status_message(daemon.status_sources, daemon.snapshot, facts)
+    event = Event(kind="fault", message="m", data={"id": 3, "celsius": 71.5, "ids": [1, 2]},
+                  seq=9)
+    for msg in (status, event):
+        assert compiled.packb(msg.to_dict()) is not NotImplemented  # type: ignore[union-attr]
+        assert as_payload(msg) == encode(msg)
 
 
 def test_positions_list_gives_the_floats_of_the_python(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -66,8 +66,8 @@ def test_an_extension_older_than_its_source_runs_none_of_it_and_says_so() -> Non
     assert proc.stdout.splitlines() == [
         "hot path: Python (the C extension robot_daemon._hotpath is older than its source, it "
         "lacks leg_servo_angles, take_whole, apply_fast, joint_arrays, configure_walk, walk_pose, "
-        "snapshot_lists, configure_arrays, take_run, put_ints, put_row, imu_lists, imu_arrays: pip "
-        "install the project again)"
+        "snapshot_lists, configure_arrays, take_run, put_ints, put_row, imu_lists, imu_arrays, "
+        "packb: pip install the project again)"
     ]
 
 

@@ -67,3 +67,33 @@ def test_the_daemon_refuses_a_bad_power_table_in_one_line(tmp_path) -> None:
     config.write_text("[heat]\nwarm_c = 60\n")
     done = run_darwin("daemon", "--port", str(tmp_path / "none"), "--config", str(config))
     assert done.returncode == 1 and "[heat] has an unknown setting 'warm_c'" in done.stderr
+
+
+def test_the_quiet_shortcut_gives_every_transition_of_the_full_update() -> None:
+    # While every servo is at level 0 with nothing pending, update() skips the servos when
+    # none reaches warn: over random walks of temperature around every threshold (spikes
+    # shorter and longer than the hold, recoveries, servos going offline) it gives the same
+    # transitions, at the same times, and the same levels as updating every servo each time.
+    import random
+
+    heat = HeatSettings()
+    names = {j: f"s{j}" for j in range(1, 21)}
+    for seed in range(30):
+        rng = random.Random(seed)
+        fast, full = (PowerPolicy(PowerSettings(), heat, names) for _ in range(2))
+        top = heat.warn_c + 2.0 if seed % 2 else heat.warn_c - 10.0  # mostly quiet, or not
+        temps = {j: rng.uniform(30.0, top) for j in names}
+        for step in range(600):
+            for j in temps:
+                temps[j] += rng.choice([0.0, 0.0, rng.uniform(-2.0, 2.0)])
+                if rng.random() < 0.01:
+                    temps[j] = rng.choice([40.0, 40.0, heat.warn_c, heat.sit_c + 1.0,
+                                           heat.off_c + 1.0])
+            online = {j: t for j, t in temps.items() if rng.random() > 0.02}
+            full._heat_quiet = False  # always the update of every servo
+            want = full.update(12.0, dict(online), step / 10)
+            assert fast.update(12.0, dict(online), step / 10) == want
+            assert [g.level for g in fast.servos.values()] == [
+                g.level for g in full.servos.values()
+            ]
+            assert fast.heat_info() == full.heat_info()
