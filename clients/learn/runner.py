@@ -135,6 +135,9 @@ def run_sim(
     steps = int(seconds * rate)
     env = gym.make("darwin/Stand-v0", rate_hz=rate, max_steps=steps, randomize=Randomization.off(),
                    fast=fast)  # fmt: skip
+    meta = getattr(policy, "meta", None)
+    if meta:  # at the model's action scale, as the stream on the robot starts it
+        env.unwrapped.backend.scale = float(meta[META_SCALE])  # type: ignore[attr-defined]
     obs, _ = env.reset(seed=seed)
     rng = np.random.default_rng(seed)
     period = int(2 * rate)

@@ -647,9 +647,29 @@ class SearchSettings:
     # backward and no forward 1.0). Off, the search's numbers and random draws are those of
     # the runs before it (the shipped file's command makes the same file).
     stance: bool = False
+    # rad per action unit (0: the config's ``[policy] scale``, 0.3, MuJoCo Playground's), the
+    # deploy constant the file carries and ``darwin policy run`` starts the stream at. A crouch
+    # takes most of a pair's ±1 at 0.3 (the knee rested at 0.85 of it, and its answer to a
+    # forward shove was clipped); at a larger scale the same reflex in rad keeps its answer.
+    scale: float = 0.0
+    # Which probe the file keeps: "weaker" most impulses stood in the weaker direction, then
+    # in both; "largest" the smallest shove (1.0 N·s) stood both ways, then the largest shove
+    # stood either way, then the weaker direction's. The push table asks the second: a
+    # policy that stands larger shoves than both baselines, none worse. Ranked by the weaker
+    # direction, a probe of 1.2 N·s each way beat one of forward 1.0 with backward 1.6, which
+    # on the stack falls less at 1.6 N·s (3 of 6) than both baselines (6 of 6).
+    rank: str = "weaker"
 
 
 _WORKER: dict[str, Any] = {}
+
+
+def action_scale(s: SearchSettings) -> float:
+    """rad per action unit of the search's worlds and file: ``s.scale``, else the config's."""
+    from config.loader import load_all
+    from robot_daemon.motion.policy import PolicySettings
+
+    return s.scale or PolicySettings.from_config(load_all().get("policy")).scale
 
 
 def _worker_env(fast: bool) -> Any:
@@ -667,7 +687,10 @@ def _worker_env(fast: bool) -> Any:
         elif fast or probe_hold != (1, 1):
             rnd.latency, rnd.gyro_noise, rnd.accel_noise = (0.0, 0.01), 0.02, 0.1
         rnd.hold = _WORKER.get("hold", (1, 1)) if fast else probe_hold
-        _WORKER[key] = gym.make("darwin/Stand-v0", randomize=rnd, max_steps=10**6, fast=fast)
+        env = gym.make("darwin/Stand-v0", randomize=rnd, max_steps=10**6, fast=fast)
+        if _WORKER.get("scale"):
+            env.unwrapped.backend.scale = _WORKER["scale"]  # type: ignore[attr-defined]
+        _WORKER[key] = env
     return _WORKER[key]
 
 
@@ -707,8 +730,10 @@ def _init_worker(
     randomize: str = "playground",
     hold: tuple[int, int] = (1, 1),
     probe_hold: tuple[int, int] = (1, 1),
+    scale: float = 0.0,
 ) -> None:
     _WORKER["out_map"] = out_map
+    _WORKER["scale"] = scale
     _WORKER["randomize"] = randomize
     _WORKER["hold"] = hold
     _WORKER["probe_hold"] = probe_hold
@@ -753,7 +778,7 @@ class Search:
             if s.stance:
                 self.mask[self.names.index("stance")] = 1.0
         self.push = {1.0: s.push, -1.0: s.push_back}
-        self.best: tuple[int, int, int] = (-1, -1, -1)
+        self.best: tuple[int, ...] = (-1, -1, -1)
         self.best_m = self.m.copy()
         self.best_made: dict[str, Any] = {}
 
@@ -774,6 +799,8 @@ class Search:
         search goes on from there, with this run's settings."""
         import onnx
 
+        from clients.learn.onnx_policy import META_SCALE
+
         meta = {p.key: p.value for p in onnx.load(str(path)).metadata_props}
         try:
             made = json.loads(meta["darwin.training"])
@@ -790,6 +817,12 @@ class Search:
         if list(reflex) != rows or np.shape(list(reflex.values())) != self.m.shape:
             raise ValueError(f"{path}'s reflex reads other features or pairs than this search")
         self.m = np.array(list(reflex.values()), dtype=float)
+        # A file of another action scale: the same reflex in rad, every row in action units
+        # at this scale but the last actions' (action units to action units, as they were).
+        ratio = float(meta[META_SCALE]) / action_scale(self.s)
+        for k, row in enumerate(rows):
+            if not row.startswith("last_action."):
+                self.m[k] *= ratio
 
     def layers(self, m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The reflex as two layers around a ReLU: [69, 2n] (each feature and its negative)
@@ -907,7 +940,7 @@ def search(
     if stance is not None:  # where the search starts the rest pose: per pair, action units
         agent.m[agent.names.index("stance")] = np.asarray(stance) * ARS_SCALES["stance"]
     ctx = multiprocessing.get_context("fork")
-    init = (agent.out_map, s.randomize, s.hold, s.probe_hold)
+    init = (agent.out_map, s.randomize, s.hold, s.probe_hold, s.scale)
     pool = ctx.Pool(s.workers, _init_worker, init) if s.workers > 1 else None
     _init_worker(*init)
     t0 = time.monotonic()
@@ -915,8 +948,12 @@ def search(
 
     def probe(g: int) -> None:
         fwd, back = agent.probe(pool, impulses)
-        score = (min(sum(fwd), sum(back)), sum(fwd) + sum(back), g)
-        better = score[:2] >= agent.best[:2]
+        weaker, stronger = sorted((sum(fwd), sum(back)))
+        if s.rank == "largest":  # the largest shove stood, the smallest stood both ways
+            score: tuple[int, ...] = (int(weaker > 0), stronger, weaker, g)
+        else:
+            score = (weaker, weaker + stronger, g)
+        better = score[:-1] >= agent.best[:-1]
         print(f"probe {g}: stood forward {_stood(impulses, fwd)}; backward "
               f"{_stood(impulses, back)}{' (best so far, written)' if better else ''}",
               file=log, flush=True)  # fmt: skip
@@ -933,6 +970,7 @@ def search(
         # crouch that stood backward 1.4 N·s drifted to probes of 1.2 each way and kept one).
         if start is not None or stance is not None:
             probe(0)
+        g = -1  # --iterations 0: the start probed and written, no generation run
         for g in range(generations):
             stats = agent.generation(pool)
             elapsed = time.monotonic() - t0
@@ -970,12 +1008,11 @@ def export_linear(agent: Search, out: Path, made: dict[str, Any]) -> None:
     import onnx
 
     from clients.learn.onnx_policy import deploy_metadata, mlp_model
-    from config.loader import load_all, load_robot
-    from robot_daemon.motion.policy import PolicySettings
+    from config.loader import load_robot
     from schemas.joints import JOINT_IDS
 
     robot = load_robot()
-    scale = PolicySettings.from_config(load_all().get("policy")).scale
+    scale = action_scale(agent.s)
     training = {"algorithm": "ARS (random search, numpy, clients/learn/train.py)", **made,
                 "settings": {k: v for k, v in vars(agent.s).items()},
                 "reflex": dict(zip([*agent.names, *(f"{agent.names[i]}<0" for i in agent.split)],
@@ -1036,7 +1073,18 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="ars: search the pose the reflex rests in too, an offset per pair "
                     "(action units, added every step), starting at these (default: the "
                     "start's, or none)")
+    ap.add_argument("--scale", type=float, default=0.0, metavar="RAD",
+                    help="ars: rad per action unit of the worlds and the file's deploy "
+                    "constants (0.01-1; default: the config's [policy] scale, 0.3)")
+    ap.add_argument("--rank", choices=("weaker", "largest"), default="weaker",
+                    help="ars: which probe the file keeps: most impulses stood the weaker way, "
+                    "or the largest stood either way with 1.0 N·s stood both ways")
+    ap.add_argument("--shove-at", type=float, default=SearchSettings.shove_at, metavar="S",
+                    help="ars: s into a settled start the training episodes' shove comes (a "
+                    "policy that crouches first wants the push table's 1.5)")
     args = ap.parse_args(argv)
+    if args.scale and not 0.01 <= args.scale <= 1.0:
+        ap.error(f"--scale {args.scale:g} is outside the daemon's 0.01-1 rad per action unit")
     given = sys.argv[1:] if argv is None else argv
     if args.method == "ars":
         print(f"training: python -m clients.learn.train {' '.join(given)}", flush=True)
@@ -1045,7 +1093,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                             impulse_weight=args.impulse_weight,
                             balance=args.balance, tilt_zero=args.tilt_zero,
                             stance=args.stance is not None,
-                            probe_hold=tuple(args.probe_hold))  # fmt: skip
+                            probe_hold=tuple(args.probe_hold),
+                            scale=args.scale, rank=args.rank,
+                            shove_at=args.shove_at)  # fmt: skip
         if args.push != Settings.push:
             ss.push = ss.push_back = tuple(args.push)
         if args.push_back:

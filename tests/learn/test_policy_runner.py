@@ -63,6 +63,23 @@ def test_an_onnx_policy_loads_and_runs(tmp_path: Path) -> None:
     assert rate == 25.0
     assert policy(np.ones(OBSERVATION_SIZE, np.float32)).tolist() == [0.0] * N_JOINTS
     assert run_sim(policy, 25.0, 1.0, 0.0, 0) == 25  # stood the whole second
+    # --sim steps at the model's action scale, as the stream on a robot is started at it.
+    from clients.learn.fast import FastBackend
+
+    scales: list[float] = []
+    real_reset = FastBackend.reset
+
+    def reset(self: FastBackend, *args: object, **kwargs: object) -> object:
+        scales.append(self.scale)
+        return real_reset(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    helper.set_model_props(model, deploy_metadata(25.0, 0.9, [32] * N_JOINTS))
+    onnx.save(model, str(path))
+    wide, _ = load_policy(str(path))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(FastBackend, "reset", reset)
+        assert run_sim(wide, 25.0, 0.2, 0.0, 0) == 5
+    assert scales == [0.9]
     (tmp_path / "bad.onnx").write_bytes(b"not a model")
     with pytest.raises(PolicyLoadError, match="not a loadable ONNX model"):
         load_policy(str(tmp_path / "bad.onnx"))

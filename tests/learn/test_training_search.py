@@ -245,3 +245,77 @@ def test_a_search_from_a_file_keeps_it_until_a_generation_probes_as_well(tmp_pat
     made = json.loads({p.key: p.value for p in onnx.load(str(out)).metadata_props}
                       ["darwin.training"])  # fmt: skip
     assert made["generations"] == 0 and made["trained_generations"] == 1
+
+
+def test_a_search_at_another_action_scale_goes_on_from_the_same_reflex_in_rad(
+    tmp_path: Path,
+) -> None:
+    """``scale``: the worlds step at it and the file carries it (``darwin policy run`` starts
+    the stream at it); a file of another scale is the same reflex in rad, its rows but the
+    last actions' (action units to action units) scaled, its offsets too."""
+    import onnx
+
+    from schemas.policy import OBSERVATION_SLICES as at
+
+    s = train.SearchSettings(search="tilt", stance=True)
+    old = train.Search(s, seed=0)
+    rng = np.random.default_rng(4)
+    old.m[:] = rng.normal(0, 0.05, old.m.shape) * old.mask
+    old.m[old.names.index("stance")] = np.array([0.0, -0.2, 0.4, 0.1]) * train.ARS_SCALES["stance"]
+    start = tmp_path / "at_0.3.onnx"
+    train.export_linear(old, start, {"generations": 0})
+    wide = train.SearchSettings(search="tilt", stance=True, scale=0.9)
+    agent = train.Search(wide, seed=1)
+    agent.start_from(start)
+    for obs in rng.normal(0, 0.2, (5, OBSERVATION_SIZE)):
+        here = obs.copy()
+        here[at["last_action"]] *= 0.3 / 0.9  # the same targets, in this scale's units
+        np.testing.assert_allclose(0.9 * agent.deterministic(here), 0.3 * old.deterministic(obs),
+                                   atol=1e-12)  # fmt: skip
+    out = tmp_path / "at_0.9.onnx"
+    train.export_linear(agent, out, {"generations": 0})
+    meta = {p.key: p.value for p in onnx.load(str(out)).metadata_props}
+    assert float(meta["darwin.action_scale"]) == 0.9
+    train._WORKER.clear()
+    train._init_worker(agent.out_map, "latency", (1, 1), (2, 4), 0.9)
+    assert train._worker_env(False).unwrapped.backend.scale == 0.9
+    train._WORKER.clear()
+
+
+def test_the_probe_kept_is_the_largest_shove_stood_when_asked(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``rank``: "weaker" keeps the probe with most impulses stood in the weaker direction,
+    "largest" the one that stands the largest shove with 1.0 N·s stood both ways (the push
+    table's bar: larger shoves than both baselines, none worse); ``generations`` 0 writes the
+    start, probed."""
+    probes = iter([
+        ([1, 0, 0, 0, 0, 0], [1, 1, 1, 1, 0, 0]),  # the start: forward 1.0, backward 1.6
+        ([1, 1, 0, 0, 0, 0], [1, 1, 0, 0, 0, 0]),  # 1.2 each way
+        ([0, 0, 0, 0, 0, 0], [1, 1, 1, 1, 1, 1]),  # backward 2.0, no forward shove
+    ] * 2)  # fmt: skip
+    monkeypatch.setattr(train.Search, "probe", lambda self, pool, impulses: next(probes))
+    monkeypatch.setattr(train.Search, "generation", lambda self, pool: (
+        {"score": 0.0, "stood": 0.0, "forward": (1.0, 1.5), "backward": (1.0, 1.5)}))
+    start = tmp_path / "start.onnx"
+    train.export_linear(train.Search(train.SearchSettings(search="tilt"), seed=0), start,
+                        {"generations": 0})  # fmt: skip
+    kept = {}
+    for rank in ("weaker", "largest"):
+        s = train.SearchSettings(search="tilt", probe_every=1, rank=rank)
+        out = tmp_path / f"{rank}.onnx"
+        train.search(s, seed=0, generations=2, out=out, start=start)
+        import onnx
+
+        meta = {p.key: p.value for p in onnx.load(str(out)).metadata_props}
+        kept[rank] = json.loads(meta["darwin.training"])["generations"]
+    assert kept == {"weaker": 1, "largest": 0}
+    monkeypatch.setattr(train.Search, "probe", lambda self, pool, impulses: (
+        [1, 0, 0, 0, 0, 0], [1, 1, 0, 0, 0, 0]))
+    out = tmp_path / "start_only.onnx"
+    train.search(train.SearchSettings(search="tilt"), seed=0, generations=0, out=out, start=start)
+    import onnx
+
+    made = json.loads({p.key: p.value for p in onnx.load(str(out)).metadata_props}
+                      ["darwin.training"])  # fmt: skip
+    assert made["generations"] == 0 and made["trained_generations"] == 0
