@@ -16,6 +16,7 @@ stays the last resort: the policy's thresholds sit below it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from operator import itemgetter
 from typing import Any
 
 from config.loader import ranged, section_to
@@ -164,15 +165,21 @@ class PowerPolicy:
 
     @property
     def heat_level(self) -> int:
+        if self._heat_quiet:  # every servo at level 0
+            return 0
         return max((g.level for g in self.servos.values()), default=0)
 
     def power_info(self) -> dict[str, Any]:
         return {"level": LEVELS[self.battery.level], "volts": round(self.voltage, 2)}
 
     def heat_info(self) -> dict[str, Any]:
-        hot = sorted(self.temps.items(), key=lambda kv: -kv[1])[: self.heat_settings.hottest]
+        # Hottest first, equals in id order: a stable sort, descending (``reverse`` keeps the
+        # order of equals), by a C key rather than a Python one per servo.
+        hot = sorted(self.temps.items(), key=itemgetter(1), reverse=True)
+        hot = hot[: self.heat_settings.hottest]
+        quiet = self._heat_quiet
         return {
-            "level": LEVELS[self.heat_level],
+            "level": LEVELS[0 if quiet else self.heat_level],
             "hottest": [{"id": j, "name": self.names[j], "celsius": c} for j, c in hot],
-            "alarms": [j for j, g in self.servos.items() if g.level > 0],
+            "alarms": [] if quiet else [j for j, g in self.servos.items() if g.level > 0],
         }

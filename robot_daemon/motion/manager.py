@@ -32,6 +32,9 @@ class MotionManager:
         # Joints by owner, made from ``_owner`` when first asked after a change: the tick asks
         # for every module's, twice.
         self._owned: dict[str | None, frozenset[int]] | None = None
+        # status's "owners", and the ``_owned`` it was made for
+        self._owners: dict[str, str | None] = {}
+        self._owners_of: dict[str | None, frozenset[int]] | None = None
         self._hold: dict[int, float] = {}  # goals of unowned joints to (re)write, e.g. after halt
         self._last_goal: dict[int, float] = {}
         self.events: deque[tuple[str, str, dict[str, Any]]] = deque(maxlen=1000)
@@ -229,7 +232,13 @@ class MotionManager:
                 m.stop()
 
     def status(self) -> dict[str, Any]:
+        owned = self._owned_map()
+        if self._owners_of is not owned:
+            # Made again only after ownership changed (``_owned`` is remade then): twenty
+            # str(id) cost ~30 k instructions a status message, ten times a second.
+            self._owners = {str(j): o for j, o in self._owner.items()}
+            self._owners_of = owned
         return {
-            "owners": {str(j): o for j, o in self._owner.items()},
+            "owners": dict(self._owners),
             **{m.name: m.status() for m in self.modules},
         }

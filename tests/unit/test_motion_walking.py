@@ -206,3 +206,22 @@ def test_late_ticks_cost_no_steps_and_skip_no_phase() -> None:
         assert not rig.walk.running  # the stop found its step boundary
     steady, late = counts
     assert abs(late - steady) <= 1, counts
+
+
+def test_status_owners_follow_every_claim_and_release() -> None:
+    # status's "owners" is made again only when ownership changed (it cost ~30 k instructions
+    # a message): each claim and release shows, and a caller changing the dict it got does not
+    # change the next one.
+    rig = Rig()
+    manager = rig.manager
+    first = manager.status()["owners"]
+    assert first == {str(j): manager.owner(j) for j in rig.robot.ids}
+    legs = {j for j in rig.robot.ids if j > 6}
+    manager.claim("walking", legs)
+    owners = manager.status()["owners"]
+    assert all(owners[str(j)] == "walking" for j in legs) and owners != first
+    owners["7"] = "someone else"
+    assert manager.status()["owners"]["7"] == "walking"
+    manager.release("walking", {7})
+    assert manager.status()["owners"]["7"] is None
+    assert manager.status()["owners"] == {str(j): manager.owner(j) for j in rig.robot.ids}

@@ -6,7 +6,13 @@ from __future__ import annotations
 
 import pytest
 
-from robot_daemon.power_policy import HeatSettings, PowerPolicy, PowerSettings, load_settings
+from robot_daemon.power_policy import (
+    LEVELS,
+    HeatSettings,
+    PowerPolicy,
+    PowerSettings,
+    load_settings,
+)
 
 
 def _policy() -> PowerPolicy:
@@ -96,4 +102,24 @@ def test_the_quiet_shortcut_gives_every_transition_of_the_full_update() -> None:
             assert [g.level for g in fast.servos.values()] == [
                 g.level for g in full.servos.values()
             ]
-            assert fast.heat_info() == full.heat_info()
+            assert fast.heat_info() == full.heat_info() == _heat_info_by_definition(full)
+
+
+def _heat_info_by_definition(policy: PowerPolicy) -> dict[str, object]:
+    """heat_info as first written: every servo asked, the hottest by a Python key."""
+    hot = sorted(policy.temps.items(), key=lambda kv: -kv[1])[: policy.heat_settings.hottest]
+    return {
+        "level": LEVELS[max((g.level for g in policy.servos.values()), default=0)],
+        "hottest": [{"id": j, "name": policy.names[j], "celsius": c} for j, c in hot],
+        "alarms": [j for j, g in policy.servos.items() if g.level > 0],
+    }
+
+
+def test_the_hottest_keep_id_order_among_equals() -> None:
+    names = {j: f"s{j}" for j in range(1, 9)}
+    policy = PowerPolicy(PowerSettings(), HeatSettings(), names)
+    temps = {1: 40.0, 2: 51.0, 3: 40.0, 4: 51.0, 5: 45.0, 6: 51.0, 7: 30.0, 8: 45.0}
+    policy.update(12.0, temps, 0.0)
+    info = policy.heat_info()
+    assert info == _heat_info_by_definition(policy)
+    assert [h["id"] for h in info["hottest"]] == [2, 4, 6]
