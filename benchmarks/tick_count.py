@@ -548,7 +548,9 @@ def calibrate(args: argparse.Namespace) -> int:
 # as valgrind's pace gave (the count moved ±13 % from run to run). So ``daemon`` drives each of
 # them by the loop's ticks, on the robot's clock (8 ms a tick) and the daemon's own rules:
 # status 10 Hz (once per 13 ticks, as the daemon's test `now - last >= 0.1` gives at 8 ms),
-# the status's loop percentiles refreshed every 0.5 s, the /proc walk every 2 s (250 ticks), a
+# the status's loop percentiles refreshed every 0.5 s, the /proc walk every 2 s (250 ticks)
+# where it goes by the clock (on Linux it runs when the port is opened or closed, so not in a
+# count), a
 # lease renewal every 0.25 s (31.25 ticks, sent by the counting client). What stays on the
 # clock: Zenoh's own timers and keep-alives (~0.1 M instructions a second on i386: ~4 k a tick
 # at valgrind's 20 ticks a second where 125 Hz would make it ~0.7 k, so the figure is high by
@@ -560,13 +562,14 @@ LINK_LEASE_MS = 60_000
 
 def child_daemon(argv: list[str]) -> int:
     """``darwin daemon`` as it runs, with what it does by the second driven by its ticks."""
-    from robot_daemon.bus.preflight import HolderWatch, port_holders
+    from robot_daemon.bus.preflight import HolderWatch
     from robot_daemon.engine.daemon import Daemon
     from robot_daemon.engine.loop_stats import LoopStats
     from robot_daemon.launch.cli import main as darwin
 
     publish = Daemon._publish
     summary = LoopStats.summary
+    run_holders = HolderWatch._run
     kicks: dict[int, threading.Event] = {}
 
     def publish_by_ticks(self: Any, snap: Any, now: float) -> None:
@@ -579,7 +582,11 @@ def child_daemon(argv: list[str]) -> int:
             self._robot_last = robot_now
         publish(self, snap, now)
         watch = self.supervisor.holders
-        if watch is not None and self.tick % round(watch.interval / ROBOT_TICK_S) == 0:
+        if (
+            watch is not None
+            and not watch.by_event
+            and self.tick % round(watch.interval / ROBOT_TICK_S) == 0
+        ):
             kicks.setdefault(id(watch), threading.Event()).set()
 
     def summary_by_ticks(self: LoopStats, max_age: float = 0.5, now: float | None = None
@@ -592,20 +599,13 @@ def child_daemon(argv: list[str]) -> int:
         self._win_ticks = self._win_overruns = 0
 
     def walk_when_kicked(self: HolderWatch) -> None:  # HolderWatch._run's, kicked
+        if self.by_event:
+            return run_holders(self)  # it looks when the port is opened or closed: as it runs
         kick = kicks.setdefault(id(self), threading.Event())
         while not self._stop.is_set():
             kick.wait()
             kick.clear()
-            try:
-                found = port_holders(self.port_name)
-            except OSError:
-                continue
-            self.current = found
-            with self._lock:
-                for pid, cmd in found:
-                    if pid not in self._seen:
-                        self._seen.add(pid)
-                        self._new.append((pid, cmd))
+            self._walk()
 
     Daemon._publish = publish_by_ticks  # type: ignore[method-assign]
     LoopStats.summary = summary_by_ticks  # type: ignore[method-assign]
