@@ -327,6 +327,19 @@ def breakdown_parts(args: argparse.Namespace) -> tuple[str, ...]:
     return tuple(args.parts.split(",")) if args.parts else BREAKDOWN
 
 
+def counting(cg: Callgrind, fn: Any) -> Any:
+    """``fn``, counted by callgrind while it runs (and only then)."""
+
+    def wrapper(*a: Any, **kw: Any) -> Any:
+        cg.toggle()
+        try:
+            return fn(*a, **kw)
+        finally:
+            cg.toggle()
+
+    return wrapper
+
+
 def child_breakdown(args: argparse.Namespace) -> None:
     cg = Callgrind()
     daemon = tick_daemon(True)
@@ -335,13 +348,7 @@ def child_breakdown(args: argparse.Namespace) -> None:
         one_tick(daemon)
 
     def counted(fn: Any) -> Any:
-        def wrapper(*a: Any, **kw: Any) -> Any:
-            cg.toggle()
-            try:
-                return fn(*a, **kw)
-            finally:
-                cg.toggle()
-        return wrapper
+        return counting(cg, fn)
 
     def empty() -> None:
         pass
@@ -643,13 +650,7 @@ def count_daemon_parts(daemon_cls: Any, stats_cls: Any, names: list[str], window
         publish(self, snap, t)
 
     def counted(fn: Any) -> Any:
-        def wrapper(*a: Any, **kw: Any) -> Any:
-            cg.toggle()
-            try:
-                return fn(*a, **kw)
-            finally:
-                cg.toggle()
-        return wrapper
+        return counting(cg, fn)
 
     def tick_and_switch(self: Any, start: float, bus_s: float, work_s: float) -> None:
         stats_tick(self, start, bus_s, work_s)

@@ -372,6 +372,24 @@ static int pack_int(Out *o, long long d)
 }
 
 /* 0 packed, 1 not a type packed here (the caller hands back NotImplemented), -1 error */
+/* An array's or a map's header in its smallest form: fix (0x90 or 0x80, with n < 16), else
+ * head16 and its 32-bit form head16 + 1. 0 packed, -1 out of memory, 1 too long for msgpack. */
+static int pack_header(Out *o, Py_ssize_t n, unsigned char fix, unsigned char head16)
+{
+    int r;
+    if (n < 16) {
+        char h = (char)(fix | n);
+        r = out_write(o, &h, 1);
+    }
+    else if (n < 65536)
+        r = out_be(o, head16, (unsigned long long)n, 2);
+    else if (n <= 0xFFFFFFFFLL)
+        r = out_be(o, (unsigned char)(head16 + 1), (unsigned long long)n, 4);
+    else
+        return 1;
+    return r < 0 ? -1 : 0;
+}
+
 static int pack_obj(Out *o, PyObject *v, int depth)
 {
     if (v == Py_None)
@@ -434,19 +452,9 @@ static int pack_obj(Out *o, PyObject *v, int depth)
             return 1;
         Py_ssize_t n = PySequence_Fast_GET_SIZE(v);
         PyObject **items = PySequence_Fast_ITEMS(v);
-        int r;
-        if (n < 16) {
-            char h = (char)(0x90 | n);
-            r = out_write(o, &h, 1);
-        }
-        else if (n < 65536)
-            r = out_be(o, 0xdc, (unsigned long long)n, 2);
-        else if (n <= 0xFFFFFFFFLL)
-            r = out_be(o, 0xdd, (unsigned long long)n, 4);
-        else
-            return 1;
-        if (r < 0)
-            return -1;
+        int r = pack_header(o, n, 0x90, 0xdc);
+        if (r != 0)
+            return r;
         for (Py_ssize_t i = 0; i < n; i++) {
             r = pack_obj(o, items[i], depth + 1);
             if (r != 0)
@@ -461,19 +469,9 @@ static int pack_obj(Out *o, PyObject *v, int depth)
         if (depth > 8)
             return 1;
         Py_ssize_t n = PyDict_GET_SIZE(v);
-        int r;
-        if (n < 16) {
-            char h = (char)(0x80 | n);
-            r = out_write(o, &h, 1);
-        }
-        else if (n < 65536)
-            r = out_be(o, 0xde, (unsigned long long)n, 2);
-        else if (n <= 0xFFFFFFFFLL)
-            r = out_be(o, 0xdf, (unsigned long long)n, 4);
-        else
-            return 1;
-        if (r < 0)
-            return -1;
+        int r = pack_header(o, n, 0x80, 0xde);
+        if (r != 0)
+            return r;
         Py_ssize_t pos = 0;
         PyObject *key, *value;
         while (PyDict_Next(v, &pos, &key, &value)) {

@@ -229,6 +229,10 @@ def test_packb_gives_msgpacks_bytes() -> None:
         if rng.random() < 0.2:
             value = _value(rng, 0, dicts=True)
         assert compiled.packb(value) == pack(value)  # type: ignore[union-attr]
+    # Every header form of both (fix, 16-bit, 32-bit): one packer of headers serves both.
+    for n in (15, 16, 65535, 65536):
+        for value in ([0] * n, {str(i): 0 for i in range(n)}):
+            assert compiled.packb(value) == pack(value)  # type: ignore[union-attr]
     nine = deep = {"leaf": 1.0}
     for _ in range(8):
         nine = {"down": nine}
