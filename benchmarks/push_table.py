@@ -14,7 +14,11 @@ daemon: fall…"). The policies: the trained one (clients/learn/policies/stand_p
 ``--trained FILE [FILE…]``: several trained files are rows of their own, named by their
 file names, so a new policy meets the shipped one under the same shoves in the same run), the
 hand-made ankle controller (clients/learn/examples/stand_balance.py) and holding the stand
-pose. Prints the table: impulse → falls out of N, per policy.
+pose. Prints the table: impulse → falls out of N, per policy. A try whose policy stream is not
+seen running (a start slower than ``START_WAIT`` under load, a stand page halted, a lease
+that came late, a run the status poll missed whole) gets no shove: it is tried again, up to
+``STARTS`` times, each said in a line, and then left out of its cell (which then counts
+fewer tries).
 """
 
 from __future__ import annotations
@@ -45,6 +49,9 @@ PUSH_S = 0.1
 SETTLE_S = 1.5
 RUN_S = 5.0
 WAIT = 15.0
+# s a try waits to see its policy stream running: `darwin policy run` imports, checks the pose
+# and waits for the robot to be at rest first, which on a loaded machine took over 15 s.
+START_WAIT = 30.0
 
 
 def prepare(robot, sim: SimControl) -> None:  # type: ignore[no-untyped-def]
@@ -78,14 +85,36 @@ def _prepare(robot, sim: SimControl) -> None:  # type: ignore[no-untyped-def]
     robot.release()
 
 
-def one_try(system, robot, sim: SimControl, spec: str, force: float) -> bool:  # type: ignore[no-untyped-def]
+class NotStarted(Exception):
+    """The policy's stream was not seen running before the shove was due (a start slower
+    than ``WAIT`` under load, or a run the status poll missed whole): no shove was given."""
+
+
+STARTS = 3  # tries of a cell's try whose stream did not start before it is left out
+
+
+def one_try(system, robot, sim: SimControl, spec: str, force: float) -> bool | None:  # type: ignore[no-untyped-def]
     """Whether the robot fell (the daemon ended the policy's stream for a fall after the
-    shove); a start that found it fallen already is tried again."""
-    for _ in range(3):
-        fell = _try(system, robot, sim, spec, force)
+    shove); a start that found it fallen already is tried again, and so is one whose stream
+    did not start (up to ``STARTS`` times, each said in a line). None: the try was never
+    shoved (left out of its cell, and the cell says so)."""
+    fallen = not_started = 0
+    while True:
+        try:
+            fell = _try(system, robot, sim, spec, force)
+        except NotStarted as exc:
+            not_started += 1
+            again = "trying again" if not_started < STARTS else "left out of the table"
+            print(f"  the policy stream did not start ({exc}); {again} "
+                  f"({not_started} of {STARTS})", flush=True)  # fmt: skip
+            if not_started == STARTS:
+                return None
+            continue
         if fell is not None:
             return fell
-    raise RuntimeError("three starts found the robot fallen before the shove")
+        fallen += 1
+        if fallen == 3:
+            raise RuntimeError("three starts found the robot fallen before the shove")
 
 
 def _try(system, robot, sim: SimControl, spec: str, force: float) -> bool | None:  # type: ignore[no-untyped-def]
@@ -97,13 +126,17 @@ def _try(system, robot, sim: SimControl, spec: str, force: float) -> bool | None
         cwd=ROOT,
     )  # fmt: skip
     # Polled: a benchmark, and the status reply is the daemon's own view of the stream.
-    end = time.monotonic() + WAIT
+    end = time.monotonic() + START_WAIT
     while robot.command("policy", op="status").get("state") != "running":
-        if proc.poll() is not None or time.monotonic() > end:
+        late = time.monotonic() > end
+        if proc.poll() is not None or late:
+            if late:  # still starting: it must not take the lease in the next try
+                proc.kill()
             out = proc.communicate()[0]
             if "stopped by the daemon: fall" in out:
                 return None  # fallen before the shove: not a try
-            raise RuntimeError(f"the policy stream did not start: {out.strip()[-300:]}")
+            last = out.strip().splitlines()[-1] if out.strip() else "no output"
+            raise NotStarted(f"after {START_WAIT:g} s" if late else f"the run ended: {last[-200:]}")
         time.sleep(0.05)
     time.sleep(SETTLE_S)
     sim.call("push", fx=force, fy=0.0, fz=0.0, duration=PUSH_S)
@@ -132,6 +165,7 @@ def main() -> None:
     both = [1.0, -1.0] * ((args.tries + 1) // 2)
     signs = [rng.permutation(both)[: args.tries] for _ in args.impulses]
     falls: dict[str, list[int]] = {name: [] for name in POLICIES}
+    shoved: dict[str, list[int]] = {name: [] for name in POLICIES}  # tries not left out
     config = Path(tempfile.mkdtemp()) / "patient.toml"
     config.write_text("[policy]\ndamp_after = 1.0\nsilence_timeout = 3.0\n")
     with (
@@ -143,20 +177,25 @@ def main() -> None:
         sim = SimControl(robot.session, robot.target.robot)
         for i, impulse in enumerate(args.impulses):
             for name, spec in POLICIES.items():
-                fell = [one_try(system, robot, sim, spec, s * impulse / PUSH_S) for s in signs[i]]
+                tried = [one_try(system, robot, sim, spec, s * impulse / PUSH_S) for s in signs[i]]
+                pairs = [(f, s) for f, s in zip(tried, signs[i], strict=True) if f is not None]
+                fell = [f for f, _ in pairs]
                 falls[name].append(sum(fell))
-                pairs = list(zip(fell, signs[i], strict=True))
+                shoved[name].append(len(fell))
                 ways = {"forward": [f for f, s in pairs if s > 0],
                         "backward": [f for f, s in pairs if s < 0]}  # fmt: skip
-                print(f"{impulse:.1f} N·s {name}: {sum(fell)}/{args.tries} fell ("
-                      + ", ".join(f"{w} {sum(f)}/{len(f)}" for w, f in ways.items()) + ")",
+                left = len(tried) - len(fell)
+                print(f"{impulse:.1f} N·s {name}: {sum(fell)}/{len(fell)} fell ("
+                      + ", ".join(f"{w} {sum(f)}/{len(f)}" for w, f in ways.items())
+                      + (f"; {left} left out, its stream did not start" if left else "") + ")",
                       flush=True)  # fmt: skip
     names = list(POLICIES)
-    print(f"\nfalls out of {args.tries} per shove (whole stack, `darwin policy run`):")
+    print(f"\nfalls out of {args.tries} per shove (whole stack, `darwin policy run`; a cell of "
+          f"fewer: tries left out after their stream did not start {STARTS} times):")
     print("| impulse (N·s) | " + " | ".join(names) + " |")
     print("|---|" + "---|" * len(names))
     for i, impulse in enumerate(args.impulses):
-        cells = " | ".join(f"{falls[n][i]}/{args.tries}" for n in names)
+        cells = " | ".join(f"{falls[n][i]}/{shoved[n][i]}" for n in names)
         print(f"| {impulse:.1f} | {cells} |")
 
 

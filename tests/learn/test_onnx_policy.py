@@ -215,6 +215,18 @@ def test_the_shipped_policy_carries_this_contracts_constants() -> None:
     assert training["algorithm"].startswith("ARS") and "reflex" in training
     assert set(training["probe"]) == {"impulses", "forward", "backward"}
     assert training["probe"]["forward"][0] == training["probe"]["backward"][0] == 1
+    # The stance centred on the line every stance trades forward against backward along
+    # (docs/learning.md): its probe, read as the loaded stack reads, stood 1.2 N·s both ways,
+    # where the crouch shipped before stood forward 1.0 only.
+    probe = training["probe"]
+    assert probe["impulses"][1] == 1.2 and probe["forward"][1] == probe["backward"][1] == 1
+    # …at the offsets its log's command gives (action units at its scale; the reflex keeps
+    # them ×0.2, ARS_SCALES["stance"]), the same numbers the page's command shows.
+    command = SHIPPED.with_suffix(".log").read_text().splitlines()[0].split()
+    at = command.index("--stance")
+    stance = [float(x) for x in command[at + 1 : at + 5]]
+    assert np.allclose(training["reflex"]["stance"], np.array(stance) * 0.2)
+    assert f"--scale {scale:g}" in " ".join(command)
     # What numpy runs is what was trained: every operator is one the robot can evaluate.
     assert {n.op_type for n in model.graph.node} <= set(SUPPORTED_OPS)
     policy, _ = load_policy(str(SHIPPED), "numpy")
