@@ -18,7 +18,6 @@ import pytest
 from tests.fixtures import leftovers
 
 pytest_plugins = [
-    "tests.fixtures.durations",
     "tests.fixtures.emulator",
     "tests.fixtures.system",
     "tests.fixtures.zenoh_pair",
@@ -73,4 +72,14 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         if long:
             config.hook.pytest_deselected(items=long)
             items[:] = [item for item in items if not item.get_closest_marker("long")]
-    # Then tests/fixtures/durations.py orders what is left (its hook runs last).
+    # The tests of the shared robot first, one after another, so that it runs only while they
+    # do (tests/fixtures/system.py, SharedSystem): pytest-xdist hands each worker a run of
+    # consecutive tests and takes work back from the end, so they stay on one worker. Then
+    # the slowest: with -n, a worker that starts a minutes-long test last would run alone at
+    # the end while the others wait.
+    items.sort(
+        key=lambda item: (
+            "robot_system" not in getattr(item, "fixturenames", ()),
+            item.get_closest_marker("slow") is None,
+        )
+    )
