@@ -87,7 +87,7 @@ def _prepare(robot, sim: SimControl) -> None:  # type: ignore[no-untyped-def]
 
 class NotStarted(Exception):
     """The policy's stream was not seen running before the shove was due (a start slower
-    than ``WAIT`` under load, or a run the status poll missed whole): no shove was given."""
+    than ``START_WAIT`` under load, or a run the status poll missed whole): no shove was given."""
 
 
 STARTS = 3  # tries of a cell's try whose stream did not start before it is left out

@@ -25,6 +25,7 @@ from clients.learn.onnx_policy import (
     mlp_model,
 )
 from clients.learn.runner import load_policy, run_sim
+from clients.learn.train import ARS_SCALES
 from schemas.joints import JOINT_NAMES
 from schemas.policy import N_JOINTS, OBSERVATION_SIZE
 
@@ -221,11 +222,11 @@ def test_the_shipped_policy_carries_this_contracts_constants() -> None:
     probe = training["probe"]
     assert probe["impulses"][1] == 1.2 and probe["forward"][1] == probe["backward"][1] == 1
     # …at the offsets its log's command gives (action units at its scale; the reflex keeps
-    # them ×0.2, ARS_SCALES["stance"]), the same numbers the page's command shows.
+    # them scaled by ARS_SCALES["stance"]), the same numbers the page's command shows.
     command = SHIPPED.with_suffix(".log").read_text().splitlines()[0].split()
     at = command.index("--stance")
     stance = [float(x) for x in command[at + 1 : at + 5]]
-    assert np.allclose(training["reflex"]["stance"], np.array(stance) * 0.2)
+    assert np.allclose(training["reflex"]["stance"], np.array(stance) * ARS_SCALES["stance"])
     assert f"--scale {scale:g}" in " ".join(command)
     # What numpy runs is what was trained: every operator is one the robot can evaluate.
     assert {n.op_type for n in model.graph.node} <= set(SUPPORTED_OPS)
