@@ -23,6 +23,9 @@ RENEW_PERIOD = 0.25
 # Renewals awaiting their reply at once: each is sent on time even while earlier ones wait (a
 # slow reply never holds back the next renewal); past this many the link is down anyway.
 IN_FLIGHT = 4
+# How long ``drop`` waits for renewals still awaiting their reply (each ends by its command
+# timeout, 3 s by default, or at once when the session closes).
+DRAIN_S = 5.0
 
 
 class LeaseKeeper:
@@ -35,6 +38,8 @@ class LeaseKeeper:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._in_flight = 0
+        self._idle = threading.Condition(self._lock)  # notified when a renewal ends
+        self._renewing = threading.local()  # .here in a renewal's own thread
         self._warned = False  # the loss is logged once
 
     @property
@@ -70,6 +75,14 @@ class LeaseKeeper:
             t, self._thread = self._thread, None
         if t is not None and t is not threading.current_thread():
             t.join(timeout=2.0)
+        # Renewals still waiting for their reply are waited for too: a script that ends right
+        # after closing would otherwise finalize Python while one sits inside Zenoh's query, and
+        # a thread that comes back into Python then is ended by pthread_exit through Zenoh's
+        # Rust frames, which aborts the process ("FATAL: exception not rethrown", exit -6; seen
+        # at the end of docs/owner.md's script on a loaded machine). Not from a renewal itself.
+        if not getattr(self._renewing, "here", False):
+            with self._idle:
+                self._idle.wait_for(lambda: self._in_flight == 0, timeout=DRAIN_S)
 
     def _loop(self, stop: threading.Event) -> None:
         # A fixed rate, and each renewal in a thread of its own: on a slow link (busy Wi-Fi) or
@@ -93,6 +106,7 @@ class LeaseKeeper:
             ).start()  # fmt: skip
 
     def _renew_once(self, stop: threading.Event) -> None:
+        self._renewing.here = True
         try:
             self._renew()
         except (NoLeaseError, LeaseBusyError) as exc:
@@ -108,3 +122,4 @@ class LeaseKeeper:
         finally:
             with self._lock:
                 self._in_flight -= 1
+                self._idle.notify_all()

@@ -64,3 +64,29 @@ def test_renewals_awaiting_replies_are_bounded_and_failures_do_not_stop_them() -
         release.set()
         keeper.drop()
     assert failed_once.is_set()
+
+
+def test_drop_waits_for_the_renewals_awaiting_their_reply() -> None:
+    # A renewal left inside Zenoh's query when a script ends comes back into a finalizing
+    # Python and aborts the process (clients/lease_keeper.py, drop): drop waits for it.
+    started = threading.Event()
+    release = threading.Event()
+    finished = threading.Event()
+
+    def renew() -> None:
+        started.set()
+        release.wait(10.0)
+        finished.set()
+
+    keeper = LeaseKeeper(renew, "t", period=0.005)
+    keeper.hold("secret")
+    assert started.wait(10.0)
+    timer = threading.Timer(0.2, release.set)  # the reply comes while drop is under way
+    timer.start()
+    try:
+        keeper.drop()
+        assert finished.is_set(), "drop returned while a renewal still awaited its reply"
+        assert not [t for t in threading.enumerate() if t.name.startswith("lease-renewal-t")]
+    finally:
+        release.set()
+        timer.join()
