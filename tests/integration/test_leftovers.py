@@ -5,6 +5,7 @@ and the temporary directory are gone soon after."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -68,9 +69,19 @@ def stuck(proc: subprocess.Popen[str]) -> str:
         ["ps", "-o", "pid,ppid,stat,wchan:20,args", "--ppid", str(proc.pid), "-p", str(proc.pid)],
         capture_output=True, text=True,
     ).stdout  # fmt: skip
+    # Seen once at load 8: a probe still in its loop 120 s after SIGINT. Whether the signal is
+    # pending, blocked, ignored or caught, in which thread, says where it went.
+    masks = []
+    for task in sorted(Path(f"/proc/{proc.pid}/task").glob("*")):
+        with contextlib.suppress(OSError):
+            lines = (task / "status").read_text().splitlines()
+            masks.append(f"thread {task.name}: " + " ".join(
+                line.replace("\t", "") for line in lines
+                if line.startswith(("Name", "SigPnd", "ShdPnd", "SigBlk", "SigIgn", "SigCgt"))
+            ))  # fmt: skip
     proc.send_signal(signal.SIGUSR1)
     try:
         out, _ = proc.communicate(timeout=10)
     except subprocess.TimeoutExpired as e:
         out = e.output if isinstance(e.output, str) else (e.output or b"").decode(errors="replace")
-    return f"{kids}\n{out}"
+    return f"{kids}\n" + "\n".join(masks) + f"\n{out}"
