@@ -7,7 +7,8 @@ import json
 import math
 from pathlib import Path
 
-from textual.widgets import DataTable, OptionList, TabbedContent
+from textual import events
+from textual.widgets import DataTable, OptionList, RichLog, TabbedContent
 
 from clients.tui.help import HelpScreen
 from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
@@ -147,6 +148,30 @@ async def test_language_switch_translates_tabs_and_keeps_edits(scene_app) -> Non
         await pilot.pause(0.3)
         labels = [str(t.label) for t in app.screen.query("ContentTab")]
         assert "2 Motors" in labels
+
+
+async def test_the_events_panel_shows_the_log_after_a_language_switch_without_a_resize(
+    scene_app,
+) -> None:
+    # The Log tab's RichLog holds every write until a Resize event gives it a width. In tmux
+    # on a loaded machine, after F2 composed the screen again, that event never reached it
+    # (laid out at 78x16, its writes still held): the Events panel stayed empty for good,
+    # 'halt' and every later event included. The same, made certain: it gets no Resize.
+    app = scene_app(tab="motors")
+    async with app.run_test(size=(100, 30)) as pilot:
+        await until(pilot, lambda: app.model.event_count > 0, "the scene's events")
+        await pilot.press("f2")
+        await until(pilot, lambda: app.settings.lang == "pt", "the language switch")
+        log = app.screen.query_one("#events", RichLog)
+        log.disable_messages(events.Resize)
+        await pilot.press("7")
+        app.post_message(Telemetry("events", Event(kind="halt", message="halt by 'ssh-user'")))
+
+        def shown() -> str:
+            return "\n".join(strip.text for strip in log.lines)
+
+        await until(pilot, lambda: "halt by 'ssh-user'" in shown(), "the halt in the panel")
+        assert "the robot fell forward" in shown()  # the events from before the switch too
 
 
 async def test_choreography_add_reorder_remove_save_load(scene_app, tmp_path: Path) -> None:

@@ -9,9 +9,11 @@ import time
 from dataclasses import dataclass
 
 from rich.text import Text
+from textual import events
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal
+from textual.geometry import Size
 from textual.message import Message
 from textual.widgets import Button, Checkbox, Input, RichLog, Static
 
@@ -31,6 +33,30 @@ def event_line(event: Event) -> Text:
     line.append(f"{event.kind:<14} ", style=LEVELS.get(event.kind, "green"))
     line.append(event.message)
     return line
+
+
+class EventsLog(RichLog):
+    """A RichLog that renders what it holds once the layout gives it a width.
+
+    RichLog holds every write until its first Resize event says how wide it is. In tmux on a
+    loaded machine, after F2 had composed the screen again, the Log tab's log was laid out
+    (78x16) without that event ever being handled (1 run in 12 with two busy loops): every
+    event stayed held, and the Events panel stayed empty for the rest of the session. So the
+    width is taken from the layout as well, on the app's next turn, if no Resize came first."""
+
+    def _size_updated(
+        self, size: Size, virtual_size: Size, container_size: Size, layout: bool = True
+    ) -> bool:
+        resized = super()._size_updated(size, virtual_size, container_size, layout)
+        if size.width and not self._size_known:
+            # On the app's queue, not this widget's: a Resize lost on the way to this widget
+            # must not be needed for it.
+            self.app.call_later(self._take_width)
+        return resized
+
+    def _take_width(self) -> None:
+        if self.size.width and not self._size_known:
+            self.on_resize(events.Resize(self.size, self.virtual_size, self.container_size))
 
 
 class LogTab(TabView):
@@ -75,7 +101,7 @@ class LogTab(TabView):
             yield Checkbox(_("ROS 2 bag"), id="record-ros2", compact=True)
             yield Button(_("Record"), id="record-button", compact=True)
             yield Static("", id="record-state")
-        yield RichLog(id="events", wrap=True, markup=False, max_lines=2000)
+        yield EventsLog(id="events", wrap=True, markup=False, max_lines=2000)
 
     def on_mount(self) -> None:
         self.query_one(RichLog).border_title = _("Events")
