@@ -163,7 +163,7 @@ class Commander:
     def command(self, verb: str, timeout: float | None = None, **fields: Any) -> dict[str, Any]:
         """Send one arbiter command; return its *applied* map or raise. Sent once; while this
         session re-establishes its link to a robot it reached before, it first waits (within
-        ``timeout``) for the robot's command key to be declared again (:meth:`_await_route`)."""
+        ``timeout``) for the robot's command key to be declared again (docs/links.md)."""
         if self._closed:
             raise ClientError("this Robot is closed; create a new one")
         if self.protocol is not None and verb != "halt":  # halt is always tried

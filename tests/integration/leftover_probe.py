@@ -18,6 +18,11 @@ from tests.fixtures.system import start_system
 
 # test_leftovers asks a probe that does not end for its threads' stacks.
 faulthandler.register(signal.SIGUSR1, all_threads=True)
+# The probe stands for a run in a terminal, where Ctrl-C raises KeyboardInterrupt. A suite
+# started in the background of a shell without job control (`cmd &` in a script, a CI runner)
+# inherits SIGINT ignored, and Python then leaves it ignored: the probe sat out the SIGINT for
+# 120 s (its /proc SigIgn said so, 0x1001007: HUP, INT, QUIT, PIPE, XFSZ).
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def descendants(pid: int) -> list[int]:
