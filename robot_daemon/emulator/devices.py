@@ -101,6 +101,8 @@ assert all(r.value.size == 1 for r in _ONE_BYTE)
 _CM730_VOLTAGE = CM730.VOLTAGE.value.address
 assert CM730.VOLTAGE.value.size == 1
 assert all(m.value.size == 2 for m, _ in (*IMU_GYRO_AXES, *IMU_ACCEL_AXES))
+_IMU_MAX, _IMU_CENTER = units.IMU_MAX, units.IMU_CENTER
+_PI, _GRAVITY, _ACCEL_G_PER_COUNT = math.pi, units.GRAVITY, units.ACCEL_G_PER_COUNT
 # The overheating alarm, once raised, lasts until the servo is this much below its limit.
 OVERHEAT_HYSTERESIS_C = 5.0
 # Under a physics plant, a motor saturated at its torque limit this long raises OVERLOAD (s).
@@ -421,6 +423,20 @@ class Servo(Device):
         d[_MOVING] = 1 if moving else 0
 
 
+def _imu_layout(
+    gyro_axes: tuple[tuple[CM730, int], ...], accel_axes: tuple[tuple[CM730, int], ...]
+) -> tuple[object, object, tuple[int, ...], tuple[int, ...], tuple[int, ...]]:
+    """An axis map as the CM-730's refresh uses it: the two maps (to see it is the same), the
+    signs of each, and the six registers' addresses in the map's order."""
+    return (
+        gyro_axes,
+        accel_axes,
+        tuple(s for _, s in gyro_axes),
+        tuple(s for _, s in accel_axes),
+        tuple(m.value.address for m, _ in (*gyro_axes, *accel_axes)),
+    )
+
+
 class CM730Device(Device):
     """The sub-controller: power switch for the servo bus, LEDs, buttons, IMU and voltage."""
 
@@ -438,38 +454,49 @@ class CM730Device(Device):
         self.gyro = (0.0, 0.0, 0.0)  # rad/s, robot axes
         self.accel = (0.0, 0.0, units.GRAVITY)  # specific force, m/s², robot axes: upright
         self.on_power = lambda on: None  # set by the bus: DXL_POWER writes switch the servos
+        self._imu_layout: tuple[object, object, tuple[int, ...], tuple[int, ...], tuple[int, ...]]
+        self._imu_layout = ((), (), (), (), ())  # made at the first read (refresh)
 
     def after_write(self, changed: list) -> None:
         if CM730.DXL_POWER.reg in changed:
             self.on_power(bool(self.table[CM730.DXL_POWER]))
 
     def refresh(self) -> None:
-        # Before every read of the CM-730 (each bulk read, 125 a second): the bytes in place.
+        # Before every read of the CM-730 (each bulk read, 125 a second): the bytes in place,
+        # and units' conversions written out, the same operations in the same order (six
+        # Python calls, two zips and an enum lookup per axis were most of the CM-730's read;
+        # tests/unit/test_sim_imu_registers.py checks every register against the conversions).
         d = self.table.data
         d[_CM730_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
         # The axis map is read here, each time (a test flips its signs to see the balance
-        # feedback throw the robot over): members' registers by ``_value_``, not the enum's
-        # ``value`` property, Python code each time.
-        full_scale = self.gyro_full_scale_dps
-        axes = (*IMU_GYRO_AXES, *IMU_ACCEL_AXES)
+        # feedback throw the robot over); its signs and addresses are kept while it is the same.
+        layout = self._imu_layout
+        if layout[0] is not IMU_GYRO_AXES or layout[1] is not IMU_ACCEL_AXES:
+            layout = self._imu_layout = _imu_layout(IMU_GYRO_AXES, IMU_ACCEL_AXES)
+        _, _, (s0, s1, s2), (s3, s4, s5), addresses = layout
+        gx, gy, gz = self.gyro
+        ax, ay, az = self.accel
+        scale = 2 * self.gyro_full_scale_dps / _IMU_MAX  # units.rad_s_to_gyro_raw's divisor
         raws: list[float] = [
-            units.rad_s_to_gyro_raw(s * v, full_scale)
-            for (_, s), v in zip(IMU_GYRO_AXES, self.gyro, strict=True)
-        ]
-        raws += [
-            units.ms2_to_accel_raw(s * v)
-            for (_, s), v in zip(IMU_ACCEL_AXES, self.accel, strict=True)
+            round(s0 * gx * 180.0 / _PI / scale) + _IMU_CENTER,
+            round(s1 * gy * 180.0 / _PI / scale) + _IMU_CENTER,
+            round(s2 * gz * 180.0 / _PI / scale) + _IMU_CENTER,
+            round(s3 * ax / _GRAVITY / _ACCEL_G_PER_COUNT) + _IMU_CENTER,
+            round(s4 * ay / _GRAVITY / _ACCEL_G_PER_COUNT) + _IMU_CENTER,
+            round(s5 * az / _GRAVITY / _ACCEL_G_PER_COUNT) + _IMU_CENTER,
         ]
         if self.imu_noise > 0:
             # One draw of six: the generator gives the same numbers as six draws of one.
             noise = self.rng.normal(0.0, self.imu_noise, 6).tolist()
             raws = [r + n for r, n in zip(raws, noise, strict=True)]
-        top = units.IMU_MAX
-        for (member, _), raw in zip(axes, raws, strict=True):
-            address = member._value_.address
-            value = max(0, min(top, round(raw)))
+        for address, raw in zip(addresses, raws, strict=True):
+            value = round(raw)
+            if value < 0:
+                value = 0
+            elif value > _IMU_MAX:
+                value = _IMU_MAX
             d[address] = value & 0xFF
-            d[address + 1] = (value >> 8) & 0xFF
+            d[address + 1] = value >> 8
 
     def set_buttons(self, mask: int) -> None:
         self.table[CM730.BUTTON] = mask & 0x03

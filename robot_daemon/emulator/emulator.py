@@ -27,6 +27,7 @@ import select
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -119,6 +120,7 @@ class Emulator:
         )
         self._wake_r = self._wake_w = -1  # a pipe that wakes the thread, made by start()
         self._served = threading.Condition(self.lock)
+        self._waiting = 0  # threads in wait_quiet/wait_stat: only they need _served notified
 
     # ---- time (the clock's) ----------------------------------------------------------------
 
@@ -216,15 +218,17 @@ class Emulator:
         )
         if warning:
             log.info("emulator: %s", warning)
+        # Most wake-ups (a tick's USB packets falling due, ~4 a tick) only write: each takes
+        # the lock once, and wakes nobody who is not waiting.
+        with self.lock:
+            fds, timeout = self._select_args()
         while not self._stopping.is_set():
-            with self.lock:
-                master = self.link.master
-                fds = [self._wake_r] + ([master] if master is not None else [])
-                timeout = self._timeout()
             try:
                 readable, _, _ = select.select(fds, [], [], timeout)
             except (OSError, ValueError):
-                continue  # the pty was closed under us (vanish); look again
+                with self.lock:  # the pty was closed under us (vanish); look again
+                    fds, timeout = self._select_args()
+                continue
             if self._wake_r in readable:
                 with contextlib.suppress(OSError):
                     os.read(self._wake_r, 512)
@@ -233,7 +237,15 @@ class Emulator:
                     self._service(readable)
                 except Exception:  # keep serving: a bug must not take the bus down
                     log.exception("emulator: error while serving the bus")
-                self._served.notify_all()
+                if self._waiting:
+                    self._served.notify_all()
+                fds, timeout = self._select_args()
+
+    def _select_args(self) -> tuple[list[int], float | None]:
+        """What the serving thread waits on, and how long at most. Call with the lock held."""
+        master = self.link.master
+        fds = [self._wake_r] if master is None else [self._wake_r, master]
+        return fds, self._timeout()
 
     def _timeout(self) -> float | None:
         now = time.perf_counter()
@@ -267,7 +279,7 @@ class Emulator:
         ):
             self._process(self.parser.expire(), time.perf_counter())
         self._flush()
-        if self._bus_quiet():
+        if not self._quiet.is_set() and self._bus_quiet():  # (set() wakes its waiters' lock)
             self._quiet.set()
 
     def _follow_line_rate(self) -> None:
@@ -353,13 +365,19 @@ class Emulator:
 
     def wait_quiet(self, timeout: float = 5.0) -> bool:
         """Block until no partial packet is held and no reply waits to be sent."""
-        with self._served:
-            return self._served.wait_for(lambda: not self.parser.pending and not self._out, timeout)
+        return self._wait_served(lambda: not self.parser.pending and not self._out, timeout)
 
     def wait_stat(self, name: str, at_least: int, timeout: float = 5.0) -> bool:
         """Block until ``stats[name]`` reaches ``at_least``, e.g. until the emulator has taken
         a packet that gets no reply (``"frames"``) or sent one (``"replies"``)."""
         if name not in self.stats:
             raise KeyError(f"no emulator statistic {name!r}; known: {', '.join(self.stats)}")
+        return self._wait_served(lambda: self.stats[name] >= at_least, timeout)
+
+    def _wait_served(self, predicate: Callable[[], bool], timeout: float) -> bool:
         with self._served:
-            return self._served.wait_for(lambda: self.stats[name] >= at_least, timeout)
+            self._waiting += 1
+            try:
+                return self._served.wait_for(predicate, timeout)
+            finally:
+                self._waiting -= 1
