@@ -129,16 +129,21 @@ class Renderer:
         self._small = small
         rays = small.rays()
         self._rays = (rays / np.linalg.norm(rays, axis=1, keepdims=True)).astype(np.float32)
-        shape = (cam.height, cam.width, 3)
-        self._noise = [
-            self.rng.normal(0.0, noise, shape).astype(np.float32) for _ in range(self.NOISE_FRAMES)
-        ]
+        # Drawn at the first render (the first draws of ``rng``, as they were here): a world
+        # nobody watches (`darwin up --camera none`, most simulated robots) never pays for them.
+        self._noise: list[np.ndarray] | None = None
         self._light = 1.0
         self._tint = np.zeros(3, dtype=np.float32)
 
     def render(self, pose: CameraPose, ball: BallView | None) -> np.ndarray:
         """A BGR uint8 image of the world seen from ``pose``."""
         cam = self.camera
+        if self._noise is None:
+            shape = (cam.height, cam.width, 3)
+            self._noise = [
+                self.rng.normal(0.0, self.noise, shape).astype(np.float32)
+                for _ in range(self.NOISE_FRAMES)
+            ]
         d = self._rays @ pose.rotation.T.astype(np.float32)  # unit rays in the field frame
         small = self._background(d, pose.position.astype(np.float32), ball)
         small = small.reshape(self._small.height, self._small.width, 3)
@@ -263,7 +268,7 @@ class Renderer:
             img += self._tint
         if self.blur:
             img = cv2.GaussianBlur(img, (3, 3), 0.7)
-        if self.noise > 0:
+        if self.noise > 0 and self._noise:
             img += self._noise[int(self.rng.integers(len(self._noise)))]
         np.clip(img, 0, 255, out=img)
         return img.astype(np.uint8)
