@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 from pathlib import Path
 
 CLK_TCK = os.sysconf("SC_CLK_TCK")
@@ -12,3 +13,23 @@ def cpu_seconds(pid: int) -> float:
     """CPU time (user + system) process ``pid`` has used so far, from /proc."""
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime + stime
+
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def with_hot_path(tree: Path) -> str:
+    """Give ``tree`` (another revision's sources, run with this interpreter) this tree's built
+    extension if it has none and the same ``_hotpath.c`` (a ``git archive`` or fresh worktree
+    has none built, and its daemon would run the Python hot path); says which hot path the
+    tree's daemon runs."""
+    if list((tree / "robot_daemon").glob("_hotpath*.so")):
+        return "compiled"
+    ours = sorted((REPO / "robot_daemon").glob("_hotpath*.so"))
+    source = tree / "robot_daemon" / "_hotpath.c"
+    if ours and source.exists() and source.read_bytes() == (
+        REPO / "robot_daemon" / "_hotpath.c"
+    ).read_bytes():
+        shutil.copy2(ours[0], tree / "robot_daemon" / ours[0].name)
+        return "compiled (this tree's build)"
+    return "Python (no compiled hot path built in that tree)"

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import shutil
 import statistics
 import sys
 import time
@@ -32,25 +31,11 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from benchmarks.common import with_hot_path  # noqa: E402
 from benchmarks.startup_benchmark import command_of, cpu_of, session_pids  # noqa: E402
 from tests.fixtures.system import RunningSystem, start_system  # noqa: E402
 
 PROCESSES = ("sim", "daemon", "gateway")
-
-
-def with_hot_path(tree: Path) -> str:
-    """Give ``tree`` this tree's built extension if it has none and the same source; says
-    which hot path the tree's daemon runs."""
-    if list((tree / "robot_daemon").glob("_hotpath*.so")):
-        return "compiled"
-    ours = sorted((REPO / "robot_daemon").glob("_hotpath*.so"))
-    source = tree / "robot_daemon" / "_hotpath.c"
-    if ours and source.exists() and source.read_bytes() == (
-        REPO / "robot_daemon" / "_hotpath.c"
-    ).read_bytes():
-        shutil.copy2(ours[0], tree / "robot_daemon" / ours[0].name)
-        return "compiled (this tree's build)"
-    return "Python (no compiled hot path built in that tree)"
 
 
 def by_process(system: RunningSystem) -> dict[str, list[int]]:

@@ -16,7 +16,9 @@ from the spawn:
 Baselines, measured in the same run and interleaved with it: a bare interpreter (``python -c
 pass``, the floor each of the four processes pays), and with ``--against REF`` the same
 measurements of another revision (``git archive REF``, run from a temporary directory with this
-interpreter), so before/after compare under the same load.
+interpreter, with this tree's compiled hot path when its ``_hotpath.c`` is the same:
+:func:`benchmarks.common.with_hot_path`), so before/after compare like for like, under the same
+load.
 
 Run by hand:  .venv/bin/python benchmarks/startup_benchmark.py [--runs 7] [--against main]
 """
@@ -38,7 +40,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from benchmarks.common import cpu_seconds  # noqa: E402
+from benchmarks.common import cpu_seconds, with_hot_path  # noqa: E402
 from tests.fixtures.system import start_system  # noqa: E402
 
 IMPORT_LINE = re.compile(r"^((?:\[[a-z0-9-]+\] )*)import time:\s+\d+ \|\s+\d+ \|")
@@ -157,7 +159,9 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="startup-bench-") as tmp:
         trees = {"this tree": REPO}
         if args.against:
-            trees = {args.against: extract(args.against, Path(tmp)), **trees}
+            base = extract(args.against, Path(tmp))
+            print(f"{args.against}: hot path {with_hot_path(base)}", flush=True)
+            trees = {args.against: base, **trees}
         runs: dict[str, list[dict[str, float]]] = {name: [] for name in trees}
         bare: list[tuple[float, float]] = []
         for _ in range(args.runs):

@@ -165,3 +165,83 @@ def test_the_shipped_config_reads_cleanly_through_every_settings_module() -> Non
 def test_an_unknown_walking_parameter_names_the_nearest_one() -> None:
     with pytest.raises(ValueError, match=r"'perid_time' \(nearest known: 'period_time'\)"):
         check("perid_time", 600.0)
+
+
+def test_a_merge_and_each_load_are_copies_nobody_else_holds(tmp_path) -> None:
+    """The shipped files are merged in place once (no copy of the whole config per file); what
+    callers get must still share nothing: not with the cache, the inputs or another load."""
+    from config.loader import merge, shipped
+
+    base = {"a": {"x": 1, "seq": [1]}, "b": 2}
+    over = {"a": {"y": {"z": 3}}, "b": {"c": [4]}}
+    out = merge(base, over)
+    assert out == {"a": {"x": 1, "seq": [1], "y": {"z": 3}}, "b": {"c": [4]}}
+    out["a"]["seq"].append(2)
+    out["a"]["y"]["z"] = 0
+    out["b"]["c"].append(5)
+    assert base == {"a": {"x": 1, "seq": [1]}, "b": 2}
+    assert over == {"a": {"y": {"z": 3}}, "b": {"c": [4]}}
+
+    user = tmp_path / "config.toml"
+    user.write_text('[robot]\nname = "mine"\n')
+    pristine = shipped()
+    for path in (None, user):
+        first = load_all(path)
+        first["robot"]["name"] = "changed"
+        first["zenoh"].clear()
+        again = load_all(path)
+        assert again["robot"]["name"] != "changed" and again["zenoh"] == pristine["zenoh"]
+    assert load_all(user)["robot"] == {**pristine["robot"], "name": "mine"}
+    assert shipped() == pristine
+
+
+def test_a_toml_file_is_parsed_once_and_again_when_it_changes(tmp_path, monkeypatch) -> None:
+    """A shipped file's parsed TOML is kept as bytecode is (under the cache prefix, unless told
+    not to write): read back while the file's size and time are the same, parsed again when
+    either changes or the kept copy is unreadable; never kept when marshal cannot hold it (a
+    date), nor for a user's file."""
+    import os
+    import sys
+    import tomllib
+
+    from config import loader
+    from config.loader import toml_file
+
+    user = tmp_path / "user.toml"
+    user.write_text("u = 1\n")
+    monkeypatch.setattr(sys, "pycache_prefix", str(tmp_path / "cache"))
+    monkeypatch.setattr(sys, "dont_write_bytecode", False)
+    assert toml_file(user) == {"u": 1}
+    assert not (tmp_path / "cache").exists()  # not shipped: not kept
+    monkeypatch.setattr(loader, "KEPT_UNDER", (tmp_path,))
+    f = tmp_path / "x.toml"
+    f.write_text("a = 1\n[t]\nb = [1, 2]\n")
+    assert toml_file(f) == {"a": 1, "t": {"b": [1, 2]}}
+    (kept,) = (tmp_path / "cache").rglob("*.marshal")
+    mine = toml_file(f)
+    mine["t"]["b"].append(3)  # each call's objects are its own
+    with monkeypatch.context() as m:
+        m.setattr(tomllib, "loads", lambda text: pytest.fail("parsed again"))
+        assert toml_file(f) == {"a": 1, "t": {"b": [1, 2]}}
+    f.write_text("a = 22\n")  # another size
+    assert toml_file(f) == {"a": 22}
+    stamp = f.stat().st_mtime_ns
+    f.write_text("a = 33\n")  # the same size at another time
+    os.utime(f, ns=(stamp + 10**9, stamp + 10**9))
+    assert toml_file(f) == {"a": 33}
+    kept.write_bytes(b"not marshal")
+    assert toml_file(f) == {"a": 33}
+    dated = tmp_path / "dated.toml"
+    dated.write_text("day = 1979-05-27\n")
+    assert str(toml_file(dated)["day"]) == "1979-05-27"
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    other = tmp_path / "other.toml"
+    other.write_text("c = 3\n")
+    assert toml_file(other) == {"c": 3}
+    assert [p.name for p in (tmp_path / "cache").rglob("*.marshal")] == [kept.name]
+    # A motion file is text, as Path.read_text reads it: a lone CR ends a line there.
+    crs = tmp_path / "crs.toml"
+    crs.write_bytes(b"a = 1\rb = 2\r")
+    assert toml_file(crs, universal_newlines=True) == {"a": 1, "b": 2}
+    with pytest.raises(tomllib.TOMLDecodeError):
+        toml_file(crs)

@@ -34,6 +34,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from config.loader import toml_file
 from robot_daemon.motion.action.binfile import (
     DEFAULT_RESERVED,
     DEFAULT_SLOPES,
@@ -364,12 +365,16 @@ def page_from_dict(
 
 def loads(text: str, source: str = "motion text", names: dict[int, str] | None = None):
     """Pages from text; raises :class:`MotionFileError` naming the file, page and field."""
-    names = names or default_joint_names()
-    ids = {name: jid for jid, name in names.items()}
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise MotionFileError(f"{source} is not valid TOML: {exc}") from exc
+    return _pages(doc, source, names)
+
+
+def _pages(doc: dict[str, Any], source: str, names: dict[int, str] | None) -> list[Page]:
+    names = names or default_joint_names()
+    ids = {name: jid for jid, name in names.items()}
     unknown = set(doc) - {"page"}
     if unknown:
         raise MotionFileError(f"{source}: unknown top-level key(s) {', '.join(sorted(unknown))}")
@@ -385,7 +390,9 @@ def loads(text: str, source: str = "motion text", names: dict[int, str] | None =
 def read_text(path: str | Path, names: dict[int, str] | None = None) -> list[Page]:
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        doc = toml_file(p, universal_newlines=True)  # parsed once, not at every start
     except OSError as exc:
         raise MotionFileError(f"cannot read motion file {p}: {exc.strerror}") from exc
-    return loads(text, str(p), names)
+    except tomllib.TOMLDecodeError as exc:
+        raise MotionFileError(f"{p} is not valid TOML: {exc}") from exc
+    return _pages(doc, str(p), names)
