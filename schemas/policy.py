@@ -250,7 +250,10 @@ class PolicyStatus(Message):
     refused: dict[str, int] = field(default_factory=dict)  # reason → count
     clipped: int = 0
     missed_deadlines: int = 0
-    overruns: int = 0  # actions that arrived after the tick they were due in
+    overruns: int = 0  # accepted actions a newer one replaced in the mailbox before a tick
+    # Actions lost on the way (they travel droppable, schemas/qos.py): the seqs that an
+    # authenticated action of the stream skipped; protocol 2.1 (docs/learning.md).
+    lost: int = 0
     latency_p50_ms: float = 0.0
     latency_p99_ms: float = 0.0
     stamp: float = field(default_factory=time.monotonic)

@@ -22,7 +22,8 @@ from schemas.errors import ConfigError, IncompatibleProtocolError
 
 # 1.1: status carries version, protocol, power and heat.
 # 2.0: joints carry radians only (no position_deg); a 1.x client is refused in one line.
-PROTOCOL_VERSION: tuple[int, int] = (SCHEMA_VERSION, 0)
+# 2.1: policy_status carries `lost` (actions of the stream lost on the way).
+PROTOCOL_VERSION: tuple[int, int] = (SCHEMA_VERSION, 1)
 PACKAGE = "darwin-zenoh"
 # A daemon from before versions were announced: protocol 1.0.
 UNANNOUNCED: tuple[int, int] = (1, 0)

@@ -101,7 +101,9 @@ class PolicyModule(MotionModule):
         self._reset_stream()
         self.state = "idle"
         self.reason = ""
-        self.counts: dict[str, Any] = {"applied": 0, "clipped": 0, "missed": 0, "overruns": 0}
+        self.counts: dict[str, Any] = dict.fromkeys(
+            ("applied", "clipped", "missed", "overruns", "lost"), 0
+        )
         self.refused: dict[str, int] = {}
         self.latencies: deque[float] = deque(maxlen=500)
         self._obs_stamps: deque[tuple[int, float]] = deque(maxlen=64)
@@ -164,35 +166,49 @@ class PolicyModule(MotionModule):
             elif not action.verify(self.stream_key):
                 key, why = "bad_mac", "the action's mac does not match the stream key"
             elif action.seq <= self._seq:
+                # A replay, or one that came after a newer one (Zenoh keeps a link's messages
+                # in order): too old to apply either way, and a late one stays counted lost.
                 key, why = "old_seq", f"seq {action.seq} is not after {self._seq} (replayed?)"
-            elif 0 < action.obs_tick <= self._published_tick:
-                # It answers an observation: paced by them, one action each. Not by when it
-                # arrives: a loaded machine delivers actions sent 20 ms apart in bunches.
-                if action.obs_tick <= self._answered_tick:
-                    key = "too_fast"
-                    why = (
-                        f"too fast: observation {action.obs_tick} was answered already (one "
-                        f"action per observation, {self.rate_hz:g} Hz)"
-                    )
-                else:
-                    self._answered_tick = action.obs_tick
-                    return self._accept(action, now)
             else:
-                rate = self.rate_hz * 1.25
-                self._tokens = min(
-                    float(self.settings.burst), self._tokens + max(0.0, now - self._token_at) * rate
-                )
-                self._token_at = now
-                if self._tokens < 1.0:
-                    key, why = "too_fast", f"too fast: the stream runs at {self.rate_hz:g} Hz"
-                else:
-                    self._tokens -= 1.0
+                self._take_seq(action.seq)
+                key, why = self._pace(action, now)
+                if not key:
                     return self._accept(action, now)
             self.refused[key] = self.refused.get(key, 0) + 1
             return why
 
+    def _take_seq(self, seq: int) -> None:
+        # Actions travel droppable (schemas/qos.py): one dropped on the way is seen only as
+        # the seqs a later one skips. Refused or not, an authenticated action's seq is the
+        # stream's newest, so that a refusal is never also counted lost. The stream's first
+        # action skips nothing: a client's seqs need not start at 1, only increase.
+        if self._seq >= 0:
+            self.counts["lost"] += seq - self._seq - 1
+        self._seq = seq
+
+    def _pace(self, action: PolicyAction, now: float) -> tuple[str, str]:
+        """("", "") when ``action`` is within the stream's pace, else (refusal key, why)."""
+        if 0 < action.obs_tick <= self._published_tick:
+            # It answers an observation: paced by them, one action each. Not by when it
+            # arrives: a loaded machine delivers actions sent 20 ms apart in bunches.
+            if action.obs_tick <= self._answered_tick:
+                return "too_fast", (
+                    f"too fast: observation {action.obs_tick} was answered already (one "
+                    f"action per observation, {self.rate_hz:g} Hz)"
+                )
+            self._answered_tick = action.obs_tick
+            return "", ""
+        rate = self.rate_hz * 1.25
+        self._tokens = min(
+            float(self.settings.burst), self._tokens + max(0.0, now - self._token_at) * rate
+        )
+        self._token_at = now
+        if self._tokens < 1.0:
+            return "too_fast", f"too fast: the stream runs at {self.rate_hz:g} Hz"
+        self._tokens -= 1.0
+        return "", ""
+
     def _accept(self, action: PolicyAction, now: float) -> str:
-        self._seq = action.seq
         if self._mail is not None:
             self.counts["overruns"] += 1  # the one before it was never applied
         self._mail = (action, now)
@@ -380,6 +396,7 @@ class PolicyModule(MotionModule):
             clipped=self.counts["clipped"],
             missed_deadlines=self.counts["missed"],
             overruns=self.counts["overruns"],
+            lost=self.counts["lost"],
             latency_p50_ms=round(pct(0.5), 3),
             latency_p99_ms=round(pct(0.99), 3),
         )

@@ -25,6 +25,7 @@ from schemas.policy import (
     PolicyAction,
     PolicyApplied,
     PolicyObservation,
+    PolicyStatus,
 )
 from schemas.units import GRAVITY
 
@@ -211,6 +212,40 @@ def test_actions_answering_observations_are_paced_by_them_not_by_when_they_arriv
     assert "too fast" in rig.policy.offer(PolicyAction.signed("me", key, 9, zero, future + 1))
     rig.step()
     assert rig.applied()[-1].seq == 8
+
+
+def test_the_seqs_an_action_skips_are_counted_lost() -> None:
+    rig = Rig(burst=1)
+    zero = [0.0] * 20
+    key = rig.start()
+
+    def offer(*seqs: int) -> list[str]:
+        """Offer ``seqs`` at one instant, then let the next tick take the newest."""
+        whys = [rig.policy.offer(PolicyAction.signed("me", key, seq, zero)) for seq in seqs]
+        rig.step(3)  # a period at 50 Hz: the pace has room for the next one
+        return whys
+
+    # A stream's first action skips nothing, whatever its seq: seqs need only increase.
+    assert offer(1) + offer(2) + offer(5) == ["", "", ""]
+    assert rig.policy.counts["lost"] == 2  # 3 and 4
+    # A duplicate, and 3 arriving after 5 (a replay or a late one, the daemon cannot tell):
+    # neither is after the newest, so both are refused and the count of lost stays.
+    assert all("replayed" in why for why in offer(5, 3))
+    assert rig.policy.counts["lost"] == 2 and rig.policy.refused["old_seq"] == 2
+    # A refused action's seq is the stream's newest all the same: 7, too fast behind 6, is
+    # refused and not also lost when 8 comes.
+    assert offer(6, 7)[1].startswith("too fast") and offer(8) == [""]
+    assert rig.policy.counts["lost"] == 2
+    assert [a.seq for a in rig.applied()] == [1, 2, 5, 6, 8]
+    # Each seq from 1 to the newest, 8, is applied, overrun, lost or refused, once (the two
+    # old seqs refused were seqs counted already).
+    c = rig.policy.counts
+    assert c["applied"] + c["overruns"] + c["lost"] + rig.policy.refused["too_fast"] == 8
+    # A new stream starts a new sequence; the count is the daemon's life's, as `applied` is.
+    key = rig.start()
+    assert offer(100) + offer(103) == ["", ""]
+    status = rig.policy.policy_status()
+    assert status.lost == 4 and PolicyStatus.from_dict(status.to_dict()).lost == 4
 
 
 def test_silence_holds_then_damps_then_safe_stops() -> None:
