@@ -39,6 +39,10 @@ from schemas.session import Credentials, resolve
 
 log = logging.getLogger(__name__)
 RETRY_S = 2.0
+# How long ``close`` waits for the link's threads still inside a Zenoh call (a command ends by
+# its timeout, 3 s by default, or at once when the session closes; a session being opened by
+# its connect timeout), as clients/lease_keeper.py's drop does.
+DRAIN_S = 5.0
 # Samples kept for an app that is not taking them: > 15 s of joints and IMU at 125 Hz; older
 # ones go first (the plots' oldest points). Events are never dropped; of camera frames only the
 # newest is kept.
@@ -117,13 +121,15 @@ class Link:
         self.robot: Robot | None = None
         self.info = LinkInfo(LinkState.IDLE, "", "")
         self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._busy = 0  # the link's threads not yet ended: the connectors, commands, halts
+        self._idle = threading.Condition(self._lock)  # notified when one ends
+        self._ours = threading.local()  # .here in a thread of the link's own
         self._connector: threading.Thread | None = None
         self._commands: queue.Queue[_Command | None] = queue.Queue()
-        self._runner = threading.Thread(target=self._run_commands, name="tui-commands", daemon=True)
-        self._runner.start()
+        self._runner = self._spawn("tui-commands", self._run_commands)
         self._camera: Subscription | None = None
         self._liveliness: Any = None
-        self._lock = threading.Lock()
         self.inbox = Inbox(app)
 
     @property
@@ -138,13 +144,27 @@ class Link:
         self.disconnect()
         self._stop = threading.Event()
         self._set(LinkState.CONNECTING, target.endpoint, target.robot)
-        self._connector = threading.Thread(
-            target=self._connect_loop,
-            args=(target.endpoint, target.robot, self._stop),
-            name="tui-connect",
-            daemon=True,
+        self._connector = self._spawn(
+            "tui-connect", self._connect_loop, target.endpoint, target.robot, self._stop
         )
-        self._connector.start()
+
+    def _spawn(self, name: str, target: Any, *args: Any) -> threading.Thread:
+        """A daemon thread of the link's, counted until it ends (``close`` waits for it)."""
+        with self._lock:
+            self._busy += 1  # before it starts: a close right after must wait for it
+
+        def run() -> None:
+            self._ours.here = True
+            try:
+                target(*args)
+            finally:
+                with self._idle:
+                    self._busy -= 1
+                    self._idle.notify_all()
+
+        thread = threading.Thread(target=run, name=name, daemon=True)
+        thread.start()
+        return thread
 
     def _connect_loop(self, endpoint: str, robot_name: str, stop: threading.Event) -> None:
         while not stop.is_set():
@@ -161,13 +181,13 @@ class Link:
                     robot.close()
                     return
                 self.robot = robot
-            self._attach(robot)
+            self._attach(robot, stop)
             return
 
     def _telemetry(self, topic: str, msg: wire.Message) -> None:
         self.inbox.put(topic, msg)
 
-    def _attach(self, robot: Robot) -> None:
+    def _attach(self, robot: Robot, stop: threading.Event) -> None:
         for topic in ("joints", "imu", "status", "events", "vision"):  # camera: watch_camera
             robot.subscribe(topic, functools.partial(self._telemetry, topic))
         ep, name = robot.target.endpoint, robot.target.robot
@@ -183,6 +203,8 @@ class Link:
                 robot.check_protocol(3.0)
         except IncompatibleProtocolError as exc:
             self._set(LinkState.UNREACHABLE, ep, name, str(exc))
+            return
+        if stop.is_set():  # disconnected meanwhile: the robot is closed, nothing to listen to
             return
         self._set(LinkState.CONNECTED if alive else LinkState.NO_DAEMON, ep, name)
 
@@ -220,8 +242,18 @@ class Link:
             robot.close()
 
     def close(self) -> None:
+        """Disconnect and end the link's threads, waiting for them (``DRAIN_S`` at most)."""
         self.disconnect()
         self._commands.put(None)
+        # A thread of the link's still inside a Zenoh call (a command's query, a session
+        # being opened, the connect's first queries) when the TUI exits would come back into
+        # a finalizing Python and be ended by pthread_exit through Zenoh's Rust frames, which
+        # aborts the process ("FATAL: exception not rethrown", exit -6), as a Robot's lease
+        # renewals did (clients/lease_keeper.py). The robot is closed by now, so a call in
+        # flight ends at once. Not from a thread of the link's own, which would wait for itself.
+        if not getattr(self._ours, "here", False):
+            with self._idle:
+                self._idle.wait_for(lambda: self._busy == 0, timeout=DRAIN_S)
 
     # -- camera: subscribed only while someone looks at it ----------------------------------------
     def watch_camera(self, on: bool) -> None:
@@ -247,9 +279,7 @@ class Link:
 
     def halt(self) -> None:
         """Halt now, from a thread of its own: it never waits behind queued commands."""
-        threading.Thread(
-            target=self._execute, args=(_Command("halt", {}, "halt"),), daemon=True
-        ).start()
+        self._spawn("tui-halt", self._execute, _Command("halt", {}, "halt"))
 
     def _run_commands(self) -> None:
         while True:
