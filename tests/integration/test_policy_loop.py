@@ -5,9 +5,8 @@ refused or clipped with its reason; silence and a tilt end the stream with a saf
 from __future__ import annotations
 
 import math
-import time
 from collections import Counter
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 
 import msgpack
 import pytest
@@ -17,7 +16,8 @@ from clients.robot import Robot
 from schemas import SCHEMA_VERSION
 from schemas.joints import JOINT_IDS
 from schemas.messages import Event, encode
-from schemas.policy import DEFAULT_POSE, PolicyAction, PolicyApplied
+from schemas.policy import DEFAULT_POSE, PolicyAction
+from tests.fixtures.policy_stream import answered, held_tick, settle
 from tests.fixtures.system import RunningSystem, start_system
 from tests.integration.test_motion_system import WAIT, Events
 
@@ -61,57 +61,15 @@ def shipped_holder(robot_system: RunningSystem) -> Iterator[Robot]:
     yield from _holder(robot_system)
 
 
-def _held(stream: PolicyStream) -> int:
-    """The tick of the stream's newest observation held (-1: none): an action may have
-    answered it already, and a second answer to it is refused as too fast."""
-    held = stream.next_observation(timeout=0)
-    return held.tick if held is not None else -1
-
-
 def _stream(robot: Robot, steps: int, action: list[float], stream: PolicyStream) -> int:
     """``steps`` actions, each answering the newest observation (the policy's rate)."""
-    last = _held(stream)
+    last = held_tick(stream)
     for _ in range(steps):
         obs = stream.next_observation(last, timeout=WAIT)
         assert obs is not None
         last = obs.tick
         stream.send(action, obs.tick)
     return stream.seq
-
-
-# How long an answer may take before another action follows it. Not a verdict: actions and
-# answers travel droppable (schemas/qos.py), so the newest action or its answer may be lost on
-# the way, and the daemon counts a lost action only when a later one arrives; an answer that
-# comes later than this is harmless (the one after it is waited for instead).
-ANSWER_S = 2.0
-
-
-def _answered(stream: PolicyStream, send: Callable[[], object], seq: int = 0) -> PolicyApplied:
-    """``send()`` until its newest message is answered, within WAIT: that answer. The message's
-    seq is ``seq``, else the newest ``stream`` signed. Every seq before it has then reached the
-    daemon or been counted lost there."""
-    deadline = time.monotonic() + WAIT
-    while True:
-        send()
-        want = seq or stream.seq
-        ans = stream.answer(want, ANSWER_S)
-        if ans is not None:
-            return ans
-        assert time.monotonic() < deadline, f"no answer to any message up to seq {want}"
-
-
-def _settle(stream: PolicyStream, action: list[float]) -> PolicyApplied:
-    """Stream ``action`` (one per observation) until the daemon answers the newest sent."""
-    last = _held(stream)
-
-    def send() -> None:
-        nonlocal last
-        obs = stream.next_observation(last, timeout=WAIT)
-        assert obs is not None
-        last = obs.tick
-        stream.send(action, obs.tick)
-
-    return _answered(stream, send)
 
 
 # A stream holds the present pose, and the servos of a robot just started are centred (legs
@@ -130,10 +88,10 @@ def test_a_50hz_stream_is_applied_at_the_next_tick_and_answered(holder: Robot) -
         # Counted from an action the daemon answered: every seq up to it has reached the daemon
         # or been counted lost there, so its counts (of its life: the module's system ran
         # other streams) cover exactly the seqs sent before. The same after the 100.
-        first = _settle(stream, [0.0] * 20).seq
+        first = settle(stream, [0.0] * 20).seq
         before = holder.command("policy", op="status")
         _stream(holder, 100, [0.0] * 20, stream)
-        last = _settle(stream, [0.0] * 20)
+        last = settle(stream, [0.0] * 20)
         # Once seen refused as "no policy stream is running" under load: the status says why
         # the stream ended (its reason), for whoever sees it again.
         status = holder.command("policy", op="status")
@@ -188,20 +146,20 @@ def test_bad_actions_are_refused_or_clipped_with_the_reason(
         words = {"shape": "list of 20", "nan": "NaN", "field": "unknown field 'torque'"}
         # Each sent again until answered (either may be lost on the way, as any action).
         for seq, (name, payload) in enumerate(bad.items(), start=900):
-            ans = _answered(stream, lambda p=payload: stream.send_raw(p), seq)
+            ans = answered(stream, lambda p=payload: stream.send_raw(p), seq)
             assert words[name] in ans.refused, name
         # Signed with another key (e.g. copied from the wire after the key changed): refused.
         forged = encode(PolicyAction.signed(cid, b"x" * 16, 950, [0.0] * 20))
-        ans = _answered(stream, lambda: stream.send_raw(forged), 950)
+        ans = answered(stream, lambda: stream.send_raw(forged), 950)
         assert "mac" in ans.refused
         # The applied action is where the target is, which moves at most max_delta per action
         # from the pose the stream started in (an earlier test may have left the robot sitting,
         # well over 1 from the default pose): the default pose first.
         _stream(holder, 20, [0.0] * 20, stream)
-        last = _settle(stream, [0.0] * 20)
+        last = settle(stream, [0.0] * 20)
         assert max(abs(a) for a in last.action) < 1e-6, last
         # Out of range: clipped to ±1 and to the joint limits, applied, and said so.
-        ans = _settle(stream, [5.0] * 20)
+        ans = settle(stream, [5.0] * 20)
         assert not ans.refused
         assert any("outside ±1" in c for c in ans.clipped)
         assert max(abs(a) for a in ans.action) <= 1.0 + 1e-9
@@ -214,7 +172,7 @@ def test_bad_actions_are_refused_or_clipped_with_the_reason(
             def intrude() -> None:
                 assert spy.send([0.0] * 20) is None  # without wait=True, nothing to wait for
 
-            ans = _answered(spy, intrude)
+            ans = answered(spy, intrude)
             assert "does not hold the control lease" in ans.refused
             spy.close()
         status = holder.command("policy", op="status")
@@ -259,7 +217,7 @@ def test_silence_ends_the_stream_with_a_safe_stop(shipped_holder: Robot) -> None
         assert "no action for" in ev.data["reason"]
         status = holder.wait_for("status", lambda s: s.motion["policy"]["state"] == "stopped")
         assert all(o != "policy" for o in status.motion["owners"].values())
-        late = _answered(stream, lambda: stream.send([0.0] * 20))
+        late = answered(stream, lambda: stream.send([0.0] * 20))
         assert "no policy stream" in late.refused
     finally:
         stream.close()
