@@ -10,11 +10,8 @@ skew is a warning and a major one a refusal naming both versions and what to upg
 from __future__ import annotations
 
 import os
-import re
-import sys
 from collections.abc import Mapping
 from functools import cache
-from pathlib import Path
 from typing import Any
 
 from schemas import SCHEMA_VERSION
@@ -34,57 +31,12 @@ ENV_ANNOUNCE = "DARWIN_ANNOUNCE_PROTOCOL"
 
 @cache
 def package_version() -> str:
-    """This package's version, as ``importlib.metadata.version`` says it."""
-    found = _metadata_version()
-    if found is not None:
-        return found
     from importlib.metadata import PackageNotFoundError, version
 
     try:
         return version(PACKAGE)
     except PackageNotFoundError:  # run from a source tree that was never installed
         return "unknown"
-
-
-def _metadata_version() -> str | None:
-    """The ``Version:`` of the first ``*.dist-info``/``*.egg-info`` directory of this package
-    along ``sys.path``, where importlib.metadata looks first; None when the search is not that
-    simple (a zip on the path, no such directory, no such line): then importlib.metadata
-    itself. The daemon announces its version before it serves, and importing
-    importlib.metadata (email parsing, zip files…) cost it about 25 ms of CPU at each start."""
-    wanted = PACKAGE.replace("-", "_")
-    for entry in sys.path:
-        where = Path(entry or ".")
-        try:
-            names = os.listdir(where)
-        except NotADirectoryError:
-            return None  # a zip: importlib.metadata reads those
-        except OSError:
-            continue
-        for name in names:
-            stem, dot, kind = name.lower().rpartition(".")
-            if not dot or kind not in ("dist-info", "egg-info", "egg"):
-                continue
-            if re.sub(r"[-_.]+", "_", stem.partition("-")[0]) != wanted:
-                continue
-            if kind == "egg":
-                return None  # an old-style egg: importlib.metadata reads those
-            meta = where / name
-            files = ("METADATA", "PKG-INFO") if meta.is_dir() else ("",)
-            for file in files:
-                try:
-                    text = (meta / file if file else meta).read_text(encoding="utf-8")
-                except OSError:
-                    continue
-                for line in text.splitlines():
-                    if not line.strip():
-                        return None  # the headers ended without one
-                    key, _, value = line.partition(":")
-                    if key.strip().lower() == "version":
-                        return value.strip()
-                return None
-            return None
-    return None
 
 
 def parse_protocol(text: str) -> tuple[int, int]:

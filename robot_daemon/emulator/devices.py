@@ -101,8 +101,7 @@ assert all(r.value.size == 1 for r in _ONE_BYTE)
 _CM730_VOLTAGE = CM730.VOLTAGE.value.address
 assert CM730.VOLTAGE.value.size == 1
 assert all(m.value.size == 2 for m, _ in (*IMU_GYRO_AXES, *IMU_ACCEL_AXES))
-_IMU_MAX, _IMU_CENTER = units.IMU_MAX, units.IMU_CENTER
-_PI, _GRAVITY, _ACCEL_G_PER_COUNT = math.pi, units.GRAVITY, units.ACCEL_G_PER_COUNT
+_IMU_MAX = units.IMU_MAX
 # The overheating alarm, once raised, lasts until the servo is this much below its limit.
 OVERHEAT_HYSTERESIS_C = 5.0
 # Under a physics plant, a motor saturated at its torque limit this long raises OVERLOAD (s).
@@ -462,10 +461,9 @@ class CM730Device(Device):
             self.on_power(bool(self.table[CM730.DXL_POWER]))
 
     def refresh(self) -> None:
-        # Before every read of the CM-730 (each bulk read, 125 a second): the bytes in place,
-        # and units' conversions written out, the same operations in the same order (six
-        # Python calls, two zips and an enum lookup per axis were most of the CM-730's read;
-        # tests/unit/test_sim_imu_registers.py checks every register against the conversions).
+        # Before every read of the CM-730 (each bulk read, 125 a second): the bytes in place.
+        # The conversions are units' own, called once an axis (two zips and an enum lookup
+        # per axis were most of the CM-730's read; tests/unit/test_sim_imu_registers.py).
         d = self.table.data
         d[_CM730_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
         # The axis map is read here, each time (a test flips its signs to see the balance
@@ -476,14 +474,15 @@ class CM730Device(Device):
         _, _, (s0, s1, s2), (s3, s4, s5), addresses = layout
         gx, gy, gz = self.gyro
         ax, ay, az = self.accel
-        scale = 2 * self.gyro_full_scale_dps / _IMU_MAX  # units.rad_s_to_gyro_raw's divisor
+        fs = self.gyro_full_scale_dps
+        gyro_raw, accel_raw = units.rad_s_to_gyro_raw, units.ms2_to_accel_raw
         raws: list[float] = [
-            round(s0 * gx * 180.0 / _PI / scale) + _IMU_CENTER,
-            round(s1 * gy * 180.0 / _PI / scale) + _IMU_CENTER,
-            round(s2 * gz * 180.0 / _PI / scale) + _IMU_CENTER,
-            round(s3 * ax / _GRAVITY / _ACCEL_G_PER_COUNT) + _IMU_CENTER,
-            round(s4 * ay / _GRAVITY / _ACCEL_G_PER_COUNT) + _IMU_CENTER,
-            round(s5 * az / _GRAVITY / _ACCEL_G_PER_COUNT) + _IMU_CENTER,
+            gyro_raw(s0 * gx, fs),
+            gyro_raw(s1 * gy, fs),
+            gyro_raw(s2 * gz, fs),
+            accel_raw(s3 * ax),
+            accel_raw(s4 * ay),
+            accel_raw(s5 * az),
         ]
         if self.imu_noise > 0:
             # One draw of six: the generator gives the same numbers as six draws of one.

@@ -1,7 +1,7 @@
-"""The CM-730's refresh writes its IMU registers with units' conversions written out
-(``CM730Device.refresh``, before each of its reads): every register must be what the
-conversions give, for any body motion, noise, full scale and axis map, and the noise must
-take the same draws from the generator."""
+"""The CM-730's refresh writes its IMU registers from an axis map's signs and addresses kept
+while the map is the same (``CM730Device.refresh``, before each of its reads): every register
+must be what the conversions give, for any body motion, noise, full scale and axis map, and the
+noise must take the same draws from the generator."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from schemas import units
 
 
 def reference(cm: CM730Device, rng: np.random.Generator) -> bytes:
-    """The registers as units' conversions give them (the refresh before it was written out),
+    """The registers as units' conversions give them through the axis map read afresh,
     drawing the noise from ``rng``."""
     d = bytearray(cm.table.data)
     d[CM730.VOLTAGE.value.address] = max(0, min(255, round(cm.env.voltage * 10)))

@@ -1,8 +1,8 @@
 """What each program of ``darwin up`` loads before it can start (``benchmarks/startup_benchmark.py``
 measures the time; this holds the causes): the launcher does not load the daemon's engine or the
 emulator, the daemon loads its engine only once it has started the emulator, no child reads every
-installed package's metadata to find its own command (nor, the daemon, to announce its version),
-and the gateway starts without numpy (as every client of :class:`clients.robot.Robot` does).
+installed package's metadata to find its own command, and the gateway starts without numpy (as
+every client of :class:`clients.robot.Robot` does).
 
 Each case runs in a fresh interpreter: ``darwin NAME``'s module imported and its parser built,
 as ``darwin NAME`` does before running."""
@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -56,29 +55,6 @@ def test_the_watched_modules_are_real_names() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert set(out.stdout.split()) == watched
-
-
-@pytest.mark.parametrize("where", ["repository", "elsewhere"])
-def test_the_daemon_reads_its_version_without_importlib_metadata(where: str, tmp_path) -> None:
-    """The version the daemon announces before it serves is importlib.metadata's, found along
-    the same path (the source tree's egg-info first when run from there) without loading it."""
-    code = (
-        "import sys\n"
-        "from schemas.versions import PACKAGE, package_version\n"
-        "ours = package_version()\n"
-        f"print({METADATA!r} in sys.modules)\n"
-        "from importlib.metadata import PackageNotFoundError, version\n"
-        "try:\n"
-        "    print(ours == version(PACKAGE), ours)\n"
-        "except PackageNotFoundError:\n"
-        "    print(ours == 'unknown', ours)\n"
-    )
-    cwd = Path(__file__).resolve().parents[2] if where == "repository" else tmp_path
-    out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=cwd
-    )
-    loaded, same, _ = out.stdout.split()
-    assert (loaded, same) == ("False", "True"), out.stdout
 
 
 def test_units_make_their_tables_on_first_use() -> None:
