@@ -14,16 +14,15 @@ caller alone), every command carries it, and a background thread renews the leas
 from __future__ import annotations
 
 import contextlib
+import os
 import threading
 import time
-import uuid
 import weakref
 from collections.abc import Iterator
-from typing import Any, Self
+from typing import TYPE_CHECKING, Any, Self
 
 import zenoh
 
-from clients.calibration import OffsetTuner
 from clients.lease_keeper import LeaseKeeper
 from clients.protocol_watch import ProtocolWatch
 from schemas.errors import (
@@ -41,6 +40,9 @@ from schemas.roles import LADDER, Role, command_key, discover_role, parse_role, 
 from schemas.roles import check as check_role
 from schemas.session import CONNECT_HINT, Credentials, Target, connect, login_hint, resolve
 from schemas.session import credentials as make_credentials
+
+if TYPE_CHECKING:
+    from clients.calibration import OffsetTuner
 
 # Clients not yet closed, closed when the interpreter ends. Zenoh runs each subscriber's callback
 # in a Python thread that is not a daemon thread and lives until the subscriber is undeclared,
@@ -92,7 +94,9 @@ class Commander:
             credentials = make_credentials(user=user, password=password)
         self.target: Target = resolve(endpoint, robot, credentials)
         self.keys = Keys(self.target.robot)
-        self.client_id = client_id or uuid.uuid4().hex[:12]
+        # 12 random hex digits, as a uuid4's first twelve are, without the uuid module (which
+        # loads `platform` with it: ~7 ms of CPU at the start of every client).
+        self.client_id = client_id or os.urandom(6).hex()
         self.name = name or f"python-{self.client_id[:6]}"
         self.timeout = timeout
         self._own_session = session is None
@@ -312,6 +316,10 @@ class Commander:
         """Offsets: read, nudge, mirror, undo, save (:mod:`clients.calibration`; setting is
         admin only)."""
         if self._tuner is None:
+            # Loaded on first use: with the user file's writer it costs a client (the gateway
+            # at each start) ~10 ms of CPU, and few clients edit offsets.
+            from clients.calibration import OffsetTuner
+
             self._tuner = OffsetTuner(self)
         return self._tuner
 

@@ -19,10 +19,9 @@ from __future__ import annotations
 import argparse
 import os
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from config.loader import refuse_unknown
-from robot_daemon.security.internal import Internal
 from schemas import registry
 from schemas.errors import ConfigError
 from schemas.roles import Role, parse_role
@@ -32,6 +31,9 @@ from schemas.session import (
     credentials_from_args,
     login_free_env,
 )
+
+if TYPE_CHECKING:
+    from robot_daemon.security.internal import Internal
 
 _LOGIN_KEYS = ("user", "password_file", "cert", "key", "ca")
 

@@ -27,7 +27,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from config.loader import load_all
 from robot_daemon.emulator.settings import add_forwarded_options, add_physics_option
@@ -36,7 +36,6 @@ from robot_daemon.launch.adapter_logins import Login, adapter_login, names, role
 from robot_daemon.launch.children import Child, ChildError, relay_to_stderr
 from robot_daemon.launch.endpoints import resolve_listen, router_of
 from robot_daemon.security.acl import check_listen
-from robot_daemon.security.internal import Internal
 from robot_daemon.security.options import (
     add_security_arguments,
     secure_listen,
@@ -48,6 +47,9 @@ from schemas.errors import ConfigError
 from schemas.roles import LADDER, Role
 from schemas.session import add_credential_arguments, credential_args
 from schemas.signals import on_stop_signals
+
+if TYPE_CHECKING:
+    from robot_daemon.security.internal import Internal
 
 START_TIMEOUT = 30.0
 RESTART_BACKOFF_MIN = 1.0  # s before an adapter that died is started again, doubling …
@@ -209,7 +211,13 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     adapter_roles = roles(settings, args.adapter_role)  # a bad role fails before anything runs
-    internal = Internal(security) if security is not None else None
+    internal = None
+    if security is not None:
+        # Loaded only here: the internal identities exist only with --auth/--secure, and their
+        # module (secrets, the identities' writer) costs every other start ~6 ms of CPU.
+        from robot_daemon.security.internal import Internal
+
+        internal = Internal(security)
     try:
         return _run(args, settings, listen, router, internal, adapter_roles)
     finally:

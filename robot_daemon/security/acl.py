@@ -26,8 +26,6 @@ from robot_daemon.security import users as users_mod
 from robot_daemon.security.paths import ca_paths, robot_paths
 from schemas.errors import ConfigError
 from schemas.keys import ROOT, Keys, ros_key_space
-from schemas.messages import ok_reply
-from schemas.query import answer
 from schemas.roles import LADDER, READ_OP_VERBS, READ_VERBS, SIM_CONTROL_ROLE, Role
 
 ALL_MESSAGES = [
@@ -199,6 +197,10 @@ def serve_roles(session: zenoh.Session, keys: Keys) -> list[Any]:
     """One queryable per role (``Keys.role``): access control lets a caller reach only the
     keys of its own roles, so the keys that answer tell the client its role, as the enforcing
     session sees it. Without access control all answer (everyone may do everything)."""
+    # Here, not at the top: `darwin up` checks its endpoints with this module and never serves,
+    # and the messages' classes cost it ~17 ms of CPU at start.
+    from schemas.messages import ok_reply
+    from schemas.query import answer
 
     def serve(role: Role) -> Any:
         key, reply = keys.role(role), ok_reply("role", {"role": str(role)})

@@ -24,7 +24,6 @@ import numpy as np
 
 from robot_daemon.vision.frames import Frame
 from robot_daemon.vision.opencv import opencv
-from robot_daemon.vision.v4l2 import V4L2Error, V4L2Source
 from schemas.errors import DarwinError
 
 log = logging.getLogger(__name__)
@@ -102,6 +101,10 @@ def open_source(spec: str, ctx: SourceContext) -> CameraSource | None:
     if spec in ("pattern", "sim"):
         return TestPatternSource(ctx.width, ctx.height)
     check_spec(spec)
+    # Here, not at the top: its ctypes structures cost a daemon ~7 ms of CPU at start, and only a
+    # device camera needs them (a daemon on the emulator, or with no camera, never does).
+    from robot_daemon.vision.v4l2 import V4L2Error, V4L2Source
+
     path = f"/dev/video{spec}" if spec.isdigit() else spec
     try:
         return V4L2Source(path, ctx.width, ctx.height, ctx.fps)

@@ -17,13 +17,18 @@ import pytest
 ENGINE = "robot_daemon.engine.daemon"
 EMULATOR = "robot_daemon.emulator.emulator"
 METADATA = "importlib.metadata"  # what finding a command among every installed package costs
+MESSAGES = "schemas.messages"  # the wire's classes: `darwin up` serves nothing
+INTERNAL = "robot_daemon.security.internal"  # identities of --auth/--secure only
+OFFSETS = "clients.calibration"  # a client's offset editor, with the user file's writer
+V4L2 = "robot_daemon.vision.v4l2"  # a device camera's
+FINDER = "robot_daemon.vision.ball_finder"  # ball play's
 
 # command → modules it must not have loaded once its parser is built
 NOT_BEFORE_START = {
-    "up": {ENGINE, EMULATOR, "numpy"},
+    "up": {ENGINE, EMULATOR, "numpy", MESSAGES, INTERNAL},
     "daemon": {ENGINE, EMULATOR, "numpy", METADATA},
     "sim": {METADATA},
-    "gateway": {"numpy", METADATA},
+    "gateway": {"numpy", METADATA, OFFSETS, "uuid"},
 }
 
 
@@ -47,14 +52,44 @@ def test_a_program_of_darwin_up_starts_without_what_it_does_not_need(command: st
 
 def test_the_watched_modules_are_real_names() -> None:
     """The test above would pass on a misspelt name: each is what a heavier program loads."""
-    watched = set().union(*NOT_BEFORE_START.values())
+    watched = set().union(*NOT_BEFORE_START.values(), {V4L2, FINDER})
     code = (
-        "import sys, importlib.metadata, numpy\n"
-        f"import {ENGINE}, {EMULATOR}\n"
+        "import sys, importlib.metadata, numpy, uuid\n"
+        f"import {ENGINE}, {EMULATOR}, {MESSAGES}, {INTERNAL}, {OFFSETS}, {V4L2}, {FINDER}\n"
         f"print(' '.join(m for m in {sorted(watched)!r} if m in sys.modules))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert set(out.stdout.split()) == watched
+
+
+def test_the_daemon_loads_a_device_camera_and_ball_play_only_when_used() -> None:
+    """Its engine, its verbs and its camera check with no camera (as every test's daemon)."""
+    code = (
+        "import sys\n"
+        f"import {ENGINE}, robot_daemon.arbiter.verbs.ballplay\n"
+        "from robot_daemon.vision.sources import check_spec\n"
+        "check_spec('none')\n"
+        f"print(' '.join(m for m in {sorted({V4L2, FINDER})!r} if m in sys.modules))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    )
+    assert out.stdout.split() == []
+
+
+def test_a_client_of_a_daemon_of_its_own_protocol_reads_no_package_metadata() -> None:
+    """The version check names both packages' versions only when the protocols differ."""
+    code = (
+        "import sys\n"
+        "from schemas.versions import PROTOCOL_VERSION, check_daemon\n"
+        "status = {'protocol': list(PROTOCOL_VERSION), 'version': '0.1.0', 'robot': 'op1'}\n"
+        "assert check_daemon(status, 'darwin test') is None\n"
+        f"print({METADATA!r} in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    )
+    assert out.stdout.split() == ["False"]
 
 
 def test_units_make_their_tables_on_first_use() -> None:

@@ -8,16 +8,17 @@ accepted. The phase is in ``status.motion.ball.phase`` and every change is a ``b
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from robot_daemon.arbiter import fields as F
 from robot_daemon.arbiter.limp import refuse_limp
 from robot_daemon.arbiter.registry import MotionContext, Reject, Request, verb
 from robot_daemon.motion.ball.module import BallPlayModule
-from robot_daemon.vision.ball_finder import BallFinder, FinderSettings, color_names
-from robot_daemon.vision.ball_thread import BallVision
 from schemas.errors import ConfigError, ErrorCode
 from schemas.extras import MissingExtraError
+
+if TYPE_CHECKING:
+    from robot_daemon.vision.ball_thread import BallVision
 
 # The running finder thread lives with the module it feeds (one daemon, one module).
 _VISION_ATTR = "_vision"
@@ -38,6 +39,11 @@ def playball(req: Request, ctx: MotionContext) -> dict[str, Any]:
         module.stop()
         _stop_vision(module)
         return {"op": "stop", "phase": module.phase}
+    # The finder is loaded when play starts (~8 ms of CPU): every daemon registers this verb at
+    # start, and most never play.
+    from robot_daemon.vision.ball_finder import BallFinder, FinderSettings, color_names
+    from robot_daemon.vision.ball_thread import BallVision
+
     ballplay = ctx.settings.get("ballplay", {})
     color = F.text(
         req.fields, "color", set(color_names(ballplay)), default=ballplay.get("color", "red")
