@@ -57,7 +57,7 @@ class Message:
 
     @classmethod
     def from_dict(cls: type[M], d: dict[str, Any]) -> M:
-        names = {f.name for f in dataclasses.fields(cls)}
+        names = _field_names(cls)
         return cls(**{k: v for k, v in d.items() if k in names})
 
 
