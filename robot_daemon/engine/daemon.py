@@ -189,6 +189,11 @@ class Daemon:
             self._emit("lease", f"lease acquired by {new.name!r}", holder=new.to_dict())
         else:
             who = old.name if old else "?"
+            # Control ended without its holder asking: in the daemon's log too, since why it
+            # ended (silent, vanished, idle) is what an operator asks afterwards.
+            level = logging.INFO if reason == "released" else logging.WARNING
+            log.log(level, "lease of %r (client %s) ended: %s", who,
+                    old.client if old else "?", reason)  # fmt: skip
             self._emit("lease", f"lease of {who!r} ended: {reason}", holder=None, reason=reason)
             # Whatever ended it (released, vanished, idle), nobody controls the motion it
             # started any more: a safe stop (a walk ends its step). In the motion thread (a
