@@ -57,7 +57,8 @@ class Message:
 
     @classmethod
     def from_dict(cls: type[M], d: dict[str, Any]) -> M:
-        names = _field_names(cls)
+        klass: type = cls  # as in to_dict: hashable, whatever mypy makes of a dataclass type
+        names = _field_names(klass)
         return cls(**{k: v for k, v in d.items() if k in names})
 
 
