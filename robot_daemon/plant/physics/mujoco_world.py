@@ -114,9 +114,9 @@ class MujocoWorld(WorldViews):
         self._robot_geoms = np.array(
             [g for g in range(m.ngeom) if m.body_rootid[m.geom_bodyid[g]] == self._torso]
         )
-        self._foot_geoms = {
-            mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, n) for n in ("l_foot", "r_foot")
-        }
+        self._foot_geoms = np.array(
+            [mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, n) for n in ("l_foot", "r_foot")]
+        )
         gyro = mj.mj_name2id(m, mj.mjtObj.mjOBJ_SENSOR, "gyro")
         accel = mj.mj_name2id(m, mj.mjtObj.mjOBJ_SENSOR, "accel")
         self._gyro_adr = m.sensor_adr[gyro]
@@ -283,10 +283,12 @@ class MujocoWorld(WorldViews):
         if self.fallen != "none" and was == "none":
             self.falls += 1
         touching = False
-        for c in self.data.contact[: self.data.ncon] if self._ball_geom >= 0 else ():
-            pair = {int(c.geom1), int(c.geom2)}
-            if self._ball_geom in pair and pair & self._foot_geoms:
-                touching = True
+        if self._ball_geom >= 0 and self.data.ncon:
+            # The contacts' geom pairs as one array: a Python loop over MuJoCo's contact
+            # structs cost half as much as the physics steps themselves (~1/10 of a test's CPU).
+            pairs = self.data.contact.geom
+            with_ball = pairs[(pairs == self._ball_geom).any(axis=1)]
+            touching = bool(np.isin(with_ball, self._foot_geoms).any())
         if touching and not self._touching_ball:
             self.ball.touches += 1
         self._touching_ball = touching
