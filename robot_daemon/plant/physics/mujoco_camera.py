@@ -50,6 +50,7 @@ _OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX", "mjRND_HAZE")
 _RUNNING: dict[threading.Thread, queue.Queue[Any]] = {}
 _THREADS: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
 _exit_hook: list[bool] = []  # registered once, see _end_at_exit
+_BUFFER_SIZE = threading.Lock()  # see _RenderThread.run
 
 
 def _end(thread: threading.Thread) -> None:
@@ -243,11 +244,14 @@ class _RenderThread:
             return
         mjr = None
         try:
-            # The offscreen buffer must hold the image; these are visual settings only.
-            glob = model.vis.global_
-            glob.offwidth = max(int(glob.offwidth), self.width)
-            glob.offheight = max(int(glob.offheight), self.height)
-            mjr = mj.MjrContext(model, mj.mjtFontScale.mjFONTSCALE_100.value)
+            # The offscreen buffer is the image's size: llvmpipe clears and multisamples all
+            # of it every frame, and the model's 640 × 480 made a 320 × 240 frame cost ~7 %
+            # more CPU. The context reads the size as it is made, so one camera at a time sets
+            # it (cameras of other sizes may share the model); visual settings only.
+            with _BUFFER_SIZE:
+                glob = model.vis.global_
+                glob.offwidth, glob.offheight = self.width, self.height
+                mjr = mj.MjrContext(model, mj.mjtFontScale.mjFONTSCALE_100.value)
             mj.mjr_setBuffer(mj.mjtFramebuffer.mjFB_OFFSCREEN.value, mjr)
             scene = mj.MjvScene(model, maxgeom=max(1000, 4 * model.ngeom))
             for name in _OFF_FLAGS:
