@@ -72,7 +72,7 @@ def hold_still_for_a_client(rig: SimRig) -> None:
 def one_try(direction: str, seed: int, settings: dict[str, Any] | None = None) -> Try:
     """``settings``: another merged config (tests/learn/test_fast_model.py: the fast model)."""
     rng = np.random.default_rng(seed)
-    rig = SimRig(seed=seed, physics="mujoco", vision_fps=0.1, settings=settings)
+    rig = SimRig(seed=seed, physics="mujoco", vision_fps=0, settings=settings)
     rig.world.place_robot(0.0, 0.0, 0.0)
     assert rig.calibrated()  # standing in the servos' zero pose, torque on, gyro centred
     rig.run(0.7)  # and settled: pushed at once, the detector read the landing as backward

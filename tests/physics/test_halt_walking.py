@@ -49,7 +49,7 @@ def _sole_heights(rig: SimRig) -> tuple[float, float]:
 
 def halt_at(point: int) -> Halted:
     load_verbs()
-    rig = SimRig(seed=5, physics="mujoco", vision_fps=0.1)
+    rig = SimRig(seed=5, physics="mujoco", vision_fps=0)
     walking = rig.manager.module("walking")
     walking.start(0.1, 0.0, 0.0)
     rig.run(WALK_S)

@@ -15,7 +15,7 @@ PAN = 19
 
 
 def test_head_pan_step_response_at_p32_settles() -> None:
-    rig = SimRig(seed=3, physics="mujoco", vision_fps=1.0)
+    rig = SimRig(seed=3, physics="mujoco", vision_fps=0)
     goal = 0.6
     trace: list[tuple[float, float, float, float]] = []  # time, position, speed, load
     for _ in range(int(1.5 / TICK_S)):
@@ -42,7 +42,7 @@ def test_head_pan_step_response_at_p32_settles() -> None:
 
 
 def test_torque_off_leaves_the_joint_limp_and_the_load_zero() -> None:
-    rig = SimRig(seed=3, physics="mujoco", vision_fps=1.0)
+    rig = SimRig(seed=3, physics="mujoco", vision_fps=0)
     # The right arm raised forward (shoulder pitch 1), then let go: it falls on gravity alone.
     for _ in range(100):
         rig.frame()
@@ -64,7 +64,7 @@ def test_low_voltage_weakens_the_servo() -> None:
     torque (the load register reads the duty, so it stays near 100 %)."""
     forces = {}
     for volts in (12.0, 6.0):
-        rig = SimRig(seed=3, physics="mujoco", vision_fps=1.0)
+        rig = SimRig(seed=3, physics="mujoco", vision_fps=0)
         rig.emulator.api.set_voltage(volts)
         rig.bus.write_targets(Targets(goal={PAN: 1.2}, gains={PAN: (32, 0, 0)}))
         rig.emulator.advance(0.004)
@@ -77,7 +77,7 @@ def test_low_voltage_weakens_the_servo() -> None:
 
 def test_moving_speed_register_paces_the_move() -> None:
     """A client that sets MOVING_SPEED (as pypot or the SDK may) gets a move at that speed."""
-    rig = SimRig(seed=3, physics="mujoco", vision_fps=1.0)
+    rig = SimRig(seed=3, physics="mujoco", vision_fps=0)
     servo = rig.emulator.bus.servo(PAN)
     rad_s = 50 * 0.114 * 2 * math.pi / 60  # 50 units of 0.114 rpm ≈ 0.6 rad/s
     with rig.emulator.lock:

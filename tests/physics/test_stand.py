@@ -12,7 +12,7 @@ from tests.fixtures.sim_rig import SimRig
 
 @pytest.fixture(scope="module")
 def rig() -> SimRig:
-    return SimRig(seed=5, physics="mujoco", vision_fps=1.0)
+    return SimRig(seed=5, physics="mujoco", vision_fps=0)
 
 
 def test_stands_ten_seconds_in_the_walk_ready_pose(rig: SimRig) -> None:

@@ -27,7 +27,7 @@ class Walked:
 
 def walk(x: float, y: float, turn: float, settings: dict[str, Any] | None = None) -> Walked:
     """``settings``: another merged config (tests/learn/test_fast_model.py: the fast model)."""
-    rig = SimRig(seed=2, physics="mujoco", vision_fps=1.0, settings=settings)
+    rig = SimRig(seed=2, physics="mujoco", vision_fps=0, settings=settings)
     walking = rig.manager.module("walking")
     walking.start()  # into the walk-ready stance, marking time
     rig.run(1.0)
@@ -88,7 +88,7 @@ def test_with_the_opposite_gyro_signs_the_balance_feedback_throws_it_over(monkey
     wrong = ((CM730.GYRO_X, 1), (CM730.GYRO_Y, 1), (CM730.GYRO_Z, 1))
     monkeypatch.setattr(devices, "IMU_GYRO_AXES", wrong)
     monkeypatch.setattr(state, "IMU_GYRO_AXES", wrong)
-    rig = SimRig(seed=2, physics="mujoco", vision_fps=1.0)
+    rig = SimRig(seed=2, physics="mujoco", vision_fps=0)
     rig.manager.module("walking").start()
     rig.run(5.0)
     assert rig.world.falls >= 1

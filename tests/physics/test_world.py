@@ -17,7 +17,7 @@ from tests.fixtures.sim_rig import TICK_S, SimRig
 @pytest.fixture
 def rig() -> SimRig:
     world_ops.install()
-    r = SimRig(seed=4, physics="mujoco", vision_fps=1.0)
+    r = SimRig(seed=4, physics="mujoco", vision_fps=0)
     r.emulator.world = r.world  # type: ignore[attr-defined]  # as the sim plugin does
     return r
 
