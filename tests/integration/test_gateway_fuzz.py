@@ -53,10 +53,18 @@ class Target:
 
 
 @pytest.fixture(scope="module")
-def target() -> Iterator[Target]:
+def target(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Target]:
     """A system of its own (nothing else moves its robot), with an owner holding the lease so
-    nothing could move the robot except through a bug; the goals are taken before the fuzz."""
-    with start_system() as system, system.robot_client(name="fuzz owner") as owner:
+    nothing could move the robot except through a bug; the goals are taken before the fuzz.
+    The owner sends no command while the fuzz runs, which on a loaded machine took longer than
+    the daemon's lease idle timeout (60 s: the lease ended "idle for 60 s", as it should), so
+    this robot runs with that timeout off."""
+    config = tmp_path_factory.mktemp("fuzz") / "no-idle.toml"
+    config.write_text("[daemon.lease]\nidle_timeout = 0\n")
+    with (
+        start_system(extra_args=["--config", str(config)]) as system,
+        system.robot_client(name="fuzz owner") as owner,
+    ):
         owner.wait_for("status", lambda s: s.lease is None, timeout=30.0, fresh=False)
         owner.acquire()
         for _ in range(3):

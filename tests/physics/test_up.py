@@ -37,8 +37,18 @@ def test_up_with_physics_stands_walks_and_falls_when_pushed() -> None:
             # Upright: the daemon's SI IMU says +1 g up.
             imu = robot.wait_for("imu", lambda m: m.accel[2] > 8.0, WAIT)
             assert imu.fall == "none"
-            sim.call("push", fx=-60.0, fy=0.0, duration=0.2)
-            fall: Event = events.wait(lambda e: e.kind == "fall", timeout=2 * WAIT)
+            pushed = sim.call("push", fx=-60.0, fy=0.0, duration=0.2)
+            try:
+                fall: Event = events.wait(lambda e: e.kind == "fall", timeout=2 * WAIT)
+            except AssertionError as missed:
+                # Whether the body did not fall or the detector did not speak: the plant's
+                # verdict and the daemon's last IMU reading (tilt, 1 g, its window's call).
+                state = robot.state
+                raise AssertionError(
+                    f"{missed}\npush: {pushed}\nworld now: {sim.call('get_world')}\n"
+                    f"last imu: accel={state.imu and state.imu.accel} "
+                    f"raw={state.imu and state.imu.accel_raw} fall={state.imu and state.imu.fall}"
+                ) from None
             assert fall.data["state"] in ("fallen_forward", "fallen_backward")
             # The plant calls it a fall past 60° of torso tilt (config/physics.toml), which can
             # come after the daemon's detector spoke: wait for the world to agree.
