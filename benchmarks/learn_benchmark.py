@@ -137,7 +137,7 @@ def policy_loop(seconds: float) -> None:
               f"latency obs→applied p50 {np.percentile(lat, 50) * 1000:.1f} ms "
               f"p99 {np.percentile(lat, 99) * 1000:.1f} ms, missed deadlines "
               f"{status['missed_deadlines']}, overruns {status['overruns']}, refused "
-              f"{status['refused'] or 0}")  # fmt: skip
+              f"{status['refused'] or 0}, lost {status['lost']}")  # fmt: skip
         print(f"baseline: command query round trip p50 {q50:.1f} ms p99 {q99:.1f} ms "
               f"(a query per action would add this to every action)")  # fmt: skip
 

@@ -216,6 +216,7 @@ def run_robot(args: argparse.Namespace, policy: Policy, rate: float) -> int:
         what = "published (dry run)" if args.dry_run else "sent"
         extra = (
             f", applied {status.get('applied')}, missed deadlines {status.get('missed_deadlines')}"
+            f", lost {status.get('lost')}"
             if status
             else ""
         )

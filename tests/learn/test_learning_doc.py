@@ -105,9 +105,11 @@ def test_the_shipped_policy_runs_on_the_simulated_stack_and_as_on_the_robot(
             # It streamed until --seconds and the daemon applied what came. How many: a starved
             # test process sends fewer (the daemon holds the targets meanwhile); the rate is
             # benchmarks/learn_benchmark.py's, whether a policy stands a shove push_table.py's.
-            summary = r"actions: (\d+) sent, applied (\d+), missed deadlines \d+"
+            # Lost: actions the daemon never received (seqs skipped on the way in).
+            summary = r"actions: (\d+) sent, applied (\d+), missed deadlines \d+, lost (\d+)"
             done = re.fullmatch(summary, lines[-1])
             assert done is not None and 0 < int(done[2]) <= int(done[1]), lines[-1]
+            assert int(done[2]) + int(done[3]) <= int(done[1]), lines[-1]
 
 
 def test_the_page_record_command_writes_a_dataset(
