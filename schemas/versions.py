@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from functools import cache
 from typing import Any
 
 from schemas import SCHEMA_VERSION
@@ -22,21 +21,15 @@ from schemas.errors import ConfigError, IncompatibleProtocolError
 # 2.1: policy_status carries `lost` (actions of the stream lost on the way).
 PROTOCOL_VERSION: tuple[int, int] = (SCHEMA_VERSION, 1)
 PACKAGE = "darwin-zenoh"
+# The package's version, defined here once: pyproject.toml reads it ([tool.setuptools.dynamic]),
+# so the installed metadata says the same, and a program announces it without importing
+# importlib.metadata (60 ms of CPU at each daemon start) or being installed at all.
+PACKAGE_VERSION = "0.1.0"
 # A daemon from before versions were announced: protocol 1.0.
 UNANNOUNCED: tuple[int, int] = (1, 0)
 # What the daemon announces instead of PROTOCOL_VERSION ("MAJOR.MINOR"): for testing clients
 # against another protocol without building another daemon.
 ENV_ANNOUNCE = "DARWIN_ANNOUNCE_PROTOCOL"
-
-
-@cache
-def package_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version(PACKAGE)
-    except PackageNotFoundError:  # run from a source tree that was never installed
-        return "unknown"
 
 
 def parse_protocol(text: str) -> tuple[int, int]:
@@ -82,12 +75,10 @@ def check_daemon(status: Mapping[str, Any], program: str) -> str | None:
     theirs, their_version = announcement(status)
     ours = PROTOCOL_VERSION
     if theirs == ours:
-        # Before the line naming both packages: our version is importlib.metadata's (~25 ms of
-        # CPU to import it), which a client that agrees with its daemon never needs.
         return None
     robot = status.get("robot") or "?"
     both = (
-        f"{program} speaks protocol {fmt(ours)} ({PACKAGE} {package_version()}), the daemon of "
+        f"{program} speaks protocol {fmt(ours)} ({PACKAGE} {PACKAGE_VERSION}), the daemon of "
         f"robot {robot} speaks {fmt(theirs)} ({PACKAGE} {their_version})"
     )
     newer = "the robot's daemon" if theirs < ours else "this client"

@@ -25,7 +25,7 @@ from schemas.status_maps import (
     MotionInfo,
     NetworkInfo,
 )
-from schemas.versions import package_version
+from schemas.versions import PACKAGE_VERSION
 
 if TYPE_CHECKING:
     from config.loader import RobotConfig
@@ -186,7 +186,7 @@ def status_message(src: StatusSources, snap: TickSnapshot | None, facts: LoopFac
         voltage=cm["voltage"],
         alarms=alarms,
         network=src.network,
-        version=package_version(),
+        version=PACKAGE_VERSION,
         power=power,
         heat=heat,
         protocol=list(src.protocol),

@@ -69,7 +69,7 @@ from schemas.daemon_state import DaemonState
 from schemas.errors import BusError, PortError
 from schemas.keys import Keys
 from schemas.session import Credentials
-from schemas.versions import announced_protocol, fmt, package_version
+from schemas.versions import PACKAGE_VERSION, announced_protocol, fmt
 
 if TYPE_CHECKING:
     from robot_daemon.engine.camera import CameraThread
@@ -232,7 +232,7 @@ class Daemon:
         self.arbiter.on_wakeup = self._wake.set
         self._alive = self.session.liveliness().declare_token(self.keys.alive)
         self._alive_version = self.session.liveliness().declare_token(
-            self.keys.alive_version(fmt(self.protocol), package_version())
+            self.keys.alive_version(fmt(self.protocol), PACKAGE_VERSION)
         )
         self._roles = serve_roles(self.session, self.keys)
         self.policy_link = link_policy(self.session, self.keys, self.manager, self.pub, self)

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from schemas.errors import IncompatibleProtocolError
-from schemas.versions import ENV_ANNOUNCE, PROTOCOL_VERSION, fmt, package_version
+from schemas.versions import ENV_ANNOUNCE, PACKAGE_VERSION, PROTOCOL_VERSION, fmt
 from tests.fixtures.system import RunningSystem, run_darwin, start_system
 
 OURS = fmt(PROTOCOL_VERSION)
@@ -62,11 +62,11 @@ def test_a_minor_skew_warns_and_works(monkeypatch: pytest.MonkeyPatch) -> None:
         warning = robot.check_protocol(timeout=10)
         assert warning is not None and "upgrade this client" in warning
         status = robot.wait_for("status", fresh=False)
-        assert status.version == package_version()
+        assert status.version == PACKAGE_VERSION
         assert robot.command("config")["robot"] == system.robot
         tokens = robot.session.liveliness().get(f"{robot.keys.alive}/**", timeout=5)
         keys = [str(r.ok.key_expr) for r in tokens if r.ok is not None]
         minor = f"{PROTOCOL_VERSION[0]}.{PROTOCOL_VERSION[1] + 1}"
-        assert set(keys) == {robot.keys.alive, robot.keys.alive_version(minor, package_version())}
+        assert set(keys) == {robot.keys.alive, robot.keys.alive_version(minor, PACKAGE_VERSION)}
         listed = run_darwin("list", "--connect", system.endpoint)
         assert f"protocol {PROTOCOL_VERSION[0]}.{PROTOCOL_VERSION[1] + 1}" in listed.stdout
