@@ -10,14 +10,11 @@ from pathlib import Path
 from typing import Any
 
 import cv2
-import nbformat
 import numpy as np
 import pytest
-from nbclient import NotebookClient
 
 from clients.dataframes import joint_columns
 from clients.notebook import NOTEBOOKS, example_notebooks
-from clients.notebook.live import LiveCamera, LivePlot, parse_signal
 from clients.robot import Robot
 from config.loader import load_robot
 from schemas.errors import CommandTimeoutError
@@ -125,6 +122,11 @@ def test_state_arrays_and_repr(robot: Robot) -> None:
 
 
 def test_live_plot_and_camera_render_without_blocking(robot: Robot) -> None:
+    # The notebook's widgets (ipywidgets, matplotlib) and the kernel's client (nbformat,
+    # nbclient) are imported by the tests that use them: at the module's top they cost every
+    # pytest-xdist worker ~0.8 s of CPU at collection, and one worker runs this file.
+    from clients.notebook.live import LiveCamera, LivePlot
+
     with LivePlot(robot, ["imu.gyro_x", "joints.position_r_knee"], interval=0.05) as plot:
         assert plot.wait(frames=2)
         assert bytes(plot.widget.value).startswith(b"\x89PNG")
@@ -139,6 +141,8 @@ def test_live_plot_and_camera_render_without_blocking(robot: Robot) -> None:
 
 @pytest.mark.parametrize("bad", ["gyro_x", "elbow.x", "imu."])
 def test_bad_signal_names_are_explained(bad: str) -> None:
+    from clients.notebook.live import parse_signal
+
     with pytest.raises(ValueError, match=r"<topic>\.<column>"):
         parse_signal(bad)
 
@@ -155,6 +159,9 @@ def sim_system() -> Iterator[RunningSystem]:
 
 
 def run_notebook(name: str, system: RunningSystem, tmp_path: Path, monkeypatch) -> Any:
+    import nbformat
+    from nbclient import NotebookClient
+
     book = nbformat.read(NOTEBOOKS / name, as_version=4)
     monkeypatch.setenv("DARWIN_ENDPOINT", system.endpoint)
     monkeypatch.setenv("DARWIN_ROBOT", system.robot)

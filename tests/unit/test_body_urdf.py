@@ -14,7 +14,12 @@ from schemas import kinematics as kin
 from schemas.urdf import to_urdf
 from tests.fixtures.emulator import darwin_command
 
-yourdfpy = pytest.importorskip("yourdfpy")
+
+@pytest.fixture(scope="module")
+def yourdfpy():
+    # Imported by the tests that load a URDF, not at collection: with trimesh it is ~1 s of CPU
+    # in every pytest-xdist worker, and one worker runs these tests.
+    return pytest.importorskip("yourdfpy")
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +28,7 @@ def body():
 
 
 @pytest.fixture(scope="module")
-def urdf(body):
+def urdf(body, yourdfpy):
     return yourdfpy.URDF.load(io.StringIO(to_urdf(body)), build_scene_graph=True, load_meshes=False)
 
 
@@ -110,7 +115,7 @@ def test_masses_inertias_and_frames(body, urdf):
     assert foot.box.centre[2] - foot.box.size[2] / 2 == pytest.approx(-kin.ANKLE_LENGTH)
 
 
-def test_darwin_urdf_writes_a_loadable_file(tmp_path):
+def test_darwin_urdf_writes_a_loadable_file(tmp_path, yourdfpy):
     import subprocess
 
     out = tmp_path / "darwin.urdf"
