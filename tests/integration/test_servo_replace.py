@@ -58,7 +58,7 @@ def test_a_fresh_servo_takes_its_place_and_nothing_else_changes(
     assert changed == ["servo 5"]
     new = emu.bus.servo(5).table
     assert (new[MX28.ID], new[MX28.BAUD_RATE], new[MX28.RETURN_DELAY_TIME]) == (5, 1, 0)
-    port, ph = open_sdk(emu.port)
+    port, ph = open_sdk(emu.port, emulator=emu)
     try:
         assert all(ph.ping(port, i)[1] == 0 for i in SERVO_IDS)
     finally:

@@ -20,7 +20,7 @@ from tests.unit.test_sim_fuzz import line_noise
 def test_garbage_on_the_pty_never_breaks_the_emulator(
     emulator: Emulator, chunks: list[bytes]
 ) -> None:
-    port, ph = open_sdk(emulator.port)
+    port, ph = open_sdk(emulator.port, emulator=emulator)
     try:
         sent = emulator.stats["rx_bytes"]
         for chunk in chunks:

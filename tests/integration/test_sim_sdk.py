@@ -62,7 +62,7 @@ def test_ping_finds_all_21_devices_with_their_model_numbers(dxl: SDK) -> None:
 
 
 def test_servos_are_silent_until_dxl_power(emulator: Emulator) -> None:
-    port, ph = open_sdk(emulator.port, power=False)
+    port, ph = open_sdk(emulator.port, power=False, emulator=emulator)
     try:
         assert ph.ping(port, CM730_ID)[1] == COMM_SUCCESS
         assert ph.ping(port, 1)[1] == COMM_RX_TIMEOUT
@@ -76,7 +76,7 @@ def test_servos_are_silent_until_dxl_power(emulator: Emulator) -> None:
 
 def test_servos_answer_only_after_the_power_on_delay(emulator_factory) -> None:
     emu = emulator_factory(realtime=False, power_on_delay_s=0.3)
-    port, ph = open_sdk(emu.port)  # writes DXL_POWER = 1
+    port, ph = open_sdk(emu.port, emulator=emu)  # writes DXL_POWER = 1
     try:
         emu.advance(0.25)
         assert ph.ping(port, 3)[1] == COMM_RX_TIMEOUT
@@ -124,7 +124,7 @@ def test_sdk_group_bulk_read_is_broken_on_protocol_1(dxl: SDK) -> None:
 
 def test_sync_write_goals_converge_at_the_moving_speed(emulator_factory) -> None:
     emu = emulator_factory(realtime=False)
-    port, ph = open_sdk(emu.port)
+    port, ph = open_sdk(emu.port, emulator=emu)
     try:
         torque = GroupSyncWrite(port, ph, MX28.TORQUE_ENABLE.reg.address, 1)
         for dxl_id in (1, 2):
@@ -161,7 +161,7 @@ def test_sync_write_goals_converge_at_the_moving_speed(emulator_factory) -> None
 
 def test_torque_off_joint_stays_where_it_is(emulator_factory) -> None:
     emu = emulator_factory(realtime=False)
-    port, ph = open_sdk(emu.port)
+    port, ph = open_sdk(emu.port, emulator=emu)
     try:
         assert ph.write2ByteTxRx(port, 4, MX28.GOAL_POSITION.reg.address, 2500) == (0, 0)
         emu.advance(1.0)
@@ -262,7 +262,7 @@ def test_overheating_sets_the_alarm_and_shuts_torque_off(emulator: Emulator, dxl
 
 def test_sustained_load_heats_a_servo_past_its_limit(emulator_factory) -> None:
     emu = emulator_factory(realtime=False, max_step_s=0.25)  # minutes of heating in few steps
-    port, ph = open_sdk(emu.port)
+    port, ph = open_sdk(emu.port, emulator=emu)
     try:
         ph.write1ByteTxRx(port, 11, MX28.TORQUE_ENABLE.reg.address, 1)
         emu.api.set_external_load(11, 0.9)
@@ -331,7 +331,7 @@ def test_status_return_level_zero_answers_only_ping(dxl: SDK) -> None:
 
 def test_wire_timed_bulk_read_is_not_faster_than_the_wire(emulator_factory) -> None:
     emu = emulator_factory(wire_timing=True)
-    port, ph = open_sdk(emu.port)
+    port, ph = open_sdk(emu.port, emulator=emu)
     try:
         reader = sensor_bulk_read(port, ph)
         instruction = 7 + 3 * len(reader.data_dict)

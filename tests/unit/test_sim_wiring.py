@@ -11,9 +11,7 @@ from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
 from robot_daemon.bus.tables import MX28, SERVO_IDS
 from robot_daemon.emulator import Emulator
 from robot_daemon.emulator.control_service import handle_request
-from tests.fixtures.emulator import WaitingPortHandler, open_sdk
-
-WaitingPortHandler.reply_margin_ms = 150.0
+from tests.fixtures.emulator import open_sdk
 
 
 def answering(port: PortHandler, ph: PacketHandler, ids=(*SERVO_IDS, 200)) -> set[int]:
@@ -25,7 +23,7 @@ def at_baud(port: PortHandler, bps: int) -> None:
 
 
 def test_the_robots_servos_answer_only_at_1_mbps(emulator: Emulator) -> None:
-    port, ph = open_sdk(emulator.port)
+    port, ph = open_sdk(emulator.port, emulator=emulator)
     try:
         assert answering(port, ph) == {*SERVO_IDS, 200}
         at_baud(port, 57_600)
@@ -40,7 +38,7 @@ def test_a_fresh_servo_answers_as_id_1_at_57600_only(
     emulator_factory: Callable[..., Emulator],
 ) -> None:
     emu = emulator_factory(fresh_servo=5)
-    port, ph = open_sdk(emu.port)
+    port, ph = open_sdk(emu.port, emulator=emu)
     try:
         assert answering(port, ph) == {*SERVO_IDS, 200} - {5}
         at_baud(port, 57_600)
@@ -68,7 +66,7 @@ def test_a_broken_cable_hides_every_servo_behind_it_on_its_branch(
     emulator_factory: Callable[..., Emulator],
 ) -> None:
     emu = emulator_factory(broken_after=[11])
-    port, ph = open_sdk(emu.port)
+    port, ph = open_sdk(emu.port, emulator=emu)
     try:
         assert answering(port, ph) == {*SERVO_IDS, 200} - {13, 15, 17}
         ok, _ = handle_request(emu, {"op": "chain", "broken_after": [3, 19]})
@@ -84,7 +82,7 @@ def test_the_control_op_makes_a_servo_fresh_and_restore_keeps_it_so(emulator: Em
     ok, _ = handle_request(emulator, {"op": "fresh_servo", "id": 7})
     assert ok
     handle_request(emulator, {"op": "restore"})
-    port, ph = open_sdk(emulator.port)
+    port, ph = open_sdk(emulator.port, emulator=emulator)
     try:
         assert 7 not in answering(port, ph)
         at_baud(port, 57_600)
