@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -37,12 +38,44 @@ class ColorRange:
 
     def mask(self, hsv: np.ndarray) -> np.ndarray:
         """uint8 mask (255 = this colour) of an OpenCV HSV image (H 0..180, S and V 0..255)."""
-        h = hsv[..., 0].astype(np.int16) * 2  # OpenCV stores hue/2
-        dh = np.abs((h - int(round(self.hue)) + 180) % 360 - 180)
-        ok = dh <= self.hue_tolerance
-        ok &= hsv[..., 1] > self.min_saturation * 255.0 / 100.0
-        ok &= hsv[..., 2] > self.min_value * 255.0 / 100.0
-        return ok.astype(np.uint8) * 255
+        if hsv.dtype != np.uint8 or hsv.ndim != 3 or hsv.shape[2] != 3:
+            h, s, v = hsv[..., 0], hsv[..., 1], hsv[..., 2]
+            return (self._hue_ok(h) & self._saturated(s) & self._bright(v)).astype(np.uint8) * 255
+        # An 8-bit image through OpenCV's range test: a frame's numpy arithmetic cost 0.8 ms of
+        # the finder's 2.2.
+        cv2 = opencv()
+        out: np.ndarray | None = None
+        for low, high in self._boxes:
+            inside = cv2.inRange(hsv, low, high)
+            out = inside if out is None else cv2.bitwise_or(out, inside)
+        return out if out is not None else np.zeros(hsv.shape[:2], np.uint8)
+
+    def _hue_ok(self, h: np.ndarray) -> np.ndarray:
+        h = h.astype(np.int16) * 2  # OpenCV stores hue/2
+        return np.abs((h - int(round(self.hue)) + 180) % 360 - 180) <= self.hue_tolerance
+
+    def _saturated(self, s: np.ndarray) -> np.ndarray:
+        return s > self.min_saturation * 255.0 / 100.0
+
+    def _bright(self, v: np.ndarray) -> np.ndarray:
+        return v > self.min_value * 255.0 / 100.0
+
+    @cached_property
+    def _boxes(self) -> list[tuple[tuple[int, int, int], tuple[int, int, int]]]:
+        """The colour as inclusive (low, high) HSV boxes over 8-bit values, for ``cv2.inRange``:
+        the channel tests above, each taken at every level (the hue's wrap makes two boxes)."""
+        levels = np.arange(256)
+        runs = [_runs(test(levels)) for test in (self._hue_ok, self._saturated, self._bright)]
+        if not runs[1] or not runs[2]:
+            return []
+        (s0, s1), (v0, v1) = runs[1][0], runs[2][0]  # a threshold passes one run of levels
+        return [((h0, s0, v0), (h1, s1, v1)) for h0, h1 in runs[0]]
+
+
+def _runs(ok: np.ndarray) -> list[tuple[int, int]]:
+    """The (first, last) indices of each run of True in ``ok``."""
+    edges = np.flatnonzero(np.diff(np.concatenate(([False], ok, [False])).astype(np.int8)))
+    return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
 @dataclass(frozen=True)
@@ -129,14 +162,25 @@ class BallFinder:
         return m
 
     def blobs(self, mask: np.ndarray) -> list[Blob]:
-        n, _, stats, centroids = opencv().connectedComponentsWithStats(mask, connectivity=8)
+        cv2 = opencv()
+        # Labelled inside the box around the mask's pixels, not the whole frame (0.7 ms of the
+        # finder's 2.2 for a blob or two). OpenCV labels 2×2 blocks of pixels in raster order:
+        # the box starts on the frame's blocks, so the blobs come in the same order.
+        left, top, width, height = cv2.boundingRect(mask)
+        if width == 0:
+            return []
+        left, top = left & ~1, top & ~1
+        box = mask[top:, left:][: height + 1, : width + 1]
+        n, _, stats, centroids = cv2.connectedComponentsWithStats(box, connectivity=8)
         out = []
         for i in range(1, n):
             w, h, area = (int(v) for v in stats[i, 2:5])
             out.append(
                 Blob(
-                    x=float(centroids[i, 0]),
-                    y=float(centroids[i, 1]),
+                    # OpenCV's centroid is the pixels' integer coordinate sum / area: that sum
+                    # back, shifted to the frame, gives the whole frame's centroid to the bit.
+                    x=(round(centroids[i, 0] * area) + area * left) / area,
+                    y=(round(centroids[i, 1] * area) + area * top) / area,
                     area=area,
                     fill=area / float(w * h),
                     aspect=max(w, h) / float(max(1, min(w, h))),
