@@ -30,6 +30,9 @@ class ControlTable:
             for a in range(reg.address, reg.end):
                 self._by_address[a] = (member, reg)
         self.data = bytearray(size)
+        # (address, length) of a write → the registers it touches (check_write)
+        self._touched: dict[tuple[int, int], list[tuple[Register, int, int, bool, bool, int, int]]]
+        self._touched = {}
         self.reset()
 
     def reset(self, eeprom: bool = True) -> None:
@@ -95,20 +98,37 @@ class ControlTable:
         """
         if not data or address + len(data) > self.size:
             return [], ErrorBit.RANGE
+        span = (address, len(data))
+        touched = self._touched.get(span)
+        if touched is None:
+            touched = self._touched[span] = self._registers_in(address, len(data))
         image = bytearray(self.data)
         image[address : address + len(data)] = data
         changes: list[tuple[Register, int]] = []
-        seen: set[Enum] = set()
-        for a in range(address, address + len(data)):
-            entry = self._by_address.get(a)
-            if entry is None or entry[0] in seen:
-                continue
-            name, reg = entry
-            seen.add(name)
-            if reg.access is Access.R or (reg.eeprom and eeprom_locked):
+        for reg, start, end, read_only, eeprom, low, high in touched:
+            if read_only or (eeprom and eeprom_locked):
                 return [], ErrorBit.RANGE
-            value = int.from_bytes(image[reg.address : reg.end], "little")
-            if not reg.low <= value <= reg.high:
+            value = int.from_bytes(image[start:end], "little")
+            if not low <= value <= high:
                 return [], ErrorBit.RANGE
             changes.append((reg, value))
         return changes, 0
+
+    def _registers_in(
+        self, address: int, length: int
+    ) -> list[tuple[Register, int, int, bool, bool, int, int]]:
+        """The registers a write of ``length`` bytes at ``address`` touches, in address order
+        (each once), with what :meth:`check_write` asks of each: found once for each span (20
+        goals a tick while the robot moves, each looking its registers up by their members,
+        whose hash is Python code in ``enum``)."""
+        registers = []
+        seen: set[Enum] = set()
+        for a in range(address, address + length):
+            entry = self._by_address.get(a)
+            if entry is None or entry[0] in seen:
+                continue
+            seen.add(entry[0])
+            reg = entry[1]
+            read_only = reg.access is Access.R
+            registers.append((reg, reg.address, reg.end, read_only, reg.eeprom, reg.low, reg.high))
+        return registers

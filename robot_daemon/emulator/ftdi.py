@@ -34,48 +34,59 @@ class FtdiChip:
         self.packet_bytes = packet_bytes
 
     def deliver(self, replies: list[tuple[float, bytes]]) -> list[tuple[float, bytes]]:
-        # Every bulk read's 21 replies come through here: locals, and no min/max calls.
+        # Every bulk read's 21 replies come through here: locals, and no min/max calls; the
+        # timer's deadline (``first + latency``) and the buffer's length kept as they change.
         out: list[tuple[float, bytes]] = []
         buf = bytearray()
+        fill = 0  # len(buf)
         first = 0.0  # when the first byte in ``buf`` came in
-        size, byte_s, latency = self.packet_bytes, self.byte_s, self.latency_s
+        deadline = latency = self.latency_s  # first + latency
+        size, byte_s = self.packet_bytes, self.byte_s
         for t_end, packet in replies:
             n = len(packet)
             t0 = t_end - (n - 1) * byte_s  # byte 0 of this reply in the chip
             # Most replies join the buffer whole, before it fills or its timer fires: the
             # loop's first round below, decided with the same sums, and done in one step.
-            if buf and t0 > first + latency:
-                out.append((first + latency, bytes(buf)))
+            if fill and t0 > deadline:
+                out.append((deadline, bytes(buf)))
                 buf.clear()
-            if not buf:
+                fill = 0
+            if not fill:
                 first = t0
-            before_timer = not byte_s or int((first + latency - t0) / byte_s) >= n - 1
-            if before_timer and len(buf) + n < size:
+                deadline = first + latency
+            # (The timer's margin here is never below 0, so a float compared with n - 1
+            # decides as its int() would.)
+            if fill + n < size and (not byte_s or (deadline - t0) / byte_s >= n - 1):
                 buf += packet
+                fill += n
                 continue
             i = 0
             while i < n:
                 t_i = t0 + i * byte_s
-                if buf and t_i > first + latency:
-                    out.append((first + latency, bytes(buf)))
+                if fill and t_i > deadline:
+                    out.append((deadline, bytes(buf)))
                     buf.clear()
-                if not buf:
+                    fill = 0
+                if not fill:
                     first = t_i
+                    deadline = first + latency
                 # Bytes from i on that come in before the timer fires, up to a full packet.
-                take = size - len(buf)
+                take = size - fill
                 if n - i < take:
                     take = n - i
                 if byte_s:
-                    by_timer = int((first + latency - t_i) / byte_s) + 1
+                    by_timer = int((deadline - t_i) / byte_s) + 1
                     if by_timer < take:
                         take = by_timer
                 if take < 1:
                     take = 1
                 buf += packet[i : i + take]
+                fill += take
                 i += take
-                if len(buf) >= size:
+                if fill >= size:
                     out.append((t0 + (i - 1) * byte_s, bytes(buf)))
                     buf.clear()
+                    fill = 0
         if buf:
-            out.append((first + latency, bytes(buf)))
+            out.append((deadline, bytes(buf)))
         return out

@@ -57,6 +57,9 @@ from schemas import units
 _MAX_READ = 250 - 6  # a status packet must fit the SDK's 250-byte receive buffer
 _READ_ONLY = frozenset((Instruction.PING, Instruction.READ, Instruction.BULK_READ))
 _READS = frozenset((Instruction.READ, Instruction.BULK_READ))
+_PLAIN_WRITES = frozenset((Instruction.WRITE, Instruction.SYNC_WRITE))
+# Who answers an ID hangs on these registers (at the same addresses on the MX-28 and CM-730).
+_INDEX_END = max(r.value.end for r in (MX28.ID, MX28.BAUD_RATE, CM730.ID, CM730.BAUD_RATE))
 # Bounds of what bulk reads keep (a host asking ever new layouts empties them and goes on).
 _KEPT_PLANS = 64
 _KEPT_REPLIES = 256
@@ -112,6 +115,11 @@ class Bus:
         # Bulk reads' (length, ID, address) blocks by their parameters: the daemon asks a
         # handful of layouts (the slow block goes round the servos), 125 times a second.
         self._bulk_plans: dict[bytes, list[tuple[int, int, int]]] = {}
+        # And each one's devices, while the index they were found in is the bus's.
+        self._lone_plans: dict[
+            bytes,
+            tuple[dict[int, list[Device]], list[tuple[Device, tuple[int, int, int]]] | None],
+        ] = {}
         # A device's last reply to a block of a bulk read, when reading it changed nothing,
         # with what the read depends on (Device.read_key): a robot standing still is asked
         # the same and answers the same bytes. False: always build them.
@@ -245,8 +253,8 @@ class Bus:
         try:
             return self._handle(frame)
         finally:
-            if frame.code not in _READ_ONLY:  # a write may have changed an ID
-                self._index = None
+            if frame.code not in _READ_ONLY and not _spares_index(frame):
+                self._index = None  # a write may have changed an ID or a baud rate
 
     def _handle(self, frame: Frame) -> list[Reply]:
         if isinstance(frame, BadChecksum):
@@ -346,21 +354,27 @@ class Bus:
                 dev.write(start, body[i + 1 : i + block])
 
     def _bulk_read(self, params: bytes) -> list[Reply]:
-        replies: list[Reply] = []
+        by_id = self._by_id()
         blocks = self._bulk_plans.get(params)
         if blocks is None:
             body = params[1:]  # params[0] is the 0x00 the protocol puts first
             blocks = [(body[i], body[i + 1], body[i + 2]) for i in range(0, len(body) - 2, 3)]
             if len(self._bulk_plans) >= _KEPT_PLANS:  # a host asking ever new ones
                 self._bulk_plans.clear()
+                self._lone_plans.clear()
             self._bulk_plans[params] = blocks
-        by_id = self._by_id()
+        lone = self._lone_plans.get(params)
+        if lone is None or lone[0] is not by_id:  # (the index is a new dict when it changes)
+            lone = self._lone_plans[params] = (by_id, _lone(blocks, by_id))
+        if lone[1] is not None:
+            return self._bulk_read_lone(lone[1])
+        replies: list[Reply] = []
         for length, dxl_id, address in blocks:
             devs = by_id.get(dxl_id)
             if not devs:
                 break  # nobody sends this status packet: the next device waits for ever
             if len(devs) == 1 and length <= _MAX_READ:
-                reply = self._bulk_reply(devs[0], address, length)
+                reply = self._bulk_reply(devs[0], (id(devs[0]), address, length))
             else:
                 reply = []
                 for dev in devs:
@@ -380,15 +394,27 @@ class Bus:
                 break  # garbled: the next device never hears the packet it waits for
         return replies
 
-    def _bulk_reply(self, dev: Device, address: int, length: int) -> list[Reply]:
-        """One device's answer to its block of a bulk read: the one it gave last time when
-        nothing it depends on has changed since (its read key, and not silenced)."""
+    def _bulk_read_lone(self, plan: list[tuple[Device, tuple[int, int, int]]]) -> list[Reply]:
+        """The loop above for a bulk read whose every block has one device and a length that
+        fits (nearly all of them), through its devices found once."""
+        replies: list[Reply] = []
+        for dev, block in plan:
+            reply = self._bulk_reply(dev, block)
+            if not reply:
+                break
+            replies += reply
+        return replies
+
+    def _bulk_reply(self, dev: Device, block: tuple[int, int, int]) -> list[Reply]:
+        """One device's answer to its ``block`` of a bulk read (``(id(dev), address,
+        length)``): the one it gave last time when nothing it depends on has changed since (its
+        read key, and not silenced)."""
         key = dev.read_key() if self.reuse_replies else None
-        block = (id(dev), address, length)
-        if key is not None and dev.id not in self.silent:
+        if key is not None and not (self.silent and dev.id in self.silent):
             last = self._replies.get(block)
             if last is not None and last[0] == key:
                 return last[1]
+        _, address, length = block
         data, error = dev.read(address, length)
         reply = self._reply(dev, Instruction.BULK_READ, error, data)
         # Kept only when the read changed nothing (an alarm it latched changes the key), and
@@ -398,6 +424,32 @@ class Bus:
                 self._replies.clear()
             self._replies[block] = (key, reply)
         return reply
+
+
+def _lone(
+    blocks: list[tuple[int, int, int]], by_id: dict[int, list[Device]]
+) -> list[tuple[Device, tuple[int, int, int]]] | None:
+    """Each block's one device and its reply's key in ``Bus._replies``; None if a block has
+    none, or more than one, or asks more than a status packet holds."""
+    plan = []
+    for length, dxl_id, address in blocks:
+        devs = by_id.get(dxl_id)
+        if devs is None or len(devs) != 1 or length > _MAX_READ:
+            return None
+        plan.append((devs[0], (id(devs[0]), address, length)))
+    return plan
+
+
+def _spares_index(frame: Frame) -> bool:
+    """A WRITE or SYNC_WRITE that starts after the ID and baud rate registers (every goal the
+    host sends) leaves who answers each ID as it was: the index outlives it. (Power, cable
+    breaks and the line's rate reset the index where they change.)"""
+    return (
+        type(frame) is Packet
+        and frame.code in _PLAIN_WRITES
+        and bool(frame.params)
+        and frame.params[0] >= _INDEX_END
+    )
 
 
 def _collide(replies: list[Reply]) -> list[Reply]:
