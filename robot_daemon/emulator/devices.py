@@ -97,6 +97,13 @@ _ONE_BYTE = (
 assert all(r.value.size == 2 for r in (*_TWO_BYTES, MX28.TORQUE_LIMIT))
 assert all(r.value.size == 1 for r in _ONE_BYTE)
 
+# What _sync_registers and _load compute with (units' own values, bound once).
+_UNITS_PER_REV = units.UNITS_PER_REV
+_RPM_PER_SPEED_UNIT = units.RPM_PER_SPEED_UNIT
+_LOAD_PERCENT_PER_UNIT = units.LOAD_PERCENT_PER_UNIT
+_encode_signed_11bit = units.encode_signed_11bit  # present speed and load: 10 bits and a sign
+_TOP_SPEED = units.MX28_MAX_RPM * units.UNITS_PER_REV / 60.0
+
 # The CM-730's registers its refresh writes in place (the IMU's are two bytes each).
 _CM730_VOLTAGE = CM730.VOLTAGE.value.address
 assert CM730.VOLTAGE.value.size == 1
@@ -309,13 +316,17 @@ class Servo(Device):
         )
 
     def load_fraction(self) -> float:
-        if not self.drives():
+        return self._load(self.drives())
+
+    def _load(self, drives: bool) -> float:
+        """:meth:`load_fraction`, for a caller that knows already whether the motor drives."""
+        if not drives:
             return 0.0
-        if self.plant_torque is not None:
+        torque = self.plant_torque
+        if torque is not None:
             stall = STALL_TORQUE_12V * max(self.env.voltage, 1e-3) / 12.0
-            return max(-1.0, min(1.0, self.plant_torque / stall))
-        top = units.MX28_MAX_RPM * units.UNITS_PER_REV / 60.0
-        return max(-1.0, min(1.0, self.external_load + 0.15 * self.velocity / top))
+            return max(-1.0, min(1.0, torque / stall))
+        return max(-1.0, min(1.0, self.external_load + 0.15 * self.velocity / _TOP_SPEED))
 
     def _rest_key(self) -> tuple[object, ...] | None:
         """What a servo at rest depends on (None: it is not at rest). At rest, a step computes
@@ -401,24 +412,28 @@ class Servo(Device):
         self._sync_registers()
 
     def _sync_registers(self) -> None:
-        # Every step of every servo (hundreds a second): the bytes written in place at the
-        # registers' addresses, the same values the table's item access would write.
+        # Every step of every servo, twice a physics round under a physics plant (its step,
+        # then its new state): the bytes written in place at the registers' addresses, the same
+        # values the table's item access and units' encoders would write, each computed in the
+        # same order of operations, with whether it drives found once.
         d = self.table.data
         position = round(self.position)
         d[_PRESENT_POSITION] = position & 0xFF
         d[_PRESENT_POSITION + 1] = (position >> 8) & 0xFF
-        speed_units = self.velocity * 60.0 / units.UNITS_PER_REV / units.RPM_PER_SPEED_UNIT
-        speed = units.encode_signed_11bit(round(speed_units))
+        speed_units = self.velocity * 60.0 / _UNITS_PER_REV / _RPM_PER_SPEED_UNIT
+        speed = _encode_signed_11bit(round(speed_units))
         d[_PRESENT_SPEED] = speed & 0xFF
-        d[_PRESENT_SPEED + 1] = (speed >> 8) & 0xFF
-        load_units = self.load_fraction() * 100.0 / units.LOAD_PERCENT_PER_UNIT
-        load = units.encode_signed_11bit(round(load_units))
+        d[_PRESENT_SPEED + 1] = speed >> 8
+        drives = self.drives()
+        load = _encode_signed_11bit(round(self._load(drives) * 100.0 / _LOAD_PERCENT_PER_UNIT))
         d[_PRESENT_LOAD] = load & 0xFF
-        d[_PRESENT_LOAD + 1] = (load >> 8) & 0xFF
+        d[_PRESENT_LOAD + 1] = load >> 8
         d[_PRESENT_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
         d[_PRESENT_TEMPERATURE] = max(0, min(255, round(self.temperature)))
-        goal = d[_GOAL_POSITION] | (d[_GOAL_POSITION + 1] << 8)
-        moving = self.drives() and abs(goal - self.position) >= 1.0
+        moving = (
+            drives
+            and abs((d[_GOAL_POSITION] | (d[_GOAL_POSITION + 1] << 8)) - self.position) >= 1.0
+        )
         d[_MOVING] = 1 if moving else 0
 
 

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from config.body import default_body
+from robot_daemon.bus.tables import MX28
 from robot_daemon.plant.ball import BallState
 from robot_daemon.plant.physics.mjcf_model import (
     BALL,
@@ -49,6 +50,14 @@ if TYPE_CHECKING:
     from robot_daemon.emulator.emulator import Emulator
 
 MISSING = message("physics", "the MuJoCo plant")
+# The servo registers the plant reads each physics round (the MX-28's table).
+_GOAL = MX28.GOAL_POSITION.value.address
+_TORQUE_ENABLE = MX28.TORQUE_ENABLE.value.address
+_P_GAIN = MX28.P_GAIN.value.address
+_TORQUE_LIMIT = MX28.TORQUE_LIMIT.value.address
+_MOVING_SPEED = MX28.MOVING_SPEED.value.address
+assert all(r.value.size == 2 for r in (MX28.GOAL_POSITION, MX28.TORQUE_LIMIT, MX28.MOVING_SPEED))
+assert all(r.value.size == 1 for r in (MX28.TORQUE_ENABLE, MX28.P_GAIN))
 # Where a removed ball waits, out of the field (m).
 _BALL_PARKED = (0.0, 50.0)
 
@@ -160,24 +169,23 @@ class MujocoWorld(WorldViews):
                 servo.plant_torque = None
 
     def _commands(self, emulator: Emulator) -> tuple[np.ndarray, ...]:
-        from robot_daemon.bus.tables import MX28
-
-        n = len(self.servo_ids)
-        goal, kp, on, limit = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
-        speed = np.full(n, np.inf)
+        # Every physics round: the registers' bytes of all servos at once (one array of their
+        # tables), decoded as the table's items are and converted in units' order of operations.
+        servos = emulator.bus.servos
         with emulator.lock:
             volts = max(emulator.env.voltage, 0.0)
-            for k, i in enumerate(self.servo_ids):
-                servo = emulator.bus.servos[i]
-                t = servo.table
-                goal[k] = units.raw_to_rad(t[MX28.GOAL_POSITION])
-                enabled = servo.powered and t[MX28.TORQUE_ENABLE]
-                on[k] = 1.0 if enabled else 0.0
-                kp[k] = t[MX28.P_GAIN] * self.physics.stiffness_per_p
-                limit[k] = t[MX28.TORQUE_LIMIT] / 1023.0
-                if t[MX28.MOVING_SPEED]:  # 0 = no profile: the motor's own top speed
-                    rpm = t[MX28.MOVING_SPEED] * units.RPM_PER_SPEED_UNIT
-                    speed[k] = rpm * 2 * math.pi / 60.0
+            chain = [servos[i] for i in self.servo_ids]
+            tables = np.frombuffer(b"".join([s.table.data for s in chain]), dtype=np.uint8)
+            powered = np.array([s.powered for s in chain])
+        t = tables.reshape(len(chain), -1).astype(np.int64)
+        goal = units.raw_to_rad(t[:, _GOAL] | (t[:, _GOAL + 1] << 8))
+        on = (powered & (t[:, _TORQUE_ENABLE] != 0)).astype(float)
+        kp = t[:, _P_GAIN] * self.physics.stiffness_per_p
+        limit = (t[:, _TORQUE_LIMIT] | (t[:, _TORQUE_LIMIT + 1] << 8)) / 1023.0
+        # A moving speed of 0 is no profile: the motor's own top speed.
+        moving = t[:, _MOVING_SPEED] | (t[:, _MOVING_SPEED + 1] << 8)
+        rad_s = moving * units.RPM_PER_SPEED_UNIT * 2 * math.pi / 60.0
+        speed = np.where(moving != 0, rad_s, np.inf)
         stall = self.physics.stall_torque * volts / 12.0
         return goal, speed, kp * on, self.physics.emf_damping * on, limit * stall * on
 
@@ -259,13 +267,13 @@ class MujocoWorld(WorldViews):
             tau = d.actuator_force[self._act].copy()
             gyro = d.sensordata[self._gyro_adr : self._gyro_adr + 3].tolist()
             accel = d.sensordata[self._accel_adr : self._accel_adr + 3].tolist()
-        raw = q / units.RAD_PER_UNIT + units.POSITION_CENTER
-        raw_s = qd / units.RAD_PER_UNIT
+        raw = (q / units.RAD_PER_UNIT + units.POSITION_CENTER).tolist()
+        raw_s = (qd / units.RAD_PER_UNIT).tolist()
+        rows = zip(self.servo_ids, raw, raw_s, tau.tolist(), saturated.tolist(), strict=True)
         with emulator.lock:
-            for k, i in enumerate(self.servo_ids):
-                emulator.bus.servos[i].plant_update(
-                    raw[k], raw_s[k], tau[k], bool(saturated[k]), dt
-                )
+            servos = emulator.bus.servos
+            for i, position, speed, torque, held in rows:
+                servos[i].plant_update(position, speed, torque, held, dt)
             emulator.bus.cm730.gyro = tuple(gyro)
             emulator.bus.cm730.accel = tuple(accel)
 
@@ -288,7 +296,9 @@ class MujocoWorld(WorldViews):
             # structs cost half as much as the physics steps themselves (~1/10 of a test's CPU).
             pairs = self.data.contact.geom
             with_ball = pairs[(pairs == self._ball_geom).any(axis=1)]
-            touching = bool(np.isin(with_ball, self._foot_geoms).any())
+            if with_ball.size:  # (np.isin costs more than the rest of this check)
+                left, right = self._foot_geoms
+                touching = bool(((with_ball == left) | (with_ball == right)).any())
         if touching and not self._touching_ball:
             self.ball.touches += 1
         self._touching_ball = touching
