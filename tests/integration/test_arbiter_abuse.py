@@ -89,7 +89,6 @@ def test_a_read_flood_while_walking_keeps_the_ticks(walking_system) -> None:
     try:
         for t in threads:
             t.start()
-        first: Joints = robot.wait_for("joints", timeout=WAIT)
         # Windows without and with the flood alternate, for the printed figures.
         for _ in range(3):
             quiet.append(_ticks(robot, FLOOD_S / 2))
@@ -105,7 +104,6 @@ def test_a_read_flood_while_walking_keeps_the_ticks(walking_system) -> None:
         for t in threads:
             t.join(timeout=10)
         session.close()
-    last: Joints = robot.wait_for("joints", timeout=WAIT)
 
     def rate(windows: list[tuple[int, float]]) -> float:
         return sum(n for n, _ in windows) / sum(s for _, s in windows)
@@ -113,12 +111,11 @@ def test_a_read_flood_while_walking_keeps_the_ticks(walking_system) -> None:
     print(f"ticks/s: expected {expected:.1f}, quiet {rate(quiet):.1f}, "
           f"flooded {rate(flooded):.1f}; {outcomes}")
     assert outcomes.get("ok", 0) > 0 and "internal" not in outcomes, outcomes
-    # The loop went on ticking in every flooded window, and the reads were bus transactions
-    # inside its ticks, at most one a tick ([daemon.arbiter]). How many ticks a second the
-    # flood leaves is a figure of the machine's load, not a verdict: it is the benchmark's
-    # (benchmarks/arbiter_flood.py, against a clean phase of the same run).
+    # The loop went on ticking in every flooded window. How many ticks a second the flood
+    # leaves is a figure of the machine's load, not a verdict: it is the benchmark's
+    # (benchmarks/arbiter_flood.py, against a clean phase of the same run); that reads wait
+    # for their share of the bus, spread over ticks, is tests/unit/test_arbiter_budget.py's.
     assert all(n > 0 for n, _ in flooded), flooded
-    assert outcomes["ok"] <= last.tick - first.tick, (outcomes, last.tick - first.tick)
 
 
 def test_a_reused_client_id_cannot_command_or_release(robot_system: RunningSystem) -> None:
