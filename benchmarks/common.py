@@ -15,6 +15,17 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime + stime
 
 
+def cpu_seconds_ns(pid: int) -> float:
+    """CPU time process ``pid``'s live threads have used so far, to the nanosecond (the
+    scheduler's count, /proc/PID/task/*/schedstat), where :func:`cpu_seconds` counts in clock
+    ticks (10 ms): a change of a few ms in a start is seen. A thread that has ended is not
+    counted (the programs of ``darwin up`` keep theirs while they start)."""
+    return sum(
+        int((task / "schedstat").read_text().split()[0])
+        for task in Path(f"/proc/{pid}/task").iterdir()
+    ) / 1e9
+
+
 REPO = Path(__file__).resolve().parents[1]
 
 

@@ -100,7 +100,7 @@ def camera_fps(frames: int) -> dict[str, float]:
     pose, ball = world.camera_view()
     start = time.perf_counter()
     for _ in range(frames):
-        world._renderer.render(pose, ball)
+        world.renderer().render(pose, ball)
     out["opencv"] = frames / (time.perf_counter() - start)
     try:
         cam = MujocoCamera(world.model, cam_model.width, cam_model.height)

@@ -14,7 +14,6 @@ from __future__ import annotations
 import contextlib
 import copy
 import dataclasses
-import difflib
 import functools
 import importlib.util
 import marshal
@@ -188,6 +187,10 @@ def nearest(name: str, known: Iterable[str], cutoff: float = 0.0) -> str | None:
     by_lower = {k.lower(): k for k in known}
     if name.lower() in by_lower:
         return by_lower[name.lower()]
+    # Here, not at the top: only a name nobody knows (an error) needs it, and every program of
+    # `darwin up` imports this module at start.
+    import difflib
+
     found = difflib.get_close_matches(name, known, n=1, cutoff=cutoff)
     return found[0] if found else None
 

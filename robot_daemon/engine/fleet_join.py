@@ -167,18 +167,3 @@ class RouterWatch:
 
 def _say(line: str) -> None:
     print(f"darwin daemon: {line}", file=sys.stderr, flush=True)
-
-
-def check_login_needs_router(args: object, router: str | None) -> None:
-    """``--user``/``--password-file``/``--cert``/``--key``/``--ca`` on a robot say who it is to
-    a router: without one they would be ignored, so they are refused (the variables
-    ``DARWIN_USER``… are a person's client login and stay unread)."""
-    given = [f"--{o.replace('_', '-')}" for o in ("user", "password_file", "cert", "key", "ca")
-             if getattr(args, o, None)]
-    # Without --router, `darwin up --tui`'s --user… are the login of the person at the UI.
-    if given and not router and not getattr(args, "tui", False):
-        raise ValueError(
-            f"{'/'.join(given)} log this robot in to a router: add --router ENDPOINT, or drop "
-            "them (to require logins at this robot's own endpoint, use --auth FILE or --secure; "
-            "with --tui they are the UI's login)"
-        )

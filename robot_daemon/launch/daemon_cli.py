@@ -20,7 +20,7 @@ from config.loader import load_all, robot_from_dict
 from config.robotis_offsets import ROBOTIS_CONFIG_INI, offsets_not_imported
 from robot_daemon.emulator.settings import add_forwarded_options
 from robot_daemon.launch.children import Child, relay_to_stderr
-from robot_daemon.launch.endpoints import resolve_listen, router_of
+from robot_daemon.launch.endpoints import check_login_needs_router, resolve_listen, router_of
 from robot_daemon.security.options import (
     add_security_arguments,
     listen_warnings,
@@ -129,7 +129,6 @@ def build(args: argparse.Namespace, port: str) -> tuple[Daemon, dict[str, Any]]:
 
 def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Daemon:
     from robot_daemon.engine.daemon import Daemon, DaemonOptions
-    from robot_daemon.engine.fleet_join import check_login_needs_router
     from robot_daemon.vision.sources import check_spec
 
     bus = settings.setdefault("bus", {})

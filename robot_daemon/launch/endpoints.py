@@ -1,6 +1,7 @@
-"""Where the robot listens and which router it joins: what ``darwin up``, ``darwin daemon`` and
-``darwin router`` decide before starting anything. Kept apart from the daemon's module so that
-the launcher and the router decide it without importing the engine (a start-up cost)."""
+"""Where the robot listens, which router it joins and whether its login needs one: what
+``darwin up``, ``darwin daemon`` and ``darwin router`` decide before starting anything. Kept apart
+from the daemon's modules so that the launcher and the router decide it without importing the
+engine (a start-up cost)."""
 
 from __future__ import annotations
 
@@ -33,3 +34,18 @@ def router_of(args: argparse.Namespace, settings: dict[str, Any]) -> str | None:
         except ValueError as exc:
             raise ConfigError(f"{exc} (--router)") from None
     return router
+
+
+def check_login_needs_router(args: object, router: str | None) -> None:
+    """``--user``/``--password-file``/``--cert``/``--key``/``--ca`` on a robot say who it is to
+    a router: without one they would be ignored, so they are refused (the variables
+    ``DARWIN_USER``… are a person's client login and stay unread)."""
+    given = [f"--{o.replace('_', '-')}" for o in ("user", "password_file", "cert", "key", "ca")
+             if getattr(args, o, None)]
+    # Without --router, `darwin up --tui`'s --user… are the login of the person at the UI.
+    if given and not router and not getattr(args, "tui", False):
+        raise ValueError(
+            f"{'/'.join(given)} log this robot in to a router: add --router ENDPOINT, or drop "
+            "them (to require logins at this robot's own endpoint, use --auth FILE or --secure; "
+            "with --tui they are the UI's login)"
+        )

@@ -15,14 +15,17 @@ import math
 import threading
 import time
 from abc import ABC, abstractmethod
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from robot_daemon.plant.ball import BallState
-from robot_daemon.plant.render import BallView, CameraPose, Renderer
+from robot_daemon.plant.camera_model import CameraPose
 from robot_daemon.plant.world_settings import WorldSettings
 from schemas.messages import World
+
+if TYPE_CHECKING:
+    from robot_daemon.plant.render import BallView, Renderer
 
 
 class WorldViews(ABC):
@@ -30,15 +33,10 @@ class WorldViews(ABC):
         self.settings = settings
         self.lock = threading.RLock()
         self.time = 0.0  # simulated seconds, advanced by the plant
-        r = settings.render
-        self._renderer = Renderer(
-            r.camera,
-            self.settings.field,
-            noise=r.noise,
-            light_variation=r.light_variation,
-            blur=r.blur,
-            seed=seed,
-        )
+        # Made at the first frame (its own generator, seeded here, draws the same from there): a
+        # world nobody watches (`darwin up --camera none`, most simulated robots) never loads it.
+        self._seed = seed
+        self._renderer: Renderer | None = None
         self._render_lock = threading.Lock()
         self.frames_rendered = 0  # frames served to the camera source
 
@@ -75,6 +73,8 @@ class WorldViews(ABC):
             )
 
     def camera_view(self) -> tuple[CameraPose, BallView | None]:
+        from robot_daemon.plant.render import BallView
+
         with self.lock:
             pose = self._camera_pose()
             b = self._ball_now()
@@ -85,7 +85,24 @@ class WorldViews(ABC):
         """The camera image (BGR, uint8) of the world as it is now."""
         pose, ball = self.camera_view()
         with self._render_lock:
-            return self._renderer.render(pose, ball)
+            return self.renderer().render(pose, ball)
+
+    def renderer(self) -> Renderer:
+        """The OpenCV renderer of this world's camera, made on first use (two threads that draw
+        frames call this under ``self._render_lock``, as :meth:`render` does)."""
+        if self._renderer is None:
+            from robot_daemon.plant.render import Renderer
+
+            r = self.settings.render
+            self._renderer = Renderer(
+                r.camera,
+                self.settings.field,
+                noise=r.noise,
+                light_variation=r.light_variation,
+                blur=r.blur,
+                seed=self._seed,
+            )
+        return self._renderer
 
     def ball_distance(self) -> float | None:
         """Distance (m) from the body to the ball on the ground, None without a ball."""

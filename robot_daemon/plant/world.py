@@ -21,8 +21,8 @@ import numpy as np
 from config.loader import load_all
 from robot_daemon.emulator.settings import PLANTS
 from robot_daemon.plant.ball import Ball, BallState
+from robot_daemon.plant.camera_model import CameraPose
 from robot_daemon.plant.kinematic_body import Body
-from robot_daemon.plant.render import CameraPose
 from robot_daemon.plant.views import WorldViews
 from robot_daemon.plant.world_settings import WorldSettings
 from schemas.kinematics import SIDES, camera_pose

@@ -8,7 +8,7 @@ from dataclasses import field as dc_field
 from typing import Any
 
 from config.loader import load_all, refuse_unknown, section_to
-from robot_daemon.plant.render import CameraModel, FieldGeometry
+from robot_daemon.plant.camera_model import CameraModel, FieldGeometry
 from schemas.errors import ConfigError
 
 

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from config.loader import section_to
+from robot_daemon.vision.camera_view import CameraView
 from robot_daemon.vision.opencv import opencv
 from schemas.errors import ConfigError
 from schemas.messages import BallDetection
@@ -76,16 +77,6 @@ def _runs(ok: np.ndarray) -> list[tuple[int, int]]:
     """The (first, last) indices of each run of True in ``ok``."""
     edges = np.flatnonzero(np.diff(np.concatenate(([False], ok, [False])).astype(np.int8)))
     return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
-@dataclass(frozen=True)
-class CameraView:
-    """``[ballplay.camera]``: the image the finder expects and the lens's field of view."""
-
-    width: int = 320
-    height: int = 240
-    fov_h_deg: float = 58.0
-    fov_v_deg: float = 46.0
 
 
 @dataclass(frozen=True)

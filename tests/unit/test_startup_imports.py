@@ -1,8 +1,9 @@
 """What each program of ``darwin up`` loads before it can start (``benchmarks/startup_benchmark.py``
 measures the time; this holds the causes): the launcher does not load the daemon's engine or the
 emulator, the daemon loads its engine only once it has started the emulator, no child reads every
-installed package's metadata to find its own command, and the gateway starts without numpy (as
-every client of :class:`clients.robot.Robot` does).
+installed package's metadata to find its own command, the gateway starts without numpy (as
+every client of :class:`clients.robot.Robot` does), and a simulated world nobody watches loads
+no camera.
 
 Each case runs in a fresh interpreter: ``darwin NAME``'s module imported and its parser built,
 as ``darwin NAME`` does before running."""
@@ -22,10 +23,12 @@ INTERNAL = "robot_daemon.security.internal"  # identities of --auth/--secure onl
 OFFSETS = "clients.calibration"  # a client's offset editor, with the user file's writer
 V4L2 = "robot_daemon.vision.v4l2"  # a device camera's
 FINDER = "robot_daemon.vision.ball_finder"  # ball play's
+RENDER = "robot_daemon.plant.render"  # the simulated camera's
+FLEET_JOIN = "robot_daemon.engine.fleet_join"  # a daemon's check session to its router
 
 # command → modules it must not have loaded once its parser is built
 NOT_BEFORE_START = {
-    "up": {ENGINE, EMULATOR, "numpy", MESSAGES, INTERNAL},
+    "up": {ENGINE, EMULATOR, "numpy", MESSAGES, INTERNAL, FLEET_JOIN},
     "daemon": {ENGINE, EMULATOR, "numpy", METADATA},
     "sim": {METADATA},
     "gateway": {"numpy", METADATA, OFFSETS, "uuid"},
@@ -52,10 +55,11 @@ def test_a_program_of_darwin_up_starts_without_what_it_does_not_need(command: st
 
 def test_the_watched_modules_are_real_names() -> None:
     """The test above would pass on a misspelt name: each is what a heavier program loads."""
-    watched = set().union(*NOT_BEFORE_START.values(), {V4L2, FINDER})
+    watched = set().union(*NOT_BEFORE_START.values(), {V4L2, FINDER, RENDER})
     code = (
         "import sys, importlib.metadata, numpy, uuid\n"
         f"import {ENGINE}, {EMULATOR}, {MESSAGES}, {INTERNAL}, {OFFSETS}, {V4L2}, {FINDER}\n"
+        f"import {RENDER}, {FLEET_JOIN}\n"
         f"print(' '.join(m for m in {sorted(watched)!r} if m in sys.modules))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -70,6 +74,22 @@ def test_the_daemon_loads_a_device_camera_and_ball_play_only_when_used() -> None
         "from robot_daemon.vision.sources import check_spec\n"
         "check_spec('none')\n"
         f"print(' '.join(m for m in {sorted({V4L2, FINDER})!r} if m in sys.modules))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    )
+    assert out.stdout.split() == []
+
+
+def test_a_simulated_world_nobody_watches_loads_no_camera() -> None:
+    """``darwin sim``'s world as ``darwin up --camera none`` starts it: its settings name the
+    camera's lens and field, but neither the renderer nor the ball finder is loaded until a
+    frame is drawn."""
+    code = (
+        "import argparse, sys\n"
+        "from robot_daemon.plant.world_link import world_from_args\n"
+        "world_from_args(argparse.Namespace()).snapshot()\n"
+        f"print(' '.join(m for m in {sorted({RENDER, FINDER})!r} if m in sys.modules))\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120

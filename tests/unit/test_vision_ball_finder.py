@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from config.loader import load_section
-from robot_daemon.plant.render import BallView, CameraModel, Renderer, look_at
+from robot_daemon.plant.camera_model import CameraModel
+from robot_daemon.plant.render import BallView, Renderer, look_at
 from robot_daemon.vision.ball_finder import BallFinder, FinderSettings, color_range
 from schemas.errors import ConfigError
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from robot_daemon.plant.ball import BallState
-from robot_daemon.plant.render import CameraPose
+from robot_daemon.plant.camera_model import CameraPose
 from robot_daemon.plant.views import WorldViews
 from robot_daemon.plant.world_settings import WorldSettings
 
@@ -62,3 +62,19 @@ def test_render_shows_the_ball_in_front_of_the_camera() -> None:
     red = (with_ball[..., 2].astype(int) - with_ball[..., 1]) > 80
     red_before = (empty[..., 2].astype(int) - empty[..., 1]) > 80
     assert red.sum() > red_before.sum() + 20
+
+
+def test_the_renderer_made_at_the_first_frame_draws_as_one_made_with_the_world() -> None:
+    """Made on first use (a world nobody watches never loads it), seeded with the world's seed:
+    the same frames as a renderer made beside the world with that seed."""
+    from robot_daemon.plant.render import Renderer
+
+    plant = _Plant(BallState(3.0, 2.0))
+    r = plant.settings.render
+    beside = Renderer(
+        r.camera, plant.settings.field, noise=r.noise, light_variation=r.light_variation,
+        blur=r.blur, seed=1,
+    )  # fmt: skip
+    for _ in range(2):
+        assert np.array_equal(plant.render(), beside.render(*plant.camera_view()))
+    assert plant.renderer() is plant.renderer()

@@ -30,6 +30,7 @@ import numpy as np
 from config.body import default_body
 from robot_daemon.bus.tables import MX28
 from robot_daemon.plant.ball import BallState
+from robot_daemon.plant.camera_model import CameraPose
 from robot_daemon.plant.physics.mjcf_model import (
     BALL,
     CAMERA,
@@ -39,7 +40,6 @@ from robot_daemon.plant.physics.mjcf_model import (
     world_mjcf,
 )
 from robot_daemon.plant.physics.mujoco_camera import WorldCamera
-from robot_daemon.plant.render import CameraPose
 from robot_daemon.plant.views import WorldViews
 from robot_daemon.plant.world_settings import WorldSettings
 from schemas import units
