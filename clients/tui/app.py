@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from textual.app import App, ComposeResult, ScreenStackError
+from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.screen import Screen
 from textual.widgets import TabbedContent, TabPane
@@ -76,6 +76,12 @@ def settle_heap() -> None:
     gc.freeze()
 
 
+def tab_view(screen: Screen[Any], tab_id: str) -> TabView | None:
+    """The view of the tab ``tab_id`` on ``screen``, if it has one (composed)."""
+    views = screen.query(f"TabView#{tab_id}")
+    return views.first(TabView) if views else None
+
+
 # The tab classes by their TAB_ID: those that draw the robot's joints also take its config.
 _ROBOT_TABS: dict[str, type[MotorsTab | PoseTab]] = {t.TAB_ID: t for t in (MotorsTab, PoseTab)}
 _MODEL_TABS: dict[str, type[TabView]] = {
@@ -84,7 +90,13 @@ _MODEL_TABS: dict[str, type[TabView]] = {
 
 
 class MainScreen(Screen[None]):
-    """Header, the tabs, the key bar. Composed again when the language changes."""
+    """Header, the tabs, the key bar. Composed again when the language changes.
+
+    Only the tab that shows is composed with the screen; another is composed the first time it
+    is shown (:meth:`open_tab`) and stays, keeping its state. Composing all eight cost CPU at
+    every start (on the robot's Atom too) for views a session may never open; each draws from
+    the model only, so one composed later shows what it would have shown composed at start.
+    """
 
     def compose(self) -> ComposeResult:
         app = self.app
@@ -93,8 +105,23 @@ class MainScreen(Screen[None]):
         with TabbedContent(initial=f"pane-{app.active_tab}", id="tabs"):
             for n, (tab_id, title) in enumerate(TABS, 1):
                 with TabPane(f"{n} {_(title)}", id=f"pane-{tab_id}"):
-                    yield app.make_tab(tab_id)
+                    if tab_id == app.active_tab:
+                        yield app.make_tab(tab_id)
         yield KeyBar()
+
+    async def open_tab(self, tab_id: str) -> TabView:
+        """The tab's view, composed into its pane first if it has not been, and mounted (its
+        children too) when this returns."""
+        app = self.app
+        assert isinstance(app, DarwinApp)
+        view = tab_view(self, tab_id)
+        if view is None:
+            view = app.make_tab(tab_id)
+            await self.query_one(f"#pane-{tab_id}", TabPane).mount(view)
+            # What the new view allocated joins the heap left out of full collections, as the
+            # tabs composed at start did (settle_heap says why).
+            app.call_after_refresh(settle_heap)
+        return view
 
     def on_mount(self) -> None:
         app = self.app
@@ -174,6 +201,8 @@ class DarwinApp(App[None]):
         self._ask = ask
         self._seen: dict[str, int] = {}
         self._recorder: Any = None
+        # Where the running recording writes (None: none runs), for a Log tab composed again.
+        self.recording_to: str | None = None
 
     # -- composition -----------------------------------------------------------------------------
     def make_tab(self, tab_id: str) -> TabView:
@@ -211,11 +240,33 @@ class DarwinApp(App[None]):
         self.command_router.send(message)
 
     def on_command_done(self, message: CommandDone) -> None:
-        try:
-            screen = self.screen
-        except ScreenStackError:
+        if not self.screen_stack:
             return  # the app is closing: a reply that comes in now has nowhere to be shown
-        self.command_router.done(message, screen)
+        self.command_router.done(message, self._reply_to_tab)
+
+    def _reply_to_tab(self, tab_id: str, reply: Callable[[TabView], None]) -> bool:
+        """Hand a reply to the view of the tab that sent the command: on the screen on top (the
+        offsets editor has its own), else on the main screen, under a dialog too. The main
+        screen's tab may not be composed: the screen was composed again (F2) while the command
+        was on its way. It is composed for the reply, which may change what it shows later (a
+        page list, a page opened, the gait). False when no such tab is left."""
+        main = self.main_screen()
+        for screen in (self.screen, main):
+            view = tab_view(screen, tab_id) if screen is not None else None
+            if view is not None:
+                reply(view)
+                return True
+        if main is None or tab_id not in dict(TABS):
+            return False
+
+        async def compose_then_reply() -> None:
+            reply(await main.open_tab(tab_id))
+
+        self.call_later(compose_then_reply)
+        return True
+
+    def main_screen(self) -> MainScreen | None:
+        return next((s for s in self.screen_stack if isinstance(s, MainScreen)), None)
 
     def _config_reply(self, applied: dict[str, Any]) -> None:
         try:
@@ -224,7 +275,8 @@ class DarwinApp(App[None]):
             self.local_event("refused", f"the daemon's config reply is unusable: {exc}")
 
     def use_robot_config(self, robot: RobotConfig) -> None:
-        """Limits and names from now on; the open tabs switch too."""
+        """Limits and names from now on: the composed tabs switch; the others are made with
+        them when first shown (:meth:`make_tab`)."""
         self.robot_config = robot
         for screen in self.screen_stack:
             for tab in screen.query(TabView):
@@ -359,13 +411,17 @@ class DarwinApp(App[None]):
             tab.refresh_view(self.model)
 
     def current_tab(self, screen: Screen[Any] | None = None) -> TabView | None:
-        screen = screen or self.screen
-        tabs = screen.query(f"#{self.active_tab}")
-        return tabs.first(TabView) if tabs else None
+        return tab_view(screen or self.screen, self.active_tab)
 
-    def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
+    async def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
         self.active_tab = (event.pane.id or "").removeprefix("pane-")
-        tab = self.current_tab()
+        screen = event.tabbed_content.screen
+        if isinstance(screen, MainScreen) and self.active_tab in dict(TABS):
+            # Composed here when its title was clicked (a number key composes it before it
+            # shows); drawn below at once, as every tab is when shown, a new one too.
+            tab: TabView | None = await screen.open_tab(self.active_tab)
+        else:
+            tab = self.current_tab()
         if tab is not None:
             self._seen.pop(f"tab-{tab.TAB_ID}", None)
             tab.refresh_view(self.model)
@@ -414,7 +470,7 @@ class DarwinApp(App[None]):
         self.settings.lang = i18n.set_language(lang)
         with contextlib.suppress(OSError):
             self.settings.save(self.settings_path)
-        main = next((s for s in self.screen_stack if isinstance(s, MainScreen)), None)
+        main = self.main_screen()
         if main is not None:
             await main.recompose()
             self._seen.clear()
@@ -423,8 +479,14 @@ class DarwinApp(App[None]):
             if tab is not None:
                 tab.focus_target().focus()
 
-    def action_show_tab(self, tab_id: str) -> None:
-        self.screen.query_one(TabbedContent).active = f"pane-{tab_id}"
+    async def action_show_tab(self, tab_id: str) -> None:
+        main = self.main_screen()
+        if main is None:
+            return
+        # Composed before it shows, so no frame of an empty pane; and the key's handling ends
+        # with the tab ready for the next key.
+        await main.open_tab(tab_id)
+        main.query_one(TabbedContent).active = f"pane-{tab_id}"
 
     # -- recording (Log tab) ---------------------------------------------------------------------
     def on_log_tab_record(self, message: LogTab.Record) -> None:
@@ -452,7 +514,7 @@ class DarwinApp(App[None]):
             self.notify(str(exc), severity="error", timeout=12)
             return
         segments = self._recorder.stats.segments
-        where = f"{segments[0]} …" if segments else message.path
+        self.recording_to = where = f"{segments[0]} …" if segments else message.path
         self.local_event("record", _("recording to {path}").format(path=where))
         if tab is not None:
             tab.set_recording(True, _("recording to {path}").format(path=where))
@@ -461,6 +523,7 @@ class DarwinApp(App[None]):
         if self._recorder is None:
             return ""
         recorder, self._recorder = self._recorder, None
+        self.recording_to = None
         summary = recorder.stop().summary()
         self.local_event("record", summary)
         return summary

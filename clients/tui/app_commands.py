@@ -8,8 +8,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from textual.screen import Screen
-
 from clients.tui.i18n import _
 from clients.tui.link import CommandDone, Link
 from clients.tui.model import Model
@@ -18,6 +16,8 @@ from clients.tui.tabs.behaviours import library_entries
 from config.loader import RobotConfig, robot_from_dict
 
 Notify = Callable[..., None]  # App.notify(message, severity=…, timeout=…)
+# (tab id, what to do with its view) → False when no such tab is there to take a reply
+ToTab = Callable[[str, Callable[[TabView], None]], bool]
 
 
 class CommandRouter:
@@ -41,18 +41,19 @@ class CommandRouter:
             message.verb, tag=f"{origin}:{message.tag}", quiet=message.quiet, **message.fields
         )
 
-    def done(self, message: CommandDone, screen: Screen[Any]) -> None:
-        """A reply: to the tab on ``screen`` that sent the command, or the app's own."""
+    def done(self, message: CommandDone, to_tab: ToTab) -> None:
+        """A reply: to the tab that sent the command (``to_tab`` finds it), or the app's own."""
         origin, _sep, tag = message.tag.partition(":")
         if message.error:
             self.local_event("refused", message.error)
         if origin == "app":
             self._app_done(tag, message)
             return
-        tabs = screen.query(f"#{origin}") if origin else None
-        if tabs:
-            tabs.first(TabView).command_done(tag, message.applied, message.error)
-        elif message.error:
+
+        def reply(tab: TabView) -> None:
+            tab.command_done(tag, message.applied, message.error)
+
+        if not (origin and to_tab(origin, reply)) and message.error:
             self.notify(message.error, severity="error", timeout=6)
 
     def _app_done(self, tag: str, message: CommandDone) -> None:

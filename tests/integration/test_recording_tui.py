@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 from textual.pilot import Pilot
-from textual.widgets import Input
+from textual.widgets import Input, Static
 
 from clients.recording import read_recording
 from clients.recording.segments import existing_segments
@@ -122,8 +122,23 @@ def test_log_tab_records_a_ros2_bag(source: Source, tmp_path: Path) -> None:
                 source.put("joints", encode(joints_msg(tick)))
             stats = app._recorder.stats  # type: ignore[union-attr]
             await until(pilot, lambda: stats.counts.get("joints", 0) == 5, "every joints sample")
+            # F2 composes the screen again, and the Log tab with it: the new tab shows the
+            # recording running, so that its key stops it rather than start a second one.
+            recorder = app._recorder
+
+            def composed_again(old: LogTab) -> bool:
+                tabs = app.screen.query(LogTab)
+                return bool(tabs) and tabs.first() is not old and tabs.first().is_mounted
+
+            for _lang in ("pt", "en"):  # and back: the language is the whole process's
+                await pilot.press("f2")
+                await until(pilot, lambda old=tab: composed_again(old), "the Log tab again")
+                tab = app.screen.query_one(LogTab)
+                assert tab.recording
+                assert str(path) in str(tab.query_one("#record-state", Static).content)
             tab.action_record()
             await until(pilot, lambda: not tab.recording, "recording off")
+            assert app._recorder is None and not recorder.running  # the one there was
 
     asyncio.run(run())
     with path.open("rb") as f:

@@ -8,16 +8,20 @@ import math
 from pathlib import Path
 
 from textual import events
-from textual.widgets import DataTable, OptionList, RichLog, TabbedContent
+from textual.widgets import DataTable, Label, OptionList, RichLog, TabbedContent
 
+from clients.tui.app import DarwinApp
 from clients.tui.help import HelpScreen
+from clients.tui.link import CommandDone
 from clients.tui.messages import LinkChanged, LinkInfo, LinkState, Telemetry
+from clients.tui.tabs.actions import ActionsTab
+from clients.tui.tabs.base import TabView
 from clients.tui.tabs.behaviours import BehavioursTab
 from clients.tui.widgets.figure import StickFigure
 from clients.tui.widgets.header import RobotHeader
 from schemas.messages import Event
 from tests.ui import scene
-from tests.ui.live import until
+from tests.ui.live import show_tab, until
 
 
 def header_text(app) -> str:
@@ -151,20 +155,29 @@ async def test_language_switch_translates_tabs_and_keeps_edits(scene_app) -> Non
 
 
 async def test_the_events_panel_shows_the_log_after_a_language_switch_without_a_resize(
-    scene_app,
+    scene_app, monkeypatch
 ) -> None:
     # The Log tab's RichLog holds every write until a Resize event gives it a width. In tmux
     # on a loaded machine, after F2 composed the screen again, that event never reached it
     # (laid out at 78x16, its writes still held): the Events panel stayed empty for good,
-    # 'halt' and every later event included. The same, made certain: it gets no Resize.
+    # 'halt' and every later event included. The same, made certain: it gets no Resize. The
+    # Log tab is composed when first shown, after the switch: deaf from its making.
+    from clients.tui.tabs import log as log_tab
+
+    class DeafEventsLog(log_tab.EventsLog):
+        def __init__(self, *args, **kwargs) -> None:
+            super().__init__(*args, **kwargs)
+            self.disable_messages(events.Resize)
+
+    monkeypatch.setattr(log_tab, "EventsLog", DeafEventsLog)
     app = scene_app(tab="motors")
     async with app.run_test(size=(100, 30)) as pilot:
         await until(pilot, lambda: app.model.event_count > 0, "the scene's events")
         await pilot.press("f2")
         await until(pilot, lambda: app.settings.lang == "pt", "the language switch")
-        log = app.screen.query_one("#events", RichLog)
-        log.disable_messages(events.Resize)
         await pilot.press("7")
+        log = app.screen.query_one("#events", RichLog)
+        assert isinstance(log, DeafEventsLog)
         app.post_message(Telemetry("events", Event(kind="halt", message="halt by 'ssh-user'")))
 
         def shown() -> str:
@@ -172,6 +185,65 @@ async def test_the_events_panel_shows_the_log_after_a_language_switch_without_a_
 
         await until(pilot, lambda: "halt by 'ssh-user'" in shown(), "the halt in the panel")
         assert "the robot fell forward" in shown()  # the events from before the switch too
+
+
+async def test_a_tab_is_composed_when_first_shown_drawn_at_once_and_kept(
+    scene_app, monkeypatch
+) -> None:
+    # Only the tab that shows is composed at start: every other one cost each start CPU, for
+    # a view the session may never open. A tab shown later draws the model as it is then, at
+    # once: the render timer draws nothing in this test, and the Actions tab's mount does not
+    # draw its status line. A tab left keeps its state.
+    monkeypatch.setattr(DarwinApp, "redraw", lambda self, force=False: None)
+    app = scene_app(tab="motors")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await until(pilot, lambda: app.model.status is not None, "the scene")
+        assert [t.TAB_ID for t in app.screen.query(TabView)] == ["motors"]
+        motors = app.current_tab()
+        table = app.screen.query_one("#joint-table", DataTable)
+        await until(pilot, lambda: app.focused is table, "the focus in the joint table")
+        await pilot.press("down", "down", "down", "down", "a")  # joint 5, plotted as A
+        assert table.cursor_row == 4 and motors.plotted["a"] == 5
+        # The robot plays a page while the Actions tab was never composed.
+        playing = scene.status()
+        playing.motion = {**playing.motion, "action": {"playing": True, "page": 4, "step": 2}}
+        app.model.add_status(playing)
+        await show_tab(pilot, 8)
+        actions = app.current_tab()
+        assert isinstance(actions, ActionsTab)
+        status = str(actions.query_one("#actions-status", Label).content)
+        assert "playing page 4 step 2" in status
+        await show_tab(pilot, 2)
+        assert app.current_tab() is motors  # the view itself, not one composed again
+        assert table.cursor_row == 4 and motors.plotted["a"] == 5
+        assert sorted(t.TAB_ID for t in app.screen.query(TabView)) == ["actions", "motors"]
+
+
+async def test_a_reply_reaches_its_tab_after_the_screen_was_composed_again(scene_app) -> None:
+    # F2 composes the screen again, with only the tab that shows. A reply to a command another
+    # tab sent before (here the Actions tab's page list) is not lost: that tab is composed for
+    # it, under a dialog too, and shows it when shown.
+    app = scene_app(tab="actions")
+    async with app.run_test(size=(120, 36)) as pilot:
+        # The tab asks for the list once connected; with no robot the answer is a refusal,
+        # which must have come before the reply this test sends.
+        st = app.model.edits
+        await until(pilot, lambda: st.actions is not None and st.actions.requested, "the ask")
+        await until(pilot, lambda: any(e.kind == "refused" for e in app.model.events), "refused")
+        await show_tab(pilot, 1)
+        await pilot.press("f2")
+        await until(pilot, lambda: app.settings.lang == "pt", "the language switch")
+        assert [t.TAB_ID for t in app.screen.query(TabView)] == ["imu"]
+        await pilot.press("f1")
+        await until(pilot, lambda: isinstance(app.screen, HelpScreen), "the help")
+        pages = [{"number": 4, "name": "wave", "steps": 6, "repeat": 1, "speed": 32,
+                  "next": 0, "exit": 0, "origin": "shipped"}]  # fmt: skip
+        app.post_message(CommandDone("pages", "actions:list", {"pages": pages}))
+        await until(pilot, lambda: st.actions.listing == pages, "the page list")
+        await pilot.press("escape")
+        await show_tab(pilot, 8)
+        listing = app.screen.query_one("#pages-list", DataTable)
+        assert listing.row_count == 1 and listing.get_cell("4", "name") == "wave"
 
 
 async def test_choreography_add_reorder_remove_save_load(scene_app, tmp_path: Path) -> None:

@@ -106,6 +106,11 @@ class LogTab(TabView):
     def on_mount(self) -> None:
         self.query_one(RichLog).border_title = _("Events")
         self.refresh_view(self.model)
+        # A recording started from this tab before F2 composed the screen again: shown as
+        # running, so that `r` stops it rather than start a second one beside it.
+        where = getattr(self.app, "recording_to", None)
+        if where is not None:
+            self.set_recording(True, _("recording to {path}").format(path=where))
 
     def refresh_view(self, model: Model) -> None:
         log = self.query_one(RichLog)
