@@ -225,8 +225,8 @@ def install(root: Path, blocks: list[str], built: bool, log: Path) -> None:
     for block in blocks:
         t0 = time.monotonic()
         # At a lower priority: beside the suite (scripts/test) the recipe's pip and compiler
-        # (~25 s of CPU) take the cores the test workers leave idle instead of slowing them; the
-        # daemon's run afterwards keeps normal priority, as its loop would on the robot.
+        # (~25 s of CPU) yield the cores to the tests; the daemon's run afterwards keeps normal
+        # priority, as its loop would on the robot.
         run(["nice", "-n", str(RECIPE_NICE),
              *chroot_cmd(root, "/bin/bash", "-euxo", "pipefail", "-c", block)],
             f"the recipe of docs/robot.md ({label(block)})", log)
