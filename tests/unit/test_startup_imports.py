@@ -35,17 +35,21 @@ NOT_BEFORE_START = {
 }
 
 
-def _loaded(command: str, watched: set[str]) -> set[str]:
-    code = (
-        "import sys\n"
-        "from robot_daemon.launch.cli import command_parser\n"
-        f"command_parser({command!r})\n"
-        f"print(' '.join(m for m in {sorted(watched)!r} if m in sys.modules))\n"
-    )
+def _loaded_by(code: str, watched: set[str]) -> set[str]:
+    """The modules of ``watched`` a fresh interpreter has loaded once it ran ``code``."""
+    shown = f"print(' '.join(m for m in {sorted(watched)!r} if m in sys.modules))"
+    code = f"{code}\nimport sys\n{shown}\n"
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
     )
     return set(out.stdout.split())
+
+
+def _loaded(command: str, watched: set[str]) -> set[str]:
+    return _loaded_by(
+        f"from robot_daemon.launch.cli import command_parser\ncommand_parser({command!r})",
+        watched,
+    )
 
 
 @pytest.mark.parametrize("command", sorted(NOT_BEFORE_START))
@@ -69,16 +73,11 @@ def test_the_watched_modules_are_real_names() -> None:
 def test_the_daemon_loads_a_device_camera_and_ball_play_only_when_used() -> None:
     """Its engine, its verbs and its camera check with no camera (as every test's daemon)."""
     code = (
-        "import sys\n"
         f"import {ENGINE}, robot_daemon.arbiter.verbs.ballplay\n"
         "from robot_daemon.vision.sources import check_spec\n"
-        "check_spec('none')\n"
-        f"print(' '.join(m for m in {sorted({V4L2, FINDER})!r} if m in sys.modules))\n"
+        "check_spec('none')"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
-    )
-    assert out.stdout.split() == []
+    assert _loaded_by(code, {V4L2, FINDER}) == set()
 
 
 def test_a_simulated_world_nobody_watches_loads_no_camera() -> None:
@@ -86,15 +85,11 @@ def test_a_simulated_world_nobody_watches_loads_no_camera() -> None:
     camera's lens and field, but neither the renderer nor the ball finder is loaded until a
     frame is drawn."""
     code = (
-        "import argparse, sys\n"
+        "import argparse\n"
         "from robot_daemon.plant.world_link import world_from_args\n"
-        "world_from_args(argparse.Namespace()).snapshot()\n"
-        f"print(' '.join(m for m in {sorted({RENDER, FINDER})!r} if m in sys.modules))\n"
+        "world_from_args(argparse.Namespace()).snapshot()"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
-    )
-    assert out.stdout.split() == []
+    assert _loaded_by(code, {RENDER, FINDER}) == set()
 
 
 def test_a_client_of_a_daemon_of_its_own_protocol_reads_no_package_metadata() -> None:
