@@ -24,13 +24,12 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import zenoh
 
 from clients.arrivals import Arrivals
 from clients.commander import Commander
-from clients.fleet import RobotRecord, discover_at
 from clients.protocol_watch import ProtocolWatch
 from clients.teach import TeachMixin
 from schemas.errors import CommandTimeoutError, ProtocolError
@@ -49,6 +48,9 @@ from schemas.messages import (
 )
 from schemas.session import credentials as make_credentials
 from schemas.session import resolve
+
+if TYPE_CHECKING:
+    from clients.fleet import RobotRecord
 
 __all__ = ["ALWAYS", "TOPICS", "Commander", "Robot", "RobotState", "Subscription", "topic_key"]
 
@@ -82,6 +84,8 @@ def topic_key(keys: Keys, topic: str) -> str:
 
 @dataclass
 class RobotState:
+    """The newest message of each stream a ``Robot`` has received (None: none yet)."""
+
     joints: Joints | None = None
     imu: Imu | None = None
     status: Status | None = None
@@ -184,6 +188,10 @@ class Robot(Commander, TeachMixin):
         endpoint, state, lease holder, battery, alarms, loop rate. ``Robot(connect, name)``
         then reaches any of them through that same endpoint. ``user``/``password`` log in as
         ``Robot(user=…, password=…)`` does (else the environment's or the client file's)."""
+        # Here, not at the top: a program driving one robot (the gateway, the TUI) need not load
+        # the fleet's records to start.
+        from clients.fleet import discover_at
+
         creds = make_credentials(user=user, password=password) if (user or password) else None
         return discover_at(resolve(connect).endpoint, timeout, creds=creds)
 

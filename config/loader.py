@@ -20,7 +20,6 @@ import marshal
 import math
 import os
 import sys
-import tomllib
 import types
 import typing
 from collections.abc import Iterable, Mapping
@@ -82,6 +81,9 @@ def toml_file(path: Path, universal_newlines: bool = False) -> dict[str, Any]:
         text = f.read().decode()
     if universal_newlines:
         text = text.replace("\r\n", "\n").replace("\r", "\n")
+    # Here, not at the top: a program whose files were parsed before starts without the parser.
+    import tomllib
+
     data = tomllib.loads(text)
     if cache is not None and not sys.dont_write_bytecode:
         _keep(cache, stamp, data)
@@ -94,15 +96,22 @@ KEPT_UNDER: tuple[Path, ...] = (CONFIG_DIR,)
 
 
 def _cache_path(path: Path) -> Path | None:
-    path = path.resolve()
-    if not any(path.is_relative_to(root) for root in KEPT_UNDER):
+    directory = _resolved(path.parent)
+    if not any(directory.is_relative_to(root) for root in KEPT_UNDER):
         return None
     try:
         # ``NAME.toml`` as if it were ``NAME.toml.py``: no clash with a module ``NAME.py``.
-        pyc = Path(importlib.util.cache_from_source(f"{path}.py"))
+        pyc = Path(importlib.util.cache_from_source(f"{directory / path.name}.py"))
     except NotImplementedError:  # no cache tag in this interpreter
         return None
     return pyc.with_suffix(".marshal")
+
+
+@cache
+def _resolved(directory: Path) -> Path:
+    # Once per directory: resolving each file (a system call per directory of its path) cost
+    # half of reading the 35 shipped files' kept copies.
+    return directory.resolve()
 
 
 def _keep(cache: Path, stamp: tuple[int, int, bool], data: dict[str, Any]) -> None:
@@ -125,7 +134,7 @@ def _read_toml(path: Path) -> dict[str, Any]:
         return toml_file(path)
     except FileNotFoundError as exc:
         raise ConfigError(f"config file {path} does not exist") from exc
-    except tomllib.TOMLDecodeError as exc:
+    except ValueError as exc:  # tomllib.TOMLDecodeError, or text that is not UTF-8 as TOML is
         raise ConfigError(f"config file {path} is not valid TOML: {exc}") from exc
 
 
@@ -339,6 +348,9 @@ def _convert(value: Any, hint: Any, where: str) -> Any:
 
 @dataclass(frozen=True)
 class JointConfig:
+    """One joint of ``[robot]``: its servo ID, names, limits and calibration (degrees), and PID
+    gains."""
+
     id: int
     name: str
     urdf: str
@@ -365,6 +377,9 @@ class JointConfig:
 
 @dataclass(frozen=True)
 class RobotConfig:
+    """The ``[robot]`` section: the robot's name, its CM-730 and joints, and lookups by ID and
+    name."""
+
     name: str
     cm730_id: int
     joints: tuple[JointConfig, ...]

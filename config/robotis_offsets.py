@@ -29,6 +29,8 @@ _ID_KEY = re.compile(r"^ID_(\d+)$", re.IGNORECASE)
 
 @dataclass(frozen=True)
 class ImportedOffsets:
+    """The ``[Offset]`` section of a ROBOTIS ``config.ini``, read for one robot's joints."""
+
     steps: dict[int, int]  # servo ID → ROBOTIS steps
     degrees: dict[str, float]  # joint name → offset_deg
     ignored: list[str]  # keys of the section that name no joint of this robot

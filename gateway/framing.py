@@ -89,6 +89,8 @@ class BodyLimits:
 
 @dataclass(frozen=True)
 class Frame:
+    """One framed JSON body of a legacy client, parsed (or refused by a limit)."""
+
     body: bytes
     value: Any  # the parsed JSON value (None when refused)
     error: MessageError | None = None  # a well-framed body refused by a limit

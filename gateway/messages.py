@@ -40,30 +40,41 @@ class MessageError(LegacyError):
 
 @dataclass(frozen=True)
 class Monitor:
+    """``monitor``: which streams the client wants pushed, and how often."""
+
     streams: dict[str, bool]  # only the streams the message names
     period_ms: int | None = None
 
 
 @dataclass(frozen=True)
 class Operate:
+    """``operate``: move one joint (or all) to a position in degrees."""
+
     joint: int | None  # None: every joint (``all`` = 1)
     position_deg: float
 
 
 @dataclass(frozen=True)
 class Led:
+    """``led``: set the head or the eye LED to an RGB colour."""
+
     target: str  # "head" | "eye"
     rgb: tuple[int, int, int]
 
 
 @dataclass(frozen=True)
 class PlayItem:
+    """An ``orchestrate`` item playing a motion page (``type`` as the legacy protocol numbers
+    it)."""
+
     page: int
     type: int
 
 
 @dataclass(frozen=True)
 class TimeItem:
+    """An ``orchestrate`` item waiting ``seconds`` before the next one."""
+
     seconds: float
 
 
@@ -72,16 +83,20 @@ OrchestrateItem = PlayItem | TimeItem
 
 @dataclass(frozen=True)
 class Orchestrate:
+    """``orchestrate``: a sequence of pages and waits to run in order."""
+
     items: tuple[OrchestrateItem, ...]
 
 
 @dataclass(frozen=True)
 class OrchestrateStop:
-    pass
+    """``orchestrate`` with ``status`` 0: stop the sequence that runs."""
 
 
 @dataclass(frozen=True)
 class Walk:
+    """``walk``: start or change walking at legacy step amplitudes (x, y, turn ``a``), or stop."""
+
     stop: bool
     x: float
     y: float
@@ -90,6 +105,8 @@ class Walk:
 
 @dataclass(frozen=True)
 class Playball:
+    """``playball``: start or stop ball play."""
+
     start: bool  # decision: client status 0 = start, 1 = stop (the report's text)
 
 

@@ -55,6 +55,8 @@ def gyroscope_from_imu(imu: Imu) -> tuple[float, float, float]:
 
 @dataclass(frozen=True)
 class CameraImage:
+    """A camera frame as the legacy ``monitor`` stream sends it: base64 JPEG."""
+
     seq: int
     base64: str
     size: int  # bytes of the base64 text

@@ -118,6 +118,8 @@ def choreography_items(req: Orchestrate, table: BehaviourTable) -> list[dict[str
 
 @dataclass
 class Run:
+    """An ``orchestrate`` sequence that runs: whose it is and the daemon's run number."""
+
     conn: Connection
     run: int | None  # the daemon's run number, when the verb said it
 

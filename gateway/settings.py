@@ -22,6 +22,8 @@ class WalkMapping:
 
 @dataclass(frozen=True)
 class GatewaySettings:
+    """The ``[gateway]`` section: where it listens, what a client may send, and its timeouts."""
+
     listen: str = "127.0.0.1:9000"
     max_message: int = ranged(1 << 20, 1)
     max_partial_frame: int = ranged(65536, 1)

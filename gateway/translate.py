@@ -17,6 +17,8 @@ from schemas.commands import needs_lease
 
 @dataclass(frozen=True)
 class Command:
+    """A daemon verb and its fields: what a legacy request becomes."""
+
     verb: str
     fields: dict[str, Any]
 

@@ -48,12 +48,16 @@ MX28_STALL_TORQUE = 2.5  # N·m at 12 V (ROBOTIS e-manual)
 
 @dataclass(frozen=True)
 class Box:
+    """A link's box: its size and centre in the link's frame (m)."""
+
     size: tuple[float, float, float]
     centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
 class Link:
+    """A rigid link: its name, mass and box."""
+
     name: str
     mass: float = 0.0  # kg; 0 = a massless frame
     box: Box | None = None
@@ -70,6 +74,8 @@ class Link:
 
 @dataclass(frozen=True)
 class Joint:
+    """A joint between two links: its origin, axis (None: fixed), servo and limits."""
+
     name: str
     parent: str
     child: str
@@ -119,6 +125,8 @@ class JointLimits:
 
 @dataclass
 class Body:
+    """The whole body: its links and the joints between them."""
+
     name: str
     links: list[Link]
     joints: list[Joint]

@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -135,9 +134,11 @@ def credentials(
     file_conf: dict[str, Any] = {}
     path = client_config_path()
     if fallback and path.is_file():
+        import tomllib  # here: most programs start without a client file
+
         try:
             file_conf = tomllib.loads(path.read_text())
-        except (OSError, tomllib.TOMLDecodeError) as exc:
+        except (OSError, ValueError) as exc:  # ValueError: not TOML, or not UTF-8
             raise ValueError(f"cannot read the client file {path}: {exc}") from None
 
     def pick(explicit: str | None, env_name: str, file_key: str) -> str | None:

@@ -41,6 +41,9 @@ def _field_names(cls: type) -> tuple[str, ...]:
 
 @dataclass
 class Message:
+    """A message on the wire: a dataclass with a ``TYPE``, sent as msgpack with its schema
+    version."""
+
     TYPE: ClassVar[str] = ""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
@@ -140,6 +143,9 @@ class Joints(Message):
 
 @dataclass
 class Imu(Message):
+    """The IMU as the daemon read it: gyro and accelerometer, scaled and raw, and the fall
+    detector."""
+
     TYPE: ClassVar[str] = "imu"
     gyro: list[float]  # rad/s, robot axes x, y, z
     accel: list[float]  # m/s², robot axes x, y, z
@@ -152,6 +158,8 @@ class Imu(Message):
 
 @dataclass
 class CameraFrame(Message):
+    """One camera frame, JPEG-encoded."""
+
     TYPE: ClassVar[str] = "camera_frame"
     jpeg: bytes
     width: int
@@ -208,6 +216,9 @@ class Event(Message):
 
 @dataclass
 class BallDetection(Message):
+    """The ball finder's answer for one frame: where the ball is in the image and how far off
+    centre."""
+
     TYPE: ClassVar[str] = "ball"
     found: bool
     x: float = 0.0  # pixel centroid
@@ -223,6 +234,9 @@ class BallDetection(Message):
 
 @dataclass
 class World(Message):
+    """The simulated world: the robot's and the ball's places on the field, and whether the robot
+    fell."""
+
     TYPE: ClassVar[str] = "world"
     robot: dict[str, float]  # {"x", "y", "yaw"} metres/radians, field frame
     ball: dict[str, float]  # {"x", "y", "vx", "vy"}

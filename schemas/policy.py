@@ -132,6 +132,9 @@ def sign(stream_key: bytes, seq: int, obs_tick: int, action: list[float]) -> byt
 
 @dataclass
 class PolicyObservation(Message):
+    """What a learned policy sees each tick: joints, IMU, gravity, its last action and the
+    command."""
+
     TYPE: ClassVar[str] = "policy_obs"
     joint_pos: list[float]
     joint_vel: list[float]
@@ -188,6 +191,8 @@ OBSERVATION_SLICES: dict[str, slice] = {
 
 @dataclass
 class PolicyAction(Message):
+    """A learned policy's action for one observation, from one client (signed when asked)."""
+
     TYPE: ClassVar[str] = "policy_action"
     client: str
     seq: int

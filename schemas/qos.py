@@ -39,6 +39,8 @@ BLOCK = zenoh.CongestionControl.BLOCK
 
 @dataclass(frozen=True)
 class Qos:
+    """How a kind of message travels on Zenoh: congestion control, priority, express."""
+
     congestion_control: zenoh.CongestionControl
     priority: zenoh.Priority
     express: bool = False

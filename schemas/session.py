@@ -64,6 +64,8 @@ ENV_ROBOT = "DARWIN_ROBOT"
 
 @dataclass(frozen=True)
 class Target:
+    """The robot a client connects to: its endpoint, its name and the login to present."""
+
     endpoint: str
     robot: str
     credentials: Credentials | None = None

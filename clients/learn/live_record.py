@@ -56,6 +56,8 @@ MAX_BACKLOG = 8192
 
 @dataclass
 class _Frame:
+    """One policy observation waiting for its action, with its camera image."""
+
     obs: PolicyObservation
     image: bytes | None
     action: list[float] | None = None
@@ -64,6 +66,8 @@ class _Frame:
 
 @dataclass
 class RecordStats:
+    """What a live recording wrote and what it lost."""
+
     episodes: int = 0
     frames: int = 0
     takeover_frames: int = 0

@@ -129,6 +129,8 @@ class Normaliser:
 
 @dataclass
 class Settings:
+    """The PPO run's settings: worlds, horizon, optimiser, exploration and the policy's outputs."""
+
     envs: int = 32  # more worlds, the same 1,024 steps an iteration: more shoves in each
     horizon: int = 32  # steps per env per iteration
     epochs: int = 4
@@ -577,6 +579,8 @@ def ars_features(pairs: Sequence[str]) -> tuple[np.ndarray, list[str]]:
 
 @dataclass
 class SearchSettings:
+    """The random search over the linear map: which numbers it perturbs, how far and how many."""
+
     pairs: tuple[str, ...] = Settings.pairs
     directions: int = 6  # perturbations per generation (each tried + and −)
     top: int = 3  # the best directions the step follows

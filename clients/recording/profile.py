@@ -31,6 +31,8 @@ Encoder = Callable[[bytes, dict[str, Any] | None], bytes | None]
 
 @dataclass(frozen=True)
 class SchemaSpec:
+    """An MCAP schema: its name, encoding and data."""
+
     name: str
     encoding: str  # "jsonschema", "ros2msg", …
     data: bytes
@@ -38,6 +40,8 @@ class SchemaSpec:
 
 @dataclass(frozen=True)
 class ChannelSpec:
+    """An MCAP channel a topic's samples are written to, and how each is encoded."""
+
     topic: str  # the MCAP channel topic
     message_encoding: str  # "json", "msgpack", "cdr", …
     schema: SchemaSpec | None

@@ -30,6 +30,8 @@ from schemas.messages import decode
 
 @dataclass(frozen=True)
 class RecordedMessage:
+    """One message of a recording, as it was published, with when it arrived."""
+
     topic: str  # short name: joints, imu, status, events, camera, vision, world
     log_ns: int  # when the recorder received it (ns since the epoch)
     publish_ns: int  # the message's own stamp
@@ -42,6 +44,8 @@ class RecordedMessage:
 
 @dataclass
 class Recording:
+    """A recording read back: its messages and metadata, and what was wrong with the file."""
+
     path: str
     robot: str = ""
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)

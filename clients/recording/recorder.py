@@ -58,6 +58,8 @@ MIN_SPLIT_BYTES = 64 * 1024
 
 @dataclass
 class RecorderStats:
+    """What a recording wrote: its file(s), the messages per topic and robot, and what it lost."""
+
     path: str
     format: str
     robot: str

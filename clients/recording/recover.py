@@ -38,6 +38,8 @@ def default_output(path: str) -> str:
 
 @dataclass
 class Recovery:
+    """What :func:`recover` kept of a damaged recording, and what it lost."""
+
     source: str
     output: str
     report: ScanReport

@@ -86,6 +86,8 @@ def _name(opcode: int) -> str:
 
 @dataclass
 class Dropped:
+    """A record the scan could not use: where, what and why, and the messages it held."""
+
     offset: int
     what: str  # "Chunk of 18,311 bytes"
     why: str  # "CRC mismatch"
@@ -102,6 +104,8 @@ class Dropped:
 
 @dataclass
 class ScanReport:
+    """What a scan of an MCAP file found: how far it is whole, and what it dropped."""
+
     path: str
     size: int = 0
     header: Header | None = None

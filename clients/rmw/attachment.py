@@ -32,6 +32,8 @@ def gid_of(token: str) -> bytes:
 
 @dataclass(frozen=True)
 class Attachment:
+    """rmw_zenoh's attachment: a sequence number, a source timestamp and the sender's GID."""
+
     sequence: int
     timestamp_ns: int
     gid: bytes

@@ -208,6 +208,8 @@ def diagnostics(
 # -- commands ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Walk:
+    """A ``cmd_vel`` as the walk verb's fields: forward and sideways speed, turn rate."""
+
     x: float
     y: float
     turn: float
@@ -232,6 +234,8 @@ def walk_from_twist(ros_type: str, msg: Any) -> Walk:
 
 @dataclass(frozen=True)
 class Limit:
+    """One servo's position limits (rad), for a ROS joint."""
+
     id: int
     lower: float
     upper: float

@@ -40,6 +40,8 @@ DEFAULT_DEPTH = 42  # rmw_zenoh's QoS::default_qos()
 
 @dataclass(frozen=True)
 class QoS:
+    """A ROS QoS profile, as rmw_zenoh writes it in liveliness tokens."""
+
     reliability: int = RELIABLE
     durability: int = VOLATILE
     history: int = KEEP_LAST
@@ -131,6 +133,8 @@ def data_key(domain: int, topic: str, dds_type: str, type_hash: str) -> str:
 
 @dataclass(frozen=True)
 class Node:
+    """A ROS node in rmw_zenoh's graph: its domain, session, id, namespace and name."""
+
     domain: int
     zid: str
     nid: int

@@ -34,6 +34,8 @@ CAMERA_TOPIC = "camera/image_raw/compressed"
 
 @dataclass
 class Options:
+    """How the ROS 2 node runs: its domain, namespace and name, joint rate and lease timeout."""
+
     domain: int = 0
     namespace: str = "/op1"
     node_name: str = "darwin"

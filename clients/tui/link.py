@@ -103,6 +103,8 @@ class CommandDone(Message, bubble=False):
 
 @dataclass
 class _Command:
+    """A command the UI asked for, waiting for the command thread."""
+
     verb: str
     fields: dict[str, Any]
     tag: str = ""

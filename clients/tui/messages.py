@@ -61,6 +61,8 @@ class Telemetry(Message, bubble=False):
 
 @dataclass
 class LinkInfo:
+    """The link's state, with the robot and endpoint it is about."""
+
     state: LinkState
     endpoint: str
     robot: str

@@ -36,6 +36,8 @@ class Edits:
 
 @dataclass
 class Model:
+    """The latest message of each stream, the operator's edits and the plots' histories."""
+
     joints: Joints | None = None
     imu: Imu | None = None
     status: Status | None = None

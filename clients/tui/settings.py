@@ -23,6 +23,8 @@ def default_path() -> Path:
 
 @dataclass
 class Settings:
+    """What the TUI remembers between runs: the ``[tui]`` table of ``tui.toml``."""
+
     endpoint: str = ""
     robot: str = ""
     name: str = ""

@@ -61,6 +61,8 @@ def misdirected(key: str, served: str) -> None:
 
 @dataclass
 class Pending:
+    """A command waiting for the motion thread, with the query to answer when it is done."""
+
     request: Request
     query: zenoh.Query
     deadline: float

@@ -29,6 +29,8 @@ SILENT = "holder silent"
 
 @dataclass(frozen=True)
 class Holder:
+    """The client that holds the control lease, and when it was last heard."""
+
     client: str
     name: str
     since: float  # wall clock, for people

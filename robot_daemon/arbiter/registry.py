@@ -85,6 +85,9 @@ class BusCommands(Protocol):
 
 @dataclass
 class MotionContext:
+    """What a verb's handler may read and call: the robot, its motion and bus, the config, the
+    latest frame."""
+
     robot: RobotConfig
     manager: MotionManager
     bus: BusCommands

@@ -19,6 +19,9 @@ from schemas.errors import ConfigError
 
 @dataclass(frozen=True)
 class ArbiterLimits:
+    """How much the command side may take from the motion loop: sizes, rates and per-tick
+    budgets."""
+
     max_payload_bytes: int = 64 * 1024  # refused before decoding
     queue_size: int = 64  # commands waiting for the motion thread; more are rate_limited
     commands_per_tick: int = 8  # at most this many commands per tick…

@@ -48,6 +48,9 @@ class BulkResult:
 
 @dataclass(frozen=True)
 class BulkPlan:
+    """One BULK_READ worked out once: its packet, the replies expected and how long each may
+    take."""
+
     param: list[int]  # the BULK_READ parameters
     want: dict[int, int]  # id → data length
     order: list[int]  # ids in the order asked

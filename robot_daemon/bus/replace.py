@@ -35,6 +35,9 @@ class ReplaceRefused(DarwinError):
 
 @dataclass
 class ServoSettings:
+    """What a replaced servo is written besides its ID and baud rate: return delay and angle
+    limits."""
+
     return_delay_us: int = 0
     cw_angle_limit: int = 0
     ccw_angle_limit: int = 4095
@@ -42,6 +45,8 @@ class ServoSettings:
 
 @dataclass(frozen=True)
 class Candidate:
+    """A servo that may be the new one: where it answered, and its model and firmware."""
+
     id: int
     baud: int
     model: int

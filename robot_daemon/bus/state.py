@@ -39,6 +39,8 @@ def field_value(block: bytes, start: int, reg: Register) -> int:
 
 @dataclass
 class BusCounters:
+    """Counts of what happened on the bus since the daemon started (published in ``status``)."""
+
     bulk_reads: int = 0
     missing_replies: int = 0
     corrupt_replies: int = 0

@@ -44,6 +44,8 @@ class Access(Enum):
 
 @dataclass(frozen=True)
 class Register:
+    """One register of a control table: where it is, its size, access, default and range."""
+
     address: int
     size: int  # bytes, 1 or 2 (little-endian)
     access: Access

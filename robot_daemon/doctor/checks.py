@@ -20,6 +20,8 @@ OK, WARN, FAIL, SKIP = "ok", "warn", "fail", "skip"
 
 @dataclass(frozen=True)
 class Check:
+    """One check's result: its status, what it found and the fix."""
+
     name: str
     status: str  # ok | warn | fail | skip
     detail: str
@@ -35,6 +37,8 @@ class Check:
 
 @dataclass(frozen=True)
 class Holder:
+    """A process that holds the serial port."""
+
     pid: int
     command: str
 
@@ -151,6 +155,8 @@ def bus_answers(port: str, baud: int, answered_at: int | None, devices: int) -> 
 
 @dataclass(frozen=True)
 class ServoInfo:
+    """One servo as the probe saw it: ID, model and firmware."""
+
     id: int
     model: str
     firmware: int | None  # None: not known (the daemon's reader may not see it)

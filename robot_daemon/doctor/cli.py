@@ -29,6 +29,8 @@ from schemas.session import add_target_arguments, resolve_args
 
 @dataclass
 class DoctorSettings:
+    """The ``[doctor]`` section: the thresholds of its checks."""
+
     disk_min_mb: float = 500.0
     recordings_dir: str = ""
     loop_headroom_min: float = 0.25

@@ -20,6 +20,8 @@ from schemas.messages import Joints, Status
 
 @dataclass
 class Facts:
+    """What the probe gathered, from the daemon or the bus, for the checks to judge."""
+
     source: str  # "daemon" or "bus"
     answered_at: int | None = None
     devices: int = 0

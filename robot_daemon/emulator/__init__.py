@@ -10,8 +10,8 @@ motion) and the control ops (``op_table``); the plant (:mod:`robot_daemon.plant`
 package, never the other way round.
 
 The names below are imported when first used: a program that only forwards options to the
-emulator (``darwin up``, ``darwin daemon --sim`` read :mod:`.settings`) does not pay for the
-emulator itself (numpy and the servo chain) at start-up.
+emulator (``darwin up``, ``darwin daemon --sim`` read :mod:`.options`) does not pay for the
+emulator itself (numpy and the servo chain) or its settings at start-up.
 """
 
 from __future__ import annotations

@@ -20,6 +20,9 @@ import numpy as np
 
 @dataclass
 class Faults:
+    """Faults the emulator injects in its replies: probabilities of a drop, a corruption, a
+    delay."""
+
     drop: float = 0.0
     corrupt: float = 0.0
     delay: float = 0.0

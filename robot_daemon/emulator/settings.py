@@ -2,47 +2,18 @@
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass, field
 from typing import Any
 
 from config.loader import load_all, ranged, section_to
+from robot_daemon.emulator.options import PLANTS
 from schemas.errors import ConfigError
-
-# The plants that can stand behind the servos ([emulator] physics, --physics).
-PLANTS = ("kinematic", "mujoco")
-
-
-def add_physics_option(parser: argparse.ArgumentParser, help_start: str) -> None:
-    """``--physics``: the one option choosing the plant (``darwin sim`` and ``darwin up``)."""
-    parser.add_argument(
-        "--physics",
-        choices=PLANTS,
-        help=f"{help_start}: kinematic (default) or mujoco (rigid-body physics; "
-        "needs pip install -e '.[physics]')",
-    )
-
-
-def add_forwarded_options(parser: argparse.ArgumentParser, when: str = "") -> None:
-    """``--sim-arg`` and ``--wire-timing``: what a program starting the emulator (``darwin
-    daemon --sim``, ``darwin up``) forwards to it; ``when`` starts each help ("with --sim: ")."""
-    parser.add_argument(
-        "--sim-arg",
-        action="append",
-        default=[],
-        metavar="ARG",
-        help=f"{when}extra emulator argument (repeatable), e.g. --sim-arg=--drop=0.05",
-    )
-    parser.add_argument(
-        "--wire-timing",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help=f"{when}model 1 Mbps wire time in the emulator",
-    )
 
 
 @dataclass
 class EmulatorSettings:
+    """The ``[emulator]`` section, with how the emulator is reached and clocked."""
+
     seed: int = 0  # 0: a fresh seed, logged so the run can be replayed
     wire_timing: bool = True
     baud: int = 1_000_000

@@ -72,6 +72,8 @@ class StartAction(StrEnum):
 
 @dataclass(frozen=True)
 class Buttons:
+    """What the CM-730's MODE and START buttons do (``[daemon.buttons]``)."""
+
     mode: ModeAction = ModeAction.STOP
     start: StartAction = StartAction.POWER
 

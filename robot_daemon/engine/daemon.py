@@ -88,6 +88,9 @@ LEASE_STALL_S = 0.1
 
 @dataclass
 class DaemonOptions:
+    """How a daemon runs: its robot name and port, where it listens and whom it joins, its tick and
+    camera."""
+
     robot: str
     port: str
     listen: list[str]

@@ -40,6 +40,9 @@ _LOGIN_KEYS = ("user", "password_file", "cert", "key", "ca")
 
 @dataclass(frozen=True)
 class Login:
+    """How an adapter ``darwin up`` starts logs in: its role and client options, or why it may
+    not run."""
+
     role: Role
     args: list[str]  # the client options it logs in with
     refused: str = ""  # why it may not run (then args is empty)

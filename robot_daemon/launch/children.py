@@ -8,7 +8,8 @@ start-up overlaps whatever the parent waits for first (``darwin up``'s adapters,
 A child never outlives its parent, however the parent ends (SIGKILL included): on Linux the
 kernel sends it SIGTERM when the parent dies (``PR_SET_PDEATHSIG``), and everywhere it watches a
 pipe from the parent (``DARWIN_PARENT_FD``) whose end-of-file means the same. SIGTERM is the
-child's ordinary clean stop, so a daemon orphaned this way still halts the robot first.
+child's ordinary clean stop, so a daemon orphaned this way still halts the robot first. The
+child's side of both pipes is :mod:`robot_daemon.launch.child_side`.
 """
 
 from __future__ import annotations
@@ -25,10 +26,9 @@ import time
 from collections.abc import Callable, Mapping
 from typing import IO
 
+from robot_daemon.launch.child_side import GO_FD_ENV, PARENT_FD_ENV
 from schemas.errors import DarwinError
 
-PARENT_FD_ENV = "DARWIN_PARENT_FD"
-GO_FD_ENV = "DARWIN_GO_FD"
 _PR_SET_PDEATHSIG = 1
 
 
@@ -56,40 +56,6 @@ def _die_with(parent: int, own_group: bool = False) -> Callable[[], None]:
             os.kill(os.getpid(), signal.SIGTERM)
 
     return preexec
-
-
-def watch_parent() -> None:
-    """In a child started by :class:`Child`: SIGTERM ourselves when the parent's pipe closes
-    (the parent died), the fallback where ``PR_SET_PDEATHSIG`` does not exist."""
-    fd_text = os.environ.pop(PARENT_FD_ENV, "")
-    if not fd_text.isdigit():
-        return
-    fd = int(fd_text)
-
-    def watch() -> None:
-        try:
-            while os.read(fd, 1):
-                pass
-        except OSError:
-            pass
-        os.kill(os.getpid(), signal.SIGTERM)
-
-    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
-
-
-def wait_for_go() -> bool:
-    """In a child started held: wait until the parent says go (True), or lets go of the pipe
-    without saying it (False: it will not run). Not held: True at once."""
-    fd_text = os.environ.pop(GO_FD_ENV, "")
-    if not fd_text.isdigit():
-        return True
-    fd = int(fd_text)
-    try:
-        return os.read(fd, 1) == b"1"
-    except OSError:
-        return False
-    finally:
-        os.close(fd)
 
 
 class ChildError(DarwinError):

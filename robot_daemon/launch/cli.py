@@ -14,7 +14,7 @@ import sys
 from types import ModuleType
 from typing import Any
 
-from robot_daemon.launch.children import wait_for_go, watch_parent
+from robot_daemon.launch.child_side import wait_for_go, watch_parent
 from schemas import registry
 from schemas.errors import DarwinError
 from schemas.extras import explain

@@ -17,8 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from config.loader import load_all, robot_from_dict
-from config.robotis_offsets import ROBOTIS_CONFIG_INI, offsets_not_imported
-from robot_daemon.emulator.settings import add_forwarded_options
+from robot_daemon.emulator.options import add_forwarded_options
 from robot_daemon.launch.children import Child, relay_to_stderr
 from robot_daemon.launch.endpoints import check_login_needs_router, resolve_listen, router_of
 from robot_daemon.security.options import (
@@ -183,8 +182,13 @@ def _build(args: argparse.Namespace, port: str, settings: dict[str, Any]) -> Dae
         },
     )
     daemon = Daemon(opts, robot, settings)
+    if args.sim:  # the emulator has no ROBOTIS config.ini to compare with
+        return daemon
+    # Here, not at the top: only a daemon on a real robot reads ROBOTIS's file.
+    from config.robotis_offsets import ROBOTIS_CONFIG_INI, offsets_not_imported
+
     ini = str(dcfg.get("robotis_config_ini", ROBOTIS_CONFIG_INI) or "")
-    missing = offsets_not_imported(ini, robot) if ini and not args.sim else None
+    missing = offsets_not_imported(ini, robot) if ini else None
     if missing is not None:
         log.warning("%s", missing.line())
         daemon.bus.config_warnings.append(missing.line())

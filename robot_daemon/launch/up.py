@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from config.loader import load_all
-from robot_daemon.emulator.settings import add_forwarded_options, add_physics_option
+from robot_daemon.emulator.options import add_forwarded_options, add_physics_option
 from robot_daemon.launch.adapter_logins import Login, adapter_login, names, roles, ui_login
 from robot_daemon.launch.children import Child, ChildError, relay_to_stderr
 from robot_daemon.launch.endpoints import check_login_needs_router, resolve_listen, router_of

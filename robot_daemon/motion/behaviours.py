@@ -34,6 +34,8 @@ _PARAMS: dict[str, set[str]] = {
 
 @dataclass(frozen=True)
 class Behaviour:
+    """One entry of the behaviour catalogue: its id, names and what it runs."""
+
     id: int
     name: str
     name_pt: str

@@ -21,6 +21,8 @@ from robot_daemon.motion.trajectory import Trajectory
 
 @dataclass
 class _Move:
+    """One joint's move towards a target, in a given time or at a given speed."""
+
     start: float  # rad
     target: float  # rad
     t0: float  # s

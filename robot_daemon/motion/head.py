@@ -15,6 +15,8 @@ from schemas.kinematics import HEAD_PAN_ID, HEAD_TILT_ID
 
 @dataclass(frozen=True)
 class HeadLimits:
+    """The head's range, home pose, speed and tracking gains (radians)."""
+
     pan_min: float = math.radians(-70)
     pan_max: float = math.radians(70)
     tilt_min: float = math.radians(-25)

@@ -14,6 +14,8 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Trajectory:
+    """Timed positions for some servos, sampled by the motion loop at each tick."""
+
     ids: tuple[int, ...]  # servo ids, one per column
     times: np.ndarray  # (n,) s from the start, strictly increasing, the first > 0
     positions: np.ndarray  # (n, len(ids)) rad, already checked against the limits

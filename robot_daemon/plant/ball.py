@@ -18,6 +18,8 @@ from robot_daemon.plant.world_settings import BallSettings, FeetSettings
 
 @dataclass
 class BallState:
+    """Where the simulated ball is on the field and how fast it rolls (m, m/s)."""
+
     x: float
     y: float
     vx: float = 0.0

@@ -20,12 +20,16 @@ from robot_daemon.vision.camera_view import CameraView
 
 @dataclass
 class CameraPose:
+    """Where the camera is on the field and which way it looks."""
+
     position: np.ndarray  # (3,) field frame, m
     rotation: np.ndarray  # (3, 3) camera axes → field axes
 
 
 @dataclass(frozen=True)
 class FieldGeometry:
+    """The field's markings and goals (m), as the renderer draws them."""
+
     length: float = 9.0
     width: float = 6.0
     line_width: float = 0.05

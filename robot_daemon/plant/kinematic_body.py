@@ -56,6 +56,8 @@ def planar(x: float, y: float, yaw: float, z: float = 0.0) -> np.ndarray:
 
 @dataclass
 class BodyState:
+    """The kinematic body's place on the field and whether it has fallen."""
+
     x: float
     y: float
     yaw: float

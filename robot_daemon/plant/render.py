@@ -33,6 +33,8 @@ _WALL_RISE = (_WALL_TOP - _WALL)[:, None]
 
 @dataclass
 class BallView:
+    """The ball as the renderer draws it: field position, radius and colour."""
+
     x: float
     y: float
     radius: float

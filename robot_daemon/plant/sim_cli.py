@@ -21,7 +21,8 @@ import threading
 from typing import Any
 
 from robot_daemon.emulator.emulator import Emulator
-from robot_daemon.emulator.settings import EmulatorSettings, add_physics_option
+from robot_daemon.emulator.options import add_physics_option
+from robot_daemon.emulator.settings import EmulatorSettings
 from robot_daemon.plant import world_link
 from schemas.signals import on_stop_signals
 

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from config.loader import load_all
-from robot_daemon.emulator.settings import PLANTS
+from robot_daemon.emulator.options import PLANTS
 from robot_daemon.plant.ball import Ball, BallState
 from robot_daemon.plant.camera_model import CameraPose
 from robot_daemon.plant.kinematic_body import Body

@@ -14,6 +14,8 @@ from schemas.errors import ConfigError
 
 @dataclass(frozen=True)
 class BallSettings:
+    """``[world.ball]``: the ball's size, colour and how it rolls and bounces."""
+
     radius: float = 0.035
     color: tuple[int, int, int] = (210, 28, 28)  # RGB
     rolling_decel: float = 0.5  # m/s²
@@ -23,6 +25,8 @@ class BallSettings:
 
 @dataclass(frozen=True)
 class FeetSettings:
+    """``[world.feet]``: the size of a foot (m): what touches the ball and the ground."""
+
     length: float = 0.104
     width: float = 0.066
     height: float = 0.03
@@ -30,6 +34,8 @@ class FeetSettings:
 
 @dataclass(frozen=True)
 class FallSettings:
+    """``[world.falls]``: when the kinematic body falls, and its stand and crouch heights."""
+
     tilt_limit: float = math.radians(40.0)
     com_margin: float = 0.012
     com_outside_s: float = 0.35
@@ -42,11 +48,15 @@ class FallSettings:
 
 @dataclass(frozen=True)
 class ImuSettings:
+    """``[world.imu]``: how late the simulated gyro follows the body."""
+
     gyro_lag_s: float = 0.05
 
 
 @dataclass(frozen=True)
 class RenderSettings:
+    """``[world.camera]``: the simulated camera's lens, noise, lighting, blur and rate."""
+
     camera: CameraModel = dc_field(default_factory=CameraModel)
     noise: float = 3.0
     light_variation: float = 0.12
@@ -69,6 +79,9 @@ _CAMERA_MODEL = [f.name for f in fields(CameraModel)]
 
 @dataclass(frozen=True)
 class WorldSettings:
+    """The ``[world]`` section: where the robot and the ball start, the field and each part's
+    settings."""
+
     robot_start: tuple[float, float, float] = (-1.0, 0.0, 0.0)  # x, y, yaw (rad)
     ball_start: tuple[float, float] | None = (-0.4, 0.0)
     publish_hz: float = 20.0

@@ -21,6 +21,9 @@ from schemas.roles import Role
 
 @dataclass
 class Internal:
+    """The identities of one ``darwin up``'s adapters, in a private directory it removes at the
+    end."""
+
     security: Security
     runtime: Path = field(init=False)
     merged: dict[str, users.User] = field(default_factory=dict)

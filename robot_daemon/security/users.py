@@ -20,7 +20,6 @@ import json
 import os
 import re
 import stat
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,6 +39,8 @@ def default_users_file() -> Path:
 
 @dataclass(frozen=True)
 class User:
+    """One login of the users file: its name, role and password (None: certificate only)."""
+
     name: str
     role: Role
     password: str | None  # None: certificate-only
@@ -87,9 +88,11 @@ def load(path: Path, must_exist: bool = True) -> dict[str, User]:
         raise ConfigError(
             f"{path} holds passwords but others can read it (mode {mode:o}): run chmod 600 {path}"
         )
+    import tomllib  # here: a robot without --auth starts without the parser
+
     try:
         data = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as exc:
+    except (OSError, ValueError) as exc:  # ValueError: not TOML, or not UTF-8
         raise ConfigError(f"cannot read the identities file {path}: {exc}") from None
     out: dict[str, User] = {}
     for name, entry in dict(data.get("users", {})).items():

@@ -81,6 +81,9 @@ def _runs(ok: np.ndarray) -> list[tuple[int, int]]:
 
 @dataclass(frozen=True)
 class FinderSettings:
+    """What the ball finder looks for: a colour, a blob's size and shape, and the lens's field of
+    view."""
+
     color: ColorRange
     min_area_percent: float = 0.07
     max_area_percent: float = 30.0
@@ -122,6 +125,8 @@ def color_range(ballplay: dict[str, Any], name: str) -> ColorRange:
 
 @dataclass
 class Blob:
+    """One blob of the ball's colour: its centroid, area and shape."""
+
     x: float  # centroid, pixels
     y: float
     area: int  # pixels

@@ -39,6 +39,9 @@ class CameraSource(Protocol):
 
 @dataclass
 class SourceContext:
+    """What a camera source is made with: the frame size and rate, and the daemon's session and
+    config."""
+
     width: int = 320
     height: int = 240
     fps: float = 30.0

@@ -216,6 +216,8 @@ class LinuxDevice:
 
 @dataclass(frozen=True)
 class Negotiated:
+    """What a V4L2 device agreed to: its driver and card, frame size and rate."""
+
     driver: str
     card: str
     width: int

@@ -10,6 +10,7 @@ as ``darwin NAME`` does before running."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -25,13 +26,17 @@ V4L2 = "robot_daemon.vision.v4l2"  # a device camera's
 FINDER = "robot_daemon.vision.ball_finder"  # ball play's
 RENDER = "robot_daemon.plant.render"  # the simulated camera's
 FLEET_JOIN = "robot_daemon.engine.fleet_join"  # a daemon's check session to its router
+EMULATOR_SETTINGS = "robot_daemon.emulator.settings"  # `darwin sim`'s: the others forward options
+ROBOTIS_OFFSETS = "config.robotis_offsets"  # ROBOTIS's file, read by a daemon on a real robot
+FLEET = "clients.fleet"  # a client's discovery of every robot (`darwin list`)
+TOML = "tomllib"  # the parser: the shipped files are read from their parsed copies
 
 # command → modules it must not have loaded once its parser is built
 NOT_BEFORE_START = {
-    "up": {ENGINE, EMULATOR, "numpy", MESSAGES, INTERNAL, FLEET_JOIN},
-    "daemon": {ENGINE, EMULATOR, "numpy", METADATA},
-    "sim": {METADATA},
-    "gateway": {"numpy", METADATA, OFFSETS, "uuid"},
+    "up": {ENGINE, EMULATOR, "numpy", MESSAGES, INTERNAL, FLEET_JOIN, EMULATOR_SETTINGS, TOML},
+    "daemon": {ENGINE, EMULATOR, "numpy", METADATA, EMULATOR_SETTINGS, ROBOTIS_OFFSETS, TOML},
+    "sim": {METADATA, TOML, "subprocess"},  # it starts no child (robot_daemon.launch.child_side)
+    "gateway": {"numpy", METADATA, OFFSETS, "uuid", FLEET, TOML, "ctypes"},  # nor the gateway
 }
 
 
@@ -61,9 +66,9 @@ def test_the_watched_modules_are_real_names() -> None:
     """The test above would pass on a misspelt name: each is what a heavier program loads."""
     watched = set().union(*NOT_BEFORE_START.values(), {V4L2, FINDER, RENDER})
     code = (
-        "import sys, importlib.metadata, numpy, uuid\n"
+        "import sys, importlib.metadata, numpy, uuid, tomllib, subprocess, ctypes\n"
         f"import {ENGINE}, {EMULATOR}, {MESSAGES}, {INTERNAL}, {OFFSETS}, {V4L2}, {FINDER}\n"
-        f"import {RENDER}, {FLEET_JOIN}\n"
+        f"import {RENDER}, {FLEET_JOIN}, {EMULATOR_SETTINGS}, {ROBOTIS_OFFSETS}, {FLEET}\n"
         f"print(' '.join(m for m in {sorted(watched)!r} if m in sys.modules))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -90,6 +95,27 @@ def test_a_simulated_world_nobody_watches_loads_no_camera() -> None:
         "world_from_args(argparse.Namespace()).snapshot()"
     )
     assert _loaded_by(code, {RENDER, FINDER}) == set()
+
+
+def test_shipped_files_parsed_before_are_read_without_the_toml_parser() -> None:
+    """Every program reads the shipped config at start, and the daemon its motion library:
+    once parsed (:func:`config.loader.toml_file` keeps them as bytecode is kept), a start loads
+    neither the files' text nor the parser. The first run parses and keeps them (also where
+    PYTHONDONTWRITEBYTECODE is set for the tests' shell: scripts/test unsets it)."""
+    code = (
+        "from config.loader import load_all, robot_from_dict\n"
+        "from robot_daemon.motion.action.store import PageStore\n"
+        "robot = robot_from_dict(load_all()['robot'])\n"
+        "PageStore({j.id: j.name for j in robot.joints}, None, '/nonexistent')\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    for _ in range(2):  # the first may parse them (and keep them), the second must not
+        shown = f"import sys\nprint({TOML!r} in sys.modules)\n"
+        out = subprocess.run(
+            [sys.executable, "-c", code + shown],
+            capture_output=True, text=True, check=True, timeout=120, env=env,
+        )  # fmt: skip
+    assert out.stdout.split() == ["False"]
 
 
 def test_a_client_of_a_daemon_of_its_own_protocol_reads_no_package_metadata() -> None:
@@ -163,3 +189,34 @@ def test_a_held_child_runs_only_when_let_go() -> None:
                 if stream is not None:
                     stream.close()
     assert never.output == [] and never.errors == []
+
+
+def test_the_classes_darwin_up_makes_at_start_carry_their_own_docstrings() -> None:
+    """Python 3.11 writes a dataclass without a docstring one from its signature, formatting
+    every field's annotation at each class creation: about 0.3 ms a class, 90 of them at each
+    robot start. What the four programs load before they serve (their engines included) brings
+    its own."""
+    packages = ("robot_daemon", "schemas", "config", "clients", "gateway")
+    code = (
+        "import argparse, dataclasses, inspect, sys\n"
+        "from robot_daemon.launch.cli import command_parser\n"
+        "for name in ('up', 'daemon', 'sim', 'gateway'):\n"
+        "    command_parser(name)\n"
+        f"import {ENGINE}, {EMULATOR}, gateway.server, robot_daemon.launch.adapter_logins\n"
+        "from robot_daemon.plant.world_link import world_from_args\n"
+        "world_from_args(argparse.Namespace())\n"
+        "for mod in list(sys.modules.values()):\n"
+        f"    if not mod.__name__.startswith({packages!r}):\n"
+        "        continue\n"
+        "    for cls in vars(mod).values():\n"
+        "        if not (dataclasses.is_dataclass(cls) and isinstance(cls, type)\n"
+        "                and cls.__module__ == mod.__name__):\n"
+        "            continue\n"
+        "        made = cls.__name__ + str(inspect.signature(cls)).replace(' -> None', '')\n"
+        "        if cls.__doc__ == made:\n"
+        "            print(f'{mod.__name__}.{cls.__qualname__}')\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    )
+    assert out.stdout.split() == []

@@ -20,6 +20,8 @@ WINDOWS_S: tuple[float, ...] = (2.0, 5.0, 10.0, 30.0)
 
 @dataclass
 class Series:
+    """One line of a plot: its label, colour and samples."""
+
     label: str
     colour: str
     times: Sequence[float]

@@ -56,6 +56,8 @@ class MotionFileError(DarwinError):
 
 @dataclass
 class Step:
+    """One step of a motion page: 31 raw position words, then a pause and a time."""
+
     words: list[int] = field(default_factory=lambda: _blank_words())  # 31 raw position words
     pause: int = 0  # time units (8 ms at speed 32) to hold after reaching the step
     time: int = 0  # time units to reach the step (time-based schedule)
@@ -85,6 +87,8 @@ BLANK_STEP = Step()
 
 @dataclass
 class Page:
+    """One page of a ROBOTIS ``motion.bin``: its header fields and steps."""
+
     number: int
     name: str = ""
     repeat: int = 1

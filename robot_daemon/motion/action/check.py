@@ -19,6 +19,8 @@ from schemas.units import raw_to_rad
 
 @dataclass(frozen=True)
 class Problem:
+    """What is wrong with a page, and in which field."""
+
     field: str
     message: str
 

@@ -48,6 +48,8 @@ def file_name(page: Page) -> str:
 
 @dataclass
 class _Cached:
+    """Pages read from a file, with the file's stamp when read."""
+
     stamp: tuple[int, int]
     pages: list[Page]
 

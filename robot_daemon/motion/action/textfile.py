@@ -29,7 +29,6 @@ are the same table as a Python map (what the ``pages`` verb sends); errors name 
 from __future__ import annotations
 
 import json
-import tomllib
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -365,6 +364,8 @@ def page_from_dict(
 
 def loads(text: str, source: str = "motion text", names: dict[int, str] | None = None):
     """Pages from text; raises :class:`MotionFileError` naming the file, page and field."""
+    import tomllib  # here: the daemon reads its library through toml_file's kept copies
+
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -393,6 +394,6 @@ def read_text(path: str | Path, names: dict[int, str] | None = None) -> list[Pag
         doc = toml_file(p, universal_newlines=True)  # parsed once, not at every start
     except OSError as exc:
         raise MotionFileError(f"cannot read motion file {p}: {exc.strerror}") from exc
-    except tomllib.TOMLDecodeError as exc:
+    except ValueError as exc:  # tomllib.TOMLDecodeError, or text that is not UTF-8 as TOML is
         raise MotionFileError(f"{p} is not valid TOML: {exc}") from exc
     return _pages(doc, str(p), names)

@@ -28,6 +28,8 @@ from schemas.units import DEG_PER_UNIT
 
 @dataclass
 class WalkCommand:
+    """What the ball follower asks of the walk this frame: a step and a turn, a kick, or a stop."""
+
     walk: bool  # True: walking with (step, turn); False: stopped (or stopping)
     step: float = 0.0  # mm per step, forward
     turn: float = 0.0  # deg per step, positive = left

@@ -14,6 +14,8 @@ from config.loader import section_to
 
 @dataclass(frozen=True)
 class HeadSettings:
+    """``[ballplay.head]``: the head's range, home and PD gains while it tracks the ball."""
+
     pan_limit_deg: float = 70.0
     tilt_min_deg: float = -25.0
     tilt_max_deg: float = 40.0
@@ -28,6 +30,8 @@ class HeadSettings:
 
 @dataclass(frozen=True)
 class TrackerSettings:
+    """``[ballplay.tracker]``: when the ball counts as lost and how the head searches for it."""
+
     lost_frames: int = 15
     search_pan_deg: float = 65.0
     search_tilts_deg: tuple[float, ...] = (0.0, 25.0)
@@ -39,6 +43,9 @@ class TrackerSettings:
 
 @dataclass(frozen=True)
 class FollowerSettings:
+    """``[ballplay.follower]``: how the robot walks to the ball and when and with which page it
+    kicks."""
+
     kick_pan_deg: float = 30.0
     kick_top_deg: float = -5.0
     kick_frames: int = 10
@@ -57,6 +64,9 @@ class FollowerSettings:
 
 @dataclass(frozen=True)
 class BallPlaySettings:
+    """The ``[ballplay]`` section: the ball's colour, the vision rate, the kicks, and the head,
+    tracker and follower."""
+
     color: str = "red"
     vision_hz: float = 30.0
     kicks: int = 1

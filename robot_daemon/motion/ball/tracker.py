@@ -19,6 +19,8 @@ from robot_daemon.motion.ball.settings import HeadSettings, TrackerSettings
 
 @dataclass
 class HeadCommand:
+    """Where the ball tracker points the head this frame, and whether it is searching."""
+
     pan: float  # deg
     tilt: float  # deg
     searching: bool
