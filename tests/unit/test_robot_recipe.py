@@ -5,11 +5,15 @@ the robot's Python takes instead of wheels PyPI does not have for 32-bit Linux."
 from __future__ import annotations
 
 import importlib.util
+import os
 import shlex
 import sys
+import threading
 import tomllib
 from pathlib import Path
 from types import ModuleType
+
+import pytest
 
 from robot_daemon.engine.telemetry_rate import check_rate
 
@@ -81,3 +85,53 @@ def test_the_atom_settings_are_settings_the_daemon_knows() -> None:
     assert set(written) <= set(shipped)
     assert check_rate(written["telemetry_hz"], "daemon.telemetry_hz") > 0
     assert 0 < written["servo_reads_per_tick"] < 20
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="giving a process its priority back needs root")
+def test_the_recipe_yields_while_the_suite_runs_and_takes_its_share_when_it_ends(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    check = load_check()
+    marker = tmp_path / "beside"
+    marker.touch()
+    monkeypatch.setenv(check.BESIDE_ENV, str(marker))
+    go = tmp_path / "go"
+    os.mkfifo(go)
+    a, b, c = (tmp_path / n for n in "abc")
+    # The recipe's shell: its niceness, then (told the suite ended) it waits to be given its
+    # priority back, and a process it starts after that has it too.
+    script = (f'nice > {a}; read line < {go}; '
+              f'while [ "$(nice)" != 0 ]; do sleep 0.05; done; nice > {b}; sh -c nice > {c}')
+    log = tmp_path / "log.txt"
+    failed: list[BaseException] = []
+
+    def recipe() -> None:
+        try:
+            check.run_recipe(["bash", "-c", script], "the test recipe", log)
+        except BaseException as exc:  # reported by the test below
+            failed.append(exc)
+
+    runner = threading.Thread(target=recipe, daemon=True)
+    runner.start()
+    try:
+        with go.open("w") as say:  # opens once the shell has written its niceness and reads
+            assert a.read_text().split() == [str(check.RECIPE_NICE)]
+            marker.unlink()  # the suite ended
+            say.write("go\n")
+    finally:
+        marker.unlink(missing_ok=True)  # whatever failed above, the recipe ends
+    runner.join(timeout=60)
+    assert not runner.is_alive() and not failed, failed
+    assert b.read_text().split() == ["0"] and c.read_text().split() == ["0"]
+
+
+def test_the_recipe_alone_runs_at_normal_priority(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    check = load_check()
+    monkeypatch.delenv(check.BESIDE_ENV, raising=False)
+    out = tmp_path / "nice"
+    check.run_recipe(["bash", "-c", f"nice > {out}"], "the test recipe", tmp_path / "log.txt")
+    assert out.read_text().split() == ["0"]
+    with pytest.raises(check.CheckFailed, match="the test recipe failed"):
+        check.run_recipe(["false"], "the test recipe", tmp_path / "log.txt")
