@@ -14,7 +14,12 @@ asked for (``callgrind_requests.py`` toggles counting around them), so the figur
   runs it before answering a packet and at each physics round: ~300 times a second);
 - ``world``: ``SimWorld.step(0.01)``, the body's legs, balance and the ball (100 a second);
 - ``answer``: the replies of the 21 devices to the daemon's bulk read of a tick (125 a second),
-  and their delivery as the FTDI chip hands them over.
+  and their delivery as the FTDI chip hands them over;
+- ``moving``: ``Bus.step(0.004)`` while every servo moves to a goal (a driven robot: a walk, a
+  page, a test's pose), and ``goals``: the sync write of 20 goals a moving robot gets each tick;
+- ``plant``: a physics plant's round (the MuJoCo world's, at each step of the emulator's clock):
+  ``Bus.step(0.01)``, then each servo's ``plant_update`` with its joint's state (a fixed one
+  here: the engine is not counted).
 
 The bus is brought up first as the daemon does (the servos powered, torque on, holding the pose):
 an unpowered bus answers nothing, and the child refuses to count one.
@@ -81,10 +86,27 @@ def child(what: str, root: Path) -> None:
     def answer() -> None:
         send(request)
 
+    # Goals 300 units off at a slow moving speed: each servo still moves after the counted steps.
+    goals = [MX28.GOAL_POSITION.reg.address, 4]
+    for dxl_id in range(1, 21):
+        goal = 2048 + (300 if dxl_id % 2 else -300)
+        goals += [dxl_id, goal & 0xFF, goal >> 8, 10, 0]
+    goal_write = instruction_packet(BROADCAST_ID, Instruction.SYNC_WRITE, goals)
+    if what == "moving":
+        send(goal_write)
+
+    def plant() -> None:
+        emulator.bus.step(0.01)
+        for servo in emulator.bus.servos.values():
+            servo.plant_update(2048.5, 10.0, 0.5, False, 0.01)
+
     step = {
         "servos": lambda: emulator.bus.step(0.004),
         "world": lambda: world.step(0.01, positions),
         "answer": answer,
+        "moving": lambda: emulator.bus.step(0.004),
+        "goals": lambda: send(goal_write),
+        "plant": plant,
     }[what]
     cg.start_instrumentation()
     for _ in range(20):
@@ -126,7 +148,7 @@ def main() -> None:
         return
     if shutil.which("valgrind") is None:
         raise SystemExit("sim_count: valgrind is not installed: apt-get install valgrind")
-    for what in ("servos", "world", "answer"):
+    for what in ("servos", "world", "answer", "moving", "goals", "plant"):
         now = count(what, ROOT)
         line = f"{what}: {now:,.0f} k instructions a step"
         if args.baseline is not None:

@@ -77,7 +77,11 @@ def signed_11bit(raw: int | np.ndarray) -> int | np.ndarray:
 
 
 def encode_signed_11bit(value: int) -> int:
-    magnitude = min(abs(int(value)), SPEED_MAX)
+    # Twice each step of each simulated servo (present speed and load): min(·, SPEED_MAX) as
+    # the comparison it makes, without the builtin's call and iterator.
+    magnitude = abs(int(value))
+    if magnitude > SPEED_MAX:
+        magnitude = SPEED_MAX
     return magnitude | (0x400 if value < 0 else 0)
 
 

@@ -35,8 +35,8 @@ Modelling choices (documented, not firmware-exact):
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from enum import Enum
 
 import numpy as np
 
@@ -69,6 +69,13 @@ _MAX_VOLTAGE_LIMIT = MX28.MAX_VOLTAGE_LIMIT.value.address
 _TEMPERATURE_LIMIT = MX28.TEMPERATURE_LIMIT.value.address
 _TORQUE_LIMIT_HIGH = MX28.TORQUE_LIMIT.value.high
 _ALARM_SHUTDOWN = MX28.ALARM_SHUTDOWN.value.address
+# And those a step and a goal's write read (the bytes, not the items: an enum member's
+# attribute and the table's item access are each a few Python calls).
+_MOVING_SPEED = MX28.MOVING_SPEED.value.address
+_P_GAIN = MX28.P_GAIN.value.address
+_CW_ANGLE_LIMIT = MX28.CW_ANGLE_LIMIT.value.address
+_CCW_ANGLE_LIMIT = MX28.CCW_ANGLE_LIMIT.value.address
+_LOCK = MX28.LOCK.value.address
 _GOAL_REGISTER = MX28.GOAL_POSITION.value
 _TORQUE_LIMIT_REGISTER = MX28.TORQUE_LIMIT.value
 _ID = MX28.ID.value.address
@@ -77,8 +84,18 @@ _STATUS_RETURN_LEVEL = MX28.STATUS_RETURN_LEVEL.value.address
 assert tuple(
     r.value.address for r in (CM730.ID, CM730.RETURN_DELAY_TIME, CM730.STATUS_RETURN_LEVEL)
 ) == (_ID, _RETURN_DELAY_TIME, _STATUS_RETURN_LEVEL)
-_TWO_BYTES = (MX28.PRESENT_POSITION, MX28.PRESENT_SPEED, MX28.PRESENT_LOAD, MX28.GOAL_POSITION)
+_TWO_BYTES = (
+    MX28.PRESENT_POSITION,
+    MX28.PRESENT_SPEED,
+    MX28.PRESENT_LOAD,
+    MX28.GOAL_POSITION,
+    MX28.MOVING_SPEED,
+    MX28.CW_ANGLE_LIMIT,
+    MX28.CCW_ANGLE_LIMIT,
+)
 _ONE_BYTE = (
+    MX28.P_GAIN,
+    MX28.LOCK,
     MX28.PRESENT_VOLTAGE,
     MX28.PRESENT_TEMPERATURE,
     MX28.MOVING,
@@ -103,6 +120,8 @@ _RPM_PER_SPEED_UNIT = units.RPM_PER_SPEED_UNIT
 _LOAD_PERCENT_PER_UNIT = units.LOAD_PERCENT_PER_UNIT
 _encode_signed_11bit = units.encode_signed_11bit  # present speed and load: 10 bits and a sign
 _TOP_SPEED = units.MX28_MAX_RPM * units.UNITS_PER_REV / 60.0
+_MAX_RPM = units.MX28_MAX_RPM
+_POSITION_MAX = float(units.POSITION_MAX)
 
 # The CM-730's registers its refresh writes in place (the IMU's are two bytes each).
 _CM730_VOLTAGE = CM730.VOLTAGE.value.address
@@ -128,8 +147,8 @@ class Environment:
 
 
 class Device:
-    # The EEPROM lock register, on devices that have one.
-    lock_reg: Enum | None = None
+    # The address of the EEPROM lock register (one byte), on devices that have one.
+    lock_address: int | None = None
 
     def __init__(self, table: ControlTable, env: Environment) -> None:
         self.table = table
@@ -169,20 +188,22 @@ class Device:
         return data, err | self.alarm_bits()
 
     def write(self, address: int, data: bytes) -> int:
-        locked = self.lock_reg is not None and bool(self.table[self.lock_reg])
+        lock = self.lock_address
+        locked = lock is not None and self.table.data[lock] != 0
         changes, err = self.table.check_write(address, data, locked)
         err |= self.check_values(changes)
-        if not err:
-            for reg, value in changes:
-                self.table.put(reg, value)
-            self.after_write([reg for reg, _ in changes])
-        return err | self.alarm_bits()
+        if err:
+            return err | self.alarm_bits()
+        for reg, value in changes:
+            self.table.put(reg, value)
+        return self.after_write([reg for reg, _ in changes])
 
     def check_values(self, changes: list) -> int:
         return 0
 
-    def after_write(self, changed: list) -> None:
-        pass
+    def after_write(self, changed: list) -> int:
+        """What a write does beyond its registers; the alarm bits its status packet carries."""
+        return self.alarm_bits()
 
     def factory_reset(self) -> None:
         """RESET: every default back, except the ID, so the simulated bus stays addressable."""
@@ -192,7 +213,7 @@ class Device:
 
 
 class Servo(Device):
-    lock_reg = MX28.LOCK
+    lock_address = _LOCK
 
     def __init__(
         self, dxl_id: int, env: Environment, position: int = units.POSITION_CENTER
@@ -215,7 +236,7 @@ class Servo(Device):
         self.firmware: int | None = None
         self.leftover: dict = {}
         self.sag_units = 0.0
-        self._at_rest: tuple[object, ...] | None = None  # its rest key after its last step
+        self._at_rest: tuple[bytes, tuple[object, ...]] | None = None  # left by its last step
         self._sync_registers()
 
     def apply_overrides(self) -> None:
@@ -239,15 +260,19 @@ class Servo(Device):
             self.overheated = False
         if self.overheated:
             bits |= ErrorBit.OVERHEATING
-        if not self.overload_latched and self._overloaded():  # latched: nothing to look at
+        # Latched: nothing to look at. Kinematic with no load from the world (nearly every
+        # read): nothing to find.
+        if (
+            not self.overload_latched
+            and (self.plant_torque is not None or self.external_load)
+            and self._overloaded()
+        ):
             self.overload_latched = True
         if self.overload_latched:
             bits |= ErrorBit.OVERLOAD
         return bits
 
     def _overloaded(self) -> bool:
-        if self.plant_torque is None and not self.external_load:
-            return False  # kinematic and no load from the world (the case of nearly every read)
         if not self.drives():
             return False
         if self.plant_torque is None:  # kinematic: the world's load against the limit
@@ -259,8 +284,15 @@ class Servo(Device):
         # physics: the motor cannot exceed its limit, it stays saturated at it
         return self.saturated_s >= OVERLOAD_AFTER_S
 
-    def _shutdown_active(self) -> bool:
-        return bool(self.alarm_bits() & self.table.data[_ALARM_SHUTDOWN])
+    def _shut_down_if_alarmed(self) -> int:
+        """The alarm shutdown: torque limit 0 while an alarm in ALARM_SHUTDOWN stands. Returns
+        the alarm bits, which the shutdown leaves as they are (it clears nothing, and a limp
+        motor raises nothing): what a status packet read right after it carries."""
+        bits = self.alarm_bits()
+        d = self.table.data
+        if bits & d[_ALARM_SHUTDOWN]:
+            d[_TORQUE_LIMIT] = d[_TORQUE_LIMIT + 1] = 0
+        return bits
 
     # ---- writes -----------------------------------------------------------------------------
     # Every goal the daemon sends passes here (20 a tick while it moves). A register is one
@@ -268,22 +300,24 @@ class Servo(Device):
     # ``__eq__`` (Python code, once for each register of the write).
 
     def check_values(self, changes: list) -> int:
-        cw, ccw = self.table[MX28.CW_ANGLE_LIMIT], self.table[MX28.CCW_ANGLE_LIMIT]
         for reg, value in changes:
-            if reg is _GOAL_REGISTER and (cw or ccw) and not cw <= value <= ccw:
-                return ErrorBit.ANGLE_LIMIT
+            if reg is _GOAL_REGISTER:
+                d = self.table.data
+                cw = d[_CW_ANGLE_LIMIT] | (d[_CW_ANGLE_LIMIT + 1] << 8)
+                ccw = d[_CCW_ANGLE_LIMIT] | (d[_CCW_ANGLE_LIMIT + 1] << 8)
+                if (cw or ccw) and not cw <= value <= ccw:
+                    return ErrorBit.ANGLE_LIMIT
         return 0
 
-    def after_write(self, changed: list) -> None:
-        t = self.table
-        if any(reg is _TORQUE_LIMIT_REGISTER for reg in changed) and t[MX28.TORQUE_LIMIT]:
-            # A re-arm: the overload alarm goes if its cause has (else it latches again below).
-            self.overload_latched = False
-        self._shut_down_if_alarmed()
-
-    def _shut_down_if_alarmed(self) -> None:
-        if self._shutdown_active():
-            self.table[MX28.TORQUE_LIMIT] = 0
+    def after_write(self, changed: list) -> int:
+        for reg in changed:
+            if reg is _TORQUE_LIMIT_REGISTER:
+                d = self.table.data
+                if d[_TORQUE_LIMIT] or d[_TORQUE_LIMIT + 1]:
+                    # A re-arm: the overload alarm goes if its cause has (else it latches
+                    # again below).
+                    self.overload_latched = False
+        return self._shut_down_if_alarmed()
 
     # ---- power and dynamics -----------------------------------------------------------------
 
@@ -301,10 +335,14 @@ class Servo(Device):
 
     def max_speed(self) -> float:
         """Speed limit in raw units per second for the current moving speed register."""
-        top = units.MX28_MAX_RPM * max(self.env.voltage, 0.0) / 12.0
-        rpm = self.table[MX28.MOVING_SPEED] * units.RPM_PER_SPEED_UNIT
-        rpm = top if rpm == 0 else min(rpm, top)
-        return rpm * units.UNITS_PER_REV / 60.0
+        # (Each step of a servo that moves: min and max written as the comparisons they make,
+        # max(a, b) = b if b > a else a, without the builtins' call and iterator each.)
+        volts = self.env.voltage
+        top = _MAX_RPM * (0.0 if volts < 0.0 else volts) / 12.0
+        d = self.table.data
+        rpm = (d[_MOVING_SPEED] | (d[_MOVING_SPEED + 1] << 8)) * _RPM_PER_SPEED_UNIT
+        rpm = top if rpm == 0 or top < rpm else rpm
+        return rpm * _UNITS_PER_REV / 60.0
 
     def drives(self) -> bool:
         """The motor holds its goal: powered, torque enabled and a torque limit above 0."""
@@ -324,11 +362,32 @@ class Servo(Device):
             return 0.0
         torque = self.plant_torque
         if torque is not None:
-            stall = STALL_TORQUE_12V * max(self.env.voltage, 1e-3) / 12.0
-            return max(-1.0, min(1.0, torque / stall))
-        return max(-1.0, min(1.0, self.external_load + 0.15 * self.velocity / _TOP_SPEED))
+            volts = self.env.voltage  # max(volts, 1e-3), and below min and max: see max_speed
+            load = torque / (STALL_TORQUE_12V * (1e-3 if volts < 1e-3 else volts) / 12.0)
+        else:
+            load = self.external_load + 0.15 * self.velocity / _TOP_SPEED
+        load = load if load < 1.0 else 1.0
+        return load if load > -1.0 else -1.0
 
-    def _rest_key(self) -> tuple[object, ...] | None:
+    def _rest_state(self) -> tuple[object, ...]:
+        """What a step reads of the servo besides its registers (each servo's, at each step
+        and each bulk read)."""
+        env = self.env
+        return (
+            self.velocity,
+            self.plant_torque,
+            self.forced_temperature,
+            self.external_load,
+            self.temperature,
+            env.ambient_c,
+            self.powered,
+            self.position,
+            env.voltage,
+            self.overheated,
+            self.overload_latched,
+        )
+
+    def _rest_key(self) -> tuple[bytes, tuple[object, ...]] | None:
         """What a servo at rest depends on (None: it is not at rest). At rest, a step computes
         exactly what it holds: it moved nothing (at its goal, or no speed to move with), it has
         no load and it is at the ambient temperature, the only one a step cannot change."""
@@ -340,59 +399,70 @@ class Servo(Device):
             and self.temperature == self.env.ambient_c
         ):
             return None
-        return (
-            bytes(self.table.data),  # every register, however it was written since
-            self.powered,
-            self.position,
-            self.env.voltage,
-            self.env.ambient_c,
-            self.overheated,
-            self.overload_latched,
-        )
+        # Every register, however it was written since.
+        return bytes(self.table.data), self._rest_state()
 
     def read_key(self) -> tuple[object, ...] | None:
         # At rest a read's inputs are all in the rest key: the registers (the present values
         # synced into them included), power, supply, the alarms' latches; no load, no plant
         # torque and the ambient temperature leave nothing else for the alarms to look at.
+        # While nothing in it has changed, the key the last step left: the same object each
+        # bulk read, which Bus._bulk_reply finds its reply by at once, and which the next
+        # step finds unchanged (the same test as a new key's, without copying the registers).
+        rest = self._at_rest
+        if rest is not None and self.table.data == rest[0] and self._rest_state() == rest[1]:
+            return rest
         return self._rest_key()
 
     def step(self, dt: float) -> None:
-        if dt <= 0:
-            return
         # The emulator steps every servo before each packet it answers and at each physics
         # round, and most servos stand still: one that was at rest after its last step, with
         # nothing changed since, is skipped (the step would write the same bytes).
-        key = self._rest_key()
-        if key is not None and key == self._at_rest:
+        # (read_key's test of the key, without making a new one when it fails.)
+        rest = self._at_rest
+        if dt <= 0 or (
+            rest is not None and self.table.data == rest[0] and self._rest_state() == rest[1]
+        ):
             return
         self._full_step(dt)
         self._at_rest = self._rest_key()
 
     def _full_step(self, dt: float) -> None:
-        t = self.table
+        # Whether the motor drives, and its load, found once: a step changes neither until
+        # its alarm shutdown, after which they are found again.
+        d = self.table.data
+        drives = self.drives()
         if self.plant_torque is not None:
             pass  # the physics plant moved the horn (plant_update)
-        elif self.drives():
-            goal = float(t[MX28.GOAL_POSITION])
+        elif drives:
+            goal = float(d[_GOAL_POSITION] | (d[_GOAL_POSITION + 1] << 8))
             if self.sag_units:
                 # A P-only loop stands off its goal in proportion to the load over the gain.
-                goal -= self.sag_units * self.external_load * 32.0 / max(1, t[MX28.P_GAIN])
+                goal -= self.sag_units * self.external_load * 32.0 / max(1, d[_P_GAIN])
             limit = self.max_speed() * dt
-            move = max(-limit, min(limit, goal - self.position))
-            self.position = min(float(units.POSITION_MAX), max(0.0, self.position + move))
+            # The clamps min and max would make (see max_speed).
+            move = goal - self.position
+            move = move if move < limit else limit
+            move = move if move > -limit else -limit
+            position = self.position + move
+            position = position if position > 0.0 else 0.0
+            self.position = position if position < _POSITION_MAX else _POSITION_MAX
             self.velocity = move / dt
         else:
             self.velocity = 0.0
-        self._heat(dt)
-        self._shut_down_if_alarmed()
-        self._sync_registers()
+        load = self._load(drives)
+        self._heat(dt, load)
+        if self._shut_down_if_alarmed() & d[_ALARM_SHUTDOWN]:
+            drives = self.drives()
+            load = self._load(drives)
+        self._write_present(drives, load)
 
-    def _heat(self, dt: float) -> None:
+    def _heat(self, dt: float, load: float) -> None:
         if self.forced_temperature is not None:
             self.temperature = self.forced_temperature
             return
         env = self.env
-        target = env.ambient_c + env.heat_gain_c * self.load_fraction() ** 2
+        target = env.ambient_c + env.heat_gain_c * load**2
         self.temperature += (target - self.temperature) * (1 - math.exp(-dt / env.thermal_tau_s))
 
     def plant_update(
@@ -400,7 +470,7 @@ class Servo(Device):
     ) -> None:
         """A physics plant's joint state: position (raw units), velocity (raw units/s), the
         motor's torque (N·m) and whether it was held at its torque limit over ``dt`` s."""
-        self.position = min(float(units.POSITION_MAX), max(0.0, float(raw)))
+        self._place(raw)
         self.velocity = float(velocity) if self.powered else 0.0
         self.plant_torque = float(torque)
         self.saturated_s = self.saturated_s + dt if saturated else 0.0
@@ -408,14 +478,24 @@ class Servo(Device):
 
     def set_position(self, raw: float) -> None:
         """The world moves the horn (a limp joint pushed, a robot placed)."""
-        self.position = min(float(units.POSITION_MAX), max(0.0, float(raw)))
+        self._place(raw)
         self._sync_registers()
 
+    def _place(self, raw: float) -> None:
+        # Each servo at each physics round: min(POSITION_MAX, max(0.0, ·)) as comparisons.
+        position = float(raw)
+        position = position if position > 0.0 else 0.0
+        self.position = position if position < _POSITION_MAX else _POSITION_MAX
+
     def _sync_registers(self) -> None:
+        drives = self.drives()
+        self._write_present(drives, self._load(drives))
+
+    def _write_present(self, drives: bool, load: float) -> None:
         # Every step of every servo, twice a physics round under a physics plant (its step,
         # then its new state): the bytes written in place at the registers' addresses, the same
         # values the table's item access and units' encoders would write, each computed in the
-        # same order of operations, with whether it drives found once.
+        # same order of operations.
         d = self.table.data
         position = round(self.position)
         d[_PRESENT_POSITION] = position & 0xFF
@@ -424,12 +504,15 @@ class Servo(Device):
         speed = _encode_signed_11bit(round(speed_units))
         d[_PRESENT_SPEED] = speed & 0xFF
         d[_PRESENT_SPEED + 1] = speed >> 8
-        drives = self.drives()
-        load = _encode_signed_11bit(round(self._load(drives) * 100.0 / _LOAD_PERCENT_PER_UNIT))
-        d[_PRESENT_LOAD] = load & 0xFF
-        d[_PRESENT_LOAD + 1] = load >> 8
-        d[_PRESENT_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
-        d[_PRESENT_TEMPERATURE] = max(0, min(255, round(self.temperature)))
+        load_units = _encode_signed_11bit(round(load * 100.0 / _LOAD_PERCENT_PER_UNIT))
+        d[_PRESENT_LOAD] = load_units & 0xFF
+        d[_PRESENT_LOAD + 1] = load_units >> 8
+        volts = round(self.env.voltage * 10)  # max(0, min(255, ·)) as comparisons
+        volts = volts if volts < 255 else 255
+        d[_PRESENT_VOLTAGE] = volts if volts > 0 else 0
+        celsius = round(self.temperature)
+        celsius = celsius if celsius < 255 else 255
+        d[_PRESENT_TEMPERATURE] = celsius if celsius > 0 else 0
         moving = (
             drives
             and abs((d[_GOAL_POSITION] | (d[_GOAL_POSITION + 1] << 8)) - self.position) >= 1.0
@@ -470,35 +553,34 @@ class CM730Device(Device):
         self.on_power = lambda on: None  # set by the bus: DXL_POWER writes switch the servos
         self._imu_layout: tuple[object, object, tuple[int, ...], tuple[int, ...], tuple[int, ...]]
         self._imu_layout = ((), (), (), (), ())  # made at the first read (refresh)
+        # The six raw readings before noise, and what they were converted from: a body at
+        # rest feels the same between reads, and a world step sets each vector at most once.
+        self._imu_raws: tuple[tuple[object, ...], tuple[int, ...]] = ((), ())
 
-    def after_write(self, changed: list) -> None:
+    def after_write(self, changed: list) -> int:
         if CM730.DXL_POWER.reg in changed:
             self.on_power(bool(self.table[CM730.DXL_POWER]))
+        return self.alarm_bits()
 
     def refresh(self) -> None:
         # Before every read of the CM-730 (each bulk read, 125 a second): the bytes in place.
         # The conversions are units' own, called once an axis (two zips and an enum lookup
         # per axis were most of the CM-730's read; tests/unit/test_sim_imu_registers.py).
         d = self.table.data
-        d[_CM730_VOLTAGE] = max(0, min(255, round(self.env.voltage * 10)))
+        volts = round(self.env.voltage * 10)  # max(0, min(255, ·)) as comparisons
+        volts = volts if volts < 255 else 255
+        d[_CM730_VOLTAGE] = volts if volts > 0 else 0
         # The axis map is read here, each time (a test flips its signs to see the balance
         # feedback throw the robot over); its signs and addresses are kept while it is the same.
         layout = self._imu_layout
         if layout[0] is not IMU_GYRO_AXES or layout[1] is not IMU_ACCEL_AXES:
             layout = self._imu_layout = _imu_layout(IMU_GYRO_AXES, IMU_ACCEL_AXES)
-        _, _, (s0, s1, s2), (s3, s4, s5), addresses = layout
-        gx, gy, gz = self.gyro
-        ax, ay, az = self.accel
-        fs = self.gyro_full_scale_dps
-        gyro_raw, accel_raw = units.rad_s_to_gyro_raw, units.ms2_to_accel_raw
-        raws: list[float] = [
-            gyro_raw(s0 * gx, fs),
-            gyro_raw(s1 * gy, fs),
-            gyro_raw(s2 * gz, fs),
-            accel_raw(s3 * ax),
-            accel_raw(s4 * ay),
-            accel_raw(s5 * az),
-        ]
+        addresses = layout[4]
+        inputs = (layout, self.gyro, self.accel, self.gyro_full_scale_dps)
+        converted = self._imu_raws
+        if converted[0] != inputs:
+            converted = self._imu_raws = (inputs, self._imu_convert(layout))
+        raws: Sequence[float] = converted[1]
         if self.imu_noise > 0:
             # One draw of six: the generator gives the same numbers as six draws of one.
             noise = self.rng.normal(0.0, self.imu_noise, 6).tolist()
@@ -511,6 +593,24 @@ class CM730Device(Device):
                 value = _IMU_MAX
             d[address] = value & 0xFF
             d[address + 1] = value >> 8
+
+    def _imu_convert(
+        self,
+        layout: tuple[object, object, tuple[int, ...], tuple[int, ...], tuple[int, ...]],
+    ) -> tuple[int, ...]:
+        _, _, (s0, s1, s2), (s3, s4, s5), _ = layout
+        gx, gy, gz = self.gyro
+        ax, ay, az = self.accel
+        fs = self.gyro_full_scale_dps
+        gyro_raw, accel_raw = units.rad_s_to_gyro_raw, units.ms2_to_accel_raw
+        return (
+            gyro_raw(s0 * gx, fs),
+            gyro_raw(s1 * gy, fs),
+            gyro_raw(s2 * gz, fs),
+            accel_raw(s3 * ax),
+            accel_raw(s4 * ay),
+            accel_raw(s5 * az),
+        )
 
     def set_buttons(self, mask: int) -> None:
         self.table[CM730.BUTTON] = mask & 0x03
