@@ -357,7 +357,8 @@ class DarwinApp(App[None]):
         self.model.client_id = self.link.client_id or self.model.client_id
         self.model.bump("link")
         if info.state is LinkState.CONNECTED and was is not LinkState.CONNECTED:
-            self.screen.refresh_bindings()  # the role may grey some keys out
+            if self.screen_stack:  # (a link's news can come in while the app closes)
+                self.screen.refresh_bindings()  # the role may grey some keys out
             if self.link.robot is not None:
                 # What the tabs need once per connection (the library, the gait).
                 # The daemon's joint limits, not this machine's config, bound what is sent.
@@ -411,7 +412,11 @@ class DarwinApp(App[None]):
             tab.refresh_view(self.model)
 
     def current_tab(self, screen: Screen[Any] | None = None) -> TabView | None:
-        return tab_view(screen or self.screen, self.active_tab)
+        if screen is None:
+            if not self.screen_stack:
+                return None  # starting, or closed its last screen: no tab shows
+            screen = self.screen
+        return tab_view(screen, self.active_tab)
 
     async def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
         self.active_tab = (event.pane.id or "").removeprefix("pane-")

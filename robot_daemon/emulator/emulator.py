@@ -58,6 +58,7 @@ class Emulator:
                 raise TypeError(f"Emulator got an unknown setting {key!r}")
             setattr(s, key, value)
         check_priority(s.realtime_priority, "emulator realtime_priority")
+        check_priority(s.physics_priority, "emulator physics_priority")
         self.settings = s
         # A fresh SeedSequence's entropy is an int (typed wider, for a given one).
         self.seed = s.seed or int(np.random.SeedSequence().entropy % 2**32)  # type: ignore[operator]
@@ -156,7 +157,7 @@ class Emulator:
         self._thread.start()
         if self.settings.realtime:
             self._physics_thread = threading.Thread(
-                target=self.clock.run_physics, name="darwin-sim-physics", daemon=True
+                target=self._run_physics, name="darwin-sim-physics", daemon=True
             )
             self._physics_thread.start()
         log.info("emulator on %s (seed %d)", self.port, self.seed)
@@ -240,6 +241,16 @@ class Emulator:
                 if self._waiting:
                     self._served.notify_all()
                 fds, timeout = self._select_args()
+
+    def _run_physics(self) -> None:
+        warning = enter_realtime(
+            self.settings.physics_priority,
+            "the emulator's physics thread",
+            "emulator.physics_priority",
+        )
+        if warning:
+            log.info("emulator: %s", warning)
+        self.clock.run_physics()
 
     def _select_args(self) -> tuple[list[int], float | None]:
         """What the serving thread waits on, and how long at most. Call with the lock held."""

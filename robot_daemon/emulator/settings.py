@@ -52,6 +52,9 @@ class EmulatorSettings:
     # however busy the computer (servos answer on time; a starved emulator made the daemon see
     # them go offline); below the daemon's loop (40). 0 = normal scheduling.
     realtime_priority: int = 30
+    # SCHED_FIFO priority of the physics thread, below the serving thread (config/emulator.toml
+    # says why). 0 = normal scheduling.
+    physics_priority: int = 20
     # The plant behind the servos: "kinematic" (no extra dependency) or "mujoco" (physics,
     # `pip install -e '.[physics]'`; its numbers in config/physics.toml).
     physics: str = "kinematic"

@@ -145,6 +145,13 @@ def test_ros_sees_and_drives_the_robot_beside_every_other_client(tmp_path: Path)
                     e["kind"] == kind and e.get("topic") == topic for e in g.values()
                 )
 
+            def darwin_nodes(g: dict[str, dict[str, str]]) -> list[dict[str, str]]:
+                return [e for e in g.values() if e["kind"] == "NN" and e["node"] == "darwin"]
+
+            # The node's token too: the adapter declares it first, but the observer's
+            # liveliness history and live tokens arrive through the router in no set order
+            # (it once came after all seven entities').
+            obs.wait_for(lambda g: bool(darwin_nodes(g)))
             for kind, topic in [
                 ("MP", f"{ns}/joint_states"),
                 ("MP", f"{ns}/imu/data"),
@@ -155,8 +162,7 @@ def test_ros_sees_and_drives_the_robot_beside_every_other_client(tmp_path: Path)
                 ("SS", f"{ns}/lease"),
             ]:
                 obs.wait_for(has(kind, topic))
-            nodes = [e for e in obs.graph.values() if e["kind"] == "NN" and e["node"] == "darwin"]
-            assert [n["namespace"] for n in nodes] == [ns]
+            assert [n["namespace"] for n in darwin_nodes(obs.graph)] == [ns]
             _, desc = obs.endpoint("MP", f"{ns}/robot_description")
             assert desc["qos"] == LATCHED_QOS
 

@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from clients.robot import Robot
+from schemas.errors import CommandTimeoutError
 from schemas.messages import Event
 from schemas.sim_control import SimControl
 from tests.fixtures.system import start_system
@@ -40,7 +42,10 @@ def test_up_with_physics_stands_walks_and_falls_when_pushed() -> None:
             # detector's call and the world's first verdict then named different sides.
             events.wait(lambda e: e.kind == "walk" and e.data.get("state") == "stopped")
             # Upright: the daemon's SI IMU says +1 g up.
-            imu = robot.wait_for("imu", lambda m: m.accel[2] > 8.0, WAIT)
+            try:
+                imu = robot.wait_for("imu", lambda m: m.accel[2] > 8.0, WAIT)
+            except CommandTimeoutError as missed:
+                raise AssertionError(f"{missed}\n{_plant_and_imu(sim, robot)}") from None
             assert imu.fall == "none"
             # tests/physics/test_push.py's shove: over backward at every gait phase it was tried
             # after a walk (16 of 16, lock-step), never over and beyond.
@@ -50,11 +55,8 @@ def test_up_with_physics_stands_walks_and_falls_when_pushed() -> None:
             except AssertionError as missed:
                 # Whether the body did not fall or the detector did not speak: the plant's
                 # verdict and the daemon's last IMU reading (tilt, 1 g, its window's call).
-                state = robot.state
                 raise AssertionError(
-                    f"{missed}\npush: {pushed}\nworld now: {sim.call('get_world')}\n"
-                    f"last imu: accel={state.imu and state.imu.accel} "
-                    f"raw={state.imu and state.imu.accel_raw} fall={state.imu and state.imu.fall}"
+                    f"{missed}\npush: {pushed}\n{_plant_and_imu(sim, robot)}"
                 ) from None
             assert fall.data["state"] in ("fallen_forward", "fallen_backward")
             # The plant calls it a fall past 60° of torso tilt (config/physics.toml), which can
@@ -65,6 +67,18 @@ def test_up_with_physics_stands_walks_and_falls_when_pushed() -> None:
             robot.command("halt")
             events.close()
             robot.release()
+
+
+def _plant_and_imu(sim: SimControl, robot: Robot) -> str:
+    """The plant's verdict and the daemon's last IMU reading (tilt, 1 g, its window's call),
+    and the events since the lease: whether the body fell or the detector did not speak."""
+    state = robot.state
+    imu = state.imu
+    return (
+        f"world now: {sim.call('get_world')}\n"
+        f"last imu: accel={imu and imu.accel} raw={imu and imu.accel_raw} "
+        f"fall={imu and imu.fall}\nstatus: {state.status}"
+    )
 
 
 def test_missing_mujoco_is_one_line_naming_the_fix(tmp_path: Path) -> None:

@@ -396,3 +396,18 @@ def test_a_reply_that_comes_in_while_the_app_closes_is_dropped(scene_app) -> Non
     app = scene_app()
     assert not app.screen_stack  # not running: no screen at all, as after the last is closed
     app.on_command_done(CommandDone("config", "app:config", {}))
+
+
+def test_link_news_that_comes_in_while_the_app_closes_is_kept_and_draws_nothing(
+    scene_app,
+) -> None:
+    # The same for the link's news: a "still connected" posted as the app closed its last
+    # screen reached `app.screen` through the camera's follow (test_versions_power failed so on
+    # a quiet machine); a first "connected" would through the key bar's refresh.
+    app = scene_app()
+    assert not app.screen_stack
+    for was in (LinkState.CONNECTED, LinkState.UNREACHABLE):
+        app.link_info = LinkInfo(was, "tcp/127.0.0.1:7447", "darwin")
+        app.on_link_changed(LinkChanged(LinkInfo(LinkState.CONNECTED, "tcp/127.0.0.1:7447", "x")))
+        assert app.link_info.robot == "x"  # what the link said is kept for the header
+    assert app.current_tab() is None

@@ -83,3 +83,43 @@ def test_cpu_latency_without_permission_is_one_warning(tmp_path: Path) -> None:
     assert "cpu_dma_latency_us = -1" in warning
     with pytest.raises(ConfigError, match=r"daemon\.cpu_dma_latency_us"):
         check_latency("50", "daemon.cpu_dma_latency_us")
+
+
+def test_the_emulators_bus_and_physics_threads_run_at_their_own_priorities() -> None:
+    # The physics thread real-time too, below the bus: starved by a busy machine, its rounds
+    # came late and caught up in one go under one set of goals, and a walking robot in MuJoCo
+    # fell (tests/physics/test_up.py beside busy loops).
+    import time
+
+    from robot_daemon.emulator.emulator import Emulator
+    from robot_daemon.emulator.settings import EmulatorSettings
+
+    if in_thread(lambda: enter_realtime(10)) is not None:
+        pytest.skip("real-time scheduling not permitted here")
+    with pytest.raises(ConfigError, match="emulator physics_priority"):
+        Emulator(physics_priority=100)
+    shipped = EmulatorSettings.load(None)  # config/emulator.toml
+    assert 0 < shipped.physics_priority < shipped.realtime_priority
+    emulator = Emulator(shipped).start()
+    try:
+        threads = {"bus": emulator._thread, "physics": emulator._physics_thread}
+        want = {
+            "bus": (os.SCHED_FIFO, shipped.realtime_priority),
+            "physics": (os.SCHED_FIFO, shipped.physics_priority),
+        }
+        deadline = time.monotonic() + 10.0
+
+        def seen() -> dict[str, tuple[int, int]]:
+            # Each thread sets its own scheduling as it starts: read it off its kernel task.
+            out = {}
+            for name, thread in threads.items():
+                assert thread is not None and thread.native_id is not None
+                policy = os.sched_getscheduler(thread.native_id) & ~os.SCHED_RESET_ON_FORK
+                out[name] = (policy, os.sched_getparam(thread.native_id).sched_priority)
+            return out
+
+        while seen() != want and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert seen() == want
+    finally:
+        emulator.stop()
