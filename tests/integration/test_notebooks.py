@@ -265,5 +265,17 @@ NOTEBOOK_CHECKS = {
 def test_example_notebook_runs_top_to_bottom(
     name: str, sim_system: RunningSystem, tmp_path: Path, monkeypatch
 ) -> None:
-    book = run_notebook(name, sim_system, tmp_path, monkeypatch)
-    NOTEBOOK_CHECKS[name](book)
+    heard: list[Any] = []
+    with (
+        sim_system.robot_client(name="events witness") as witness,
+        witness.subscribe("events", heard.append),
+    ):
+        book = run_notebook(name, sim_system, tmp_path, monkeypatch)
+    try:
+        NOTEBOOK_CHECKS[name](book)
+    except AssertionError as failed:
+        # What the daemon said meanwhile (a servo offline, a protective stop, a lease that
+        # ended): the book shows only what its cells chose to. (A choreography "stopped:
+        # halted" once beside busy loops, and the book could not say why.)
+        said = "\n".join(f"{e.kind}: {e.message}" for e in heard)
+        raise AssertionError(f"{failed}\nthe daemon's events:\n{said}") from None
