@@ -211,14 +211,15 @@ class Emulator:
 
     # ---- the serving thread -----------------------------------------------------------------
 
-    def _serve(self) -> None:
-        warning = enter_realtime(
-            self.settings.realtime_priority,
-            "the emulator's bus thread",
-            "emulator.realtime_priority",
-        )
+    @staticmethod
+    def _enter_realtime(priority: int, thread: str, setting: str) -> None:
+        # Refused (no root, no rtprio limit), the thread runs normally: a line at -v.
+        warning = enter_realtime(priority, f"the emulator's {thread} thread", setting)
         if warning:
             log.info("emulator: %s", warning)
+
+    def _serve(self) -> None:
+        self._enter_realtime(self.settings.realtime_priority, "bus", "emulator.realtime_priority")
         # Most wake-ups (a tick's USB packets falling due, ~4 a tick) only write: each takes
         # the lock once, and wakes nobody who is not waiting.
         with self.lock:
@@ -243,13 +244,7 @@ class Emulator:
                 fds, timeout = self._select_args()
 
     def _run_physics(self) -> None:
-        warning = enter_realtime(
-            self.settings.physics_priority,
-            "the emulator's physics thread",
-            "emulator.physics_priority",
-        )
-        if warning:
-            log.info("emulator: %s", warning)
+        self._enter_realtime(self.settings.physics_priority, "physics", "emulator.physics_priority")
         self.clock.run_physics()
 
     def _select_args(self) -> tuple[list[int], float | None]:
