@@ -94,12 +94,12 @@ def test_the_emulators_bus_and_physics_threads_run_at_their_own_priorities() -> 
     from robot_daemon.emulator.emulator import Emulator
     from robot_daemon.emulator.settings import EmulatorSettings
 
-    if in_thread(lambda: enter_realtime(10)) is not None:
-        pytest.skip("real-time scheduling not permitted here")
     with pytest.raises(ConfigError, match="emulator physics_priority"):
         Emulator(physics_priority=100)
     shipped = EmulatorSettings.load(None)  # config/emulator.toml
     assert 0 < shipped.physics_priority < shipped.realtime_priority
+    if in_thread(lambda: enter_realtime(10)) is not None:
+        pytest.skip("real-time scheduling not permitted here")  # as the tests above
     emulator = Emulator(shipped).start()
     try:
         threads = {"bus": emulator._thread, "physics": emulator._physics_thread}
@@ -118,6 +118,7 @@ def test_the_emulators_bus_and_physics_threads_run_at_their_own_priorities() -> 
                 out[name] = (policy, os.sched_getparam(thread.native_id).sched_priority)
             return out
 
+        # Nothing announces that a thread has set its scheduling: poll, with a deadline.
         while seen() != want and time.monotonic() < deadline:
             time.sleep(0.01)
         assert seen() == want
